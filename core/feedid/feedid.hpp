@@ -1,0 +1,13 @@
+// The one public header of the identification core.
+//
+//   feedid::Estimator<float> axis;               // one per axis, fixed memory
+//   if (axis.init(config) != feedid::Status::ok) ...   // checks every field
+//   (void)axis.push(sample);                     // each servo period
+//   if (axis.solve() == feedid::Status::ok) use(axis.estimate());
+//
+// Freestanding C++17: no heap, exceptions, RTTI, <cmath> or iostream.
+#pragma once
+
+#include "feedid/estimator.hpp"
+#include "feedid/statistics.hpp"
+#include "feedid/types.hpp"

@@ -1,0 +1,393 @@
+// solve(): statistics -> parameters. Bounded work (bands x grid x iterations),
+// no allocation, every output defined on every path.
+// Context: task only (tens of thousands of flops), never in the servo ISR.
+#pragma once
+
+#include "feedid/small_matrix.hpp"
+#include "feedid/statistics.hpp"
+
+namespace feedid {
+namespace detail {
+
+/// One direction's friction curve as band points: target Y_j = U_j - m*dv_j
+/// (force integral with the residual inertia removed) against time, speed
+/// and second moment of the band.
+template <typename T, int Bands> struct FrictionPoints {
+  T time[Bands] = {}, speed[Bands] = {}, speed2[Bands] = {}, target[Bands] = {};
+  int count = 0;
+  T total_time = T(0);
+};
+
+/// Bands with less time than this (s) carry too few samples to count as a point.
+template <typename T> constexpr T min_band_time_s() { return T(2e-3); }
+
+template <typename T, int Bands, int C>
+FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d, T mass) {
+  FrictionPoints<T, Bands> p;
+  for (int j = 0; j < Bands; ++j) {
+    const BandSums<T>& b = s.band[d][j];
+    const T t = b.time_s.get();
+    if (!(t >= min_band_time_s<T>())) continue;
+    const int k = p.count++;
+    p.time[k] = t;
+    p.speed[k] = b.speed.get();
+    p.speed2[k] = b.speed2.get();
+    p.target[k] = b.force.get() - mass * b.dvel.get();
+    p.total_time += t;
+  }
+  return p;
+}
+
+/// Weighted least squares of  Y_j = Fc T_j + sigma V_j + Fs E_j(vs)  with
+/// weights 1/T_j (the noise of a band integral grows with its time).
+/// theta = {Fc, sigma, Fs}. Returns false if singular.
+template <typename T, int Bands>
+bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& theta, T& ssr,
+                     Vector<T, 3>* inv_diag = nullptr) {
+  SymMatrix<T, 3> a;
+  Vector<T, 3> b;
+  T e[Bands];
+  for (int k = 0; k < p.count; ++k) {
+    e[k] = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs);
+    const T phi[3] = {p.time[k], p.speed[k], e[k]};
+    const T w = T(1) / p.time[k];
+    for (int r = 0; r < 3; ++r) {
+      b.v[r] += w * phi[r] * p.target[k];
+      for (int c = 0; c < 3; ++c) a.a[r][c] += w * phi[r] * phi[c];
+    }
+  }
+  if (!solve_normal_equations(a, b, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
+  ssr = T(0);
+  for (int k = 0; k < p.count; ++k) {
+    const T r = p.target[k] - theta.v[0] * p.time[k] - theta.v[1] * p.speed[k] - theta.v[2] * e[k];
+    ssr += r * r / p.time[k];
+  }
+  return port::is_finite(ssr);
+}
+
+/// Stribeck velocity search on log(vs): a coarse grid (robust to the local
+/// minima of a flat cost) then golden-section refinement in the best grid
+/// cell, at most max_iter steps. Returns the best log(vs) and its cost.
+template <typename T, int Bands>
+bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int max_iter,
+                     T& log_vs, T& best_ssr, bool& at_bound) {
+  constexpr int grid = 24;
+  const T l0 = port::log(vs_lo), l1 = port::log(vs_hi);
+  const T step = (l1 - l0) / T(grid - 1);
+  Vector<T, 3> th;
+  T cost[grid];
+  int best = -1;
+  for (int g = 0; g < grid; ++g) {
+    T ssr;
+    cost[g] = fit_friction_at(p, port::exp(l0 + step * T(g)), th, ssr) ? ssr : T(-1);
+    if (cost[g] >= T(0) && (best < 0 || cost[g] < cost[best])) best = g;
+  }
+  if (best < 0) return false;
+  auto eval = [&](T l) {
+    T ssr;
+    return fit_friction_at(p, port::exp(l), th, ssr) ? ssr : T(1e30);
+  };
+  T a = l0 + step * T(best > 0 ? best - 1 : 0);
+  T b = l0 + step * T(best < grid - 1 ? best + 1 : grid - 1);
+  constexpr T golden = T(0.6180339887498949);
+  T x1 = b - golden * (b - a), x2 = a + golden * (b - a);
+  T f1 = eval(x1), f2 = eval(x2);
+  for (int i = 0; i < max_iter && (b - a) > T(sizeof(T) == 4 ? 1e-4 : 1e-7); ++i) {
+    if (f1 < f2) { b = x2; x2 = x1; f2 = f1; x1 = b - golden * (b - a); f1 = eval(x1); }
+    else { a = x1; x1 = x2; f1 = f2; x2 = a + golden * (b - a); f2 = eval(x2); }
+  }
+  log_vs = f1 < f2 ? x1 : x2;
+  best_ssr = f1 < f2 ? f1 : f2;
+  if (cost[best] < best_ssr) { log_vs = l0 + step * T(best); best_ssr = cost[best]; }
+  const T margin = T(0.02) * step;
+  at_bound = (log_vs - l0) < margin + step * T(0.5) && best == 0 ? true
+           : (l1 - log_vs) < margin + step * T(0.5) && best == grid - 1;
+  return true;
+}
+
+template <typename T> struct DirectionFit {
+  DirectionEstimate<T> est{};
+  T ssr = T(0);      ///< weighted residual (N^2 s)
+  int dof = 0;
+  bool usable = false;  ///< friction known well enough to enter the mass equation
+};
+
+/// Friction of one direction at a given mass: search vs, fit, then standard
+/// errors from the Gauss-Newton Jacobian (T, V, E, Fs dE/dvs) at the optimum.
+template <typename T, int Bands, int C>
+DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>& cfg, int d,
+                              T mass, T vs_lo, T vs_hi) {
+  DirectionFit<T> out;
+  DirectionEstimate<T>& e = out.est;
+  const FrictionPoints<T, Bands> p = friction_points(s, d, mass);
+  e.bands_used = static_cast<uint32_t>(p.count);
+  e.time_in_bands_s = p.total_time;
+  e.sections = s.dir[d].sections;
+  if (p.count < 5) { e.flags |= flag_no_data; return out; }
+
+  T log_vs = T(0), ssr = T(0);
+  bool at_bound = false;
+  if (!search_stribeck(p, vs_lo, vs_hi, cfg.max_vs_iterations, log_vs, ssr, at_bound)) {
+    e.flags |= flag_fit_failed;
+    return out;
+  }
+  const T vs = port::exp(log_vs);
+  Vector<T, 3> th;
+  if (!fit_friction_at(p, vs, th, ssr)) { e.flags |= flag_fit_failed; return out; }
+  e.coulomb_N = th.v[0];
+  e.viscous_Ns_m = th.v[1];
+  e.breakaway_N = th.v[2];
+  e.stribeck_velocity_m_s = vs;
+  out.ssr = ssr;
+  out.dof = p.count - 4;
+  out.usable = true;
+
+  // Jacobian w.r.t. (Fc, sigma, Fs, vs); dE/dvs by a central difference in vs.
+  const T h = T(sizeof(T) == 4 ? 1e-2 : 1e-4);
+  SymMatrix<T, 4> jtj;
+  T r2_num = T(0), mean_f = T(0);
+  for (int k = 0; k < p.count; ++k) mean_f += p.target[k];
+  mean_f /= p.total_time;
+  T r2_den = T(0);
+  for (int k = 0; k < p.count; ++k) {
+    const T ep = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs * (T(1) + h));
+    const T em = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs * (T(1) - h));
+    const T e0 = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs);
+    const T j[4] = {p.time[k], p.speed[k], e0, e.breakaway_N * (ep - em) / (T(2) * h * vs)};
+    const T w = T(1) / p.time[k];
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) jtj.a[r][c] += w * j[r] * j[c];
+    // Band-mean friction against the model, time weighted (the paper's R^2).
+    const T fit = (th.v[0] * p.time[k] + th.v[1] * p.speed[k] + th.v[2] * e0) / p.time[k];
+    const T meas = p.target[k] / p.time[k];
+    r2_num += p.time[k] * (meas - fit) * (meas - fit);
+    r2_den += p.time[k] * (meas - mean_f) * (meas - mean_f);
+  }
+  e.friction_rms_N = port::sqrt(r2_num / p.total_time);
+  e.friction_r2 = r2_den > T(0) ? T(1) - r2_num / r2_den : T(0);
+
+  const T s2 = out.dof > 0 ? ssr / T(out.dof) : T(0);
+  SymMatrix<T, 4> fac = jtj;
+  Vector<T, 4> zero, dummy, inv_diag;
+  if (solve_normal_equations(fac, zero, T(sizeof(T) == 4 ? 1e-7 : 1e-14), dummy, &inv_diag)) {
+    e.coulomb_se = port::sqrt(s2 * inv_diag.v[0]);
+    e.viscous_se = port::sqrt(s2 * inv_diag.v[1]);
+    e.breakaway_se = port::sqrt(s2 * inv_diag.v[2]);
+    e.stribeck_velocity_se = port::sqrt(s2 * inv_diag.v[3]);
+  } else {
+    // vs has no effect on the fit (Fs ~ 0 or no data near vs): unknowable.
+    Vector<T, 3> th3, inv3;
+    T ssr3;
+    if (fit_friction_at(p, vs, th3, ssr3, &inv3)) {
+      e.coulomb_se = port::sqrt(s2 * inv3.v[0]);
+      e.viscous_se = port::sqrt(s2 * inv3.v[1]);
+      e.breakaway_se = port::sqrt(s2 * inv3.v[2]);
+    }
+    e.stribeck_velocity_se = vs * T(1e3);
+  }
+
+  // What the data can and cannot say about the Stribeck part.
+  const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
+  if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
+  if (at_bound) e.flags |= flag_stribeck_at_search_bound;
+  if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
+      e.stribeck_velocity_se > T(0.25) * vs)
+    e.flags |= flag_stribeck_uncertain;
+  T slow_time = T(0);
+  int slow_bands = 0;
+  for (int j = 0; j < Bands; ++j) {
+    const T t = s.band[d][j].time_s.get();
+    // (layout edges are not stored in the statistics; the band mean speed is)
+    if (t >= min_band_time_s<T>() && s.band[d][j].speed.get() / t < vs) { slow_time += t; ++slow_bands; }
+  }
+  if (slow_bands < 2 || slow_time < T(0.02)) e.flags |= flag_no_low_speed_data;
+  if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
+  return out;
+}
+
+/// Differentiation-free mass: over each window w,
+///   integral_w u' dt = m dv'_w + integral_w F dt,
+/// projected on dv'_w and summed over windows and directions:
+///   m = [sum_w dv'_w U_w - sum_w dv'_w F_w] / sum_w dv'_w^2,
+/// where sum_w dv'_w F_w comes from the dv'-weighted band moments.
+template <typename T, int Bands, int C>
+bool mass_equation(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>& layout,
+                   const DirectionFit<T> fit[2], T& mass, T& numerator_out, T& dv2_out,
+                   T& tau_dv2_out) {
+  T num = T(0), den = T(0), tau_dv2 = T(0);
+  for (int d = 0; d < 2; ++d) {
+    if (!fit[d].usable) continue;
+    const DirectionEstimate<T>& e = fit[d].est;
+    T friction_proj = T(0);
+    for (int j = 0; j < Bands; ++j) {
+      const BandSums<T>& b = s.band[d][j];
+      const T pt = b.proj_time.get(), pv = b.proj_speed.get(), pw = b.proj_speed2.get();
+      friction_proj += e.coulomb_N * pt + e.viscous_Ns_m * pv +
+                       e.breakaway_N * exp_integral_about(layout.center[j], pt, pv, pw,
+                                                          e.stribeck_velocity_m_s);
+    }
+    num += s.dir[d].win_dv_force.get() - friction_proj;
+    den += s.dir[d].win_dv2.get();
+    tau_dv2 += s.dir[d].win_tau_dv2.get();
+  }
+  numerator_out = num;
+  dv2_out = den;
+  tau_dv2_out = tau_dv2;
+  if (!(den > T(0))) return false;
+  mass = num / den;
+  return port::is_finite(mass);
+}
+
+template <typename T> T stribeck_lo(const Config<T>& c) {
+  return c.stribeck_min_m_s > T(0) ? c.stribeck_min_m_s : T(0.5) * c.velocity_min_m_s;
+}
+template <typename T> T stribeck_hi(const Config<T>& c) {
+  return c.stribeck_max_m_s > T(0) ? c.stribeck_max_m_s : T(0.25) * c.velocity_max_m_s;
+}
+
+template <typename T, int Bands, int C>
+Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>& layout,
+                   const Config<T>& cfg, Estimate<T>& out) {
+  const T lo = stribeck_lo(cfg), hi = stribeck_hi(cfg);
+  DirectionFit<T> fit[2];
+  T mass = T(0), num = T(0), dv2 = T(0), tau_dv2 = T(0);
+  bool mass_ok = false;
+  // Friction needs m only for the small residual-inertia correction, and m
+  // needs friction; alternate. The coupling is weak (sum of dv per band is
+  // near zero), so a few rounds converge to working precision.
+  constexpr int rounds = 4;
+  for (int it = 0; it < rounds; ++it) {
+    for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, mass_ok ? mass : T(0), lo, hi);
+    T m_new;
+    mass_ok = mass_equation(s, layout, fit, m_new, num, dv2, tau_dv2);
+    if (!mass_ok) break;
+    mass = m_new;
+  }
+  out.pos = fit[0].est;
+  out.neg = fit[1].est;
+  out.mass_kg = mass_ok ? mass : T(0);
+  out.mass_flags = 0;
+
+  // Residual variance per unit time (N^2 s): the larger of the band-fit
+  // residual and the white force noise, so the standard error is never
+  // optimistic when the model misfits.
+  T ssr = T(0);
+  int dof = 0;
+  for (int d = 0; d < 2; ++d) if (fit[d].usable) { ssr += fit[d].ssr; dof += fit[d].dof; }
+  const T mean_dt = s.interval_count > 0 ? s.total_interval_time.get() / T(s.interval_count) : T(0);
+  const T noise_var = s.noise_count > 0 ? s.noise_d2.get() / (T(6) * T(s.noise_count)) : T(0);
+  out.force_noise_N = port::sqrt(noise_var);
+  const T var_time = port::max(dof > 0 ? ssr / T(dof) : T(0), noise_var * mean_dt);
+  if (!mass_ok) {
+    out.mass_flags |= flag_no_acceleration;
+  } else {
+    out.mass_se_kg = port::sqrt(var_time * tau_dv2) / dv2;
+    // Inertia visible only if the velocity change explains far more than noise.
+    if (out.mass_se_kg > T(0.1) * port::abs(mass)) out.mass_flags |= flag_no_acceleration;
+    if (!(mass > T(0))) out.mass_flags |= flag_not_physical;
+  }
+  if (!fit[0].usable && !fit[1].usable) return Status::insufficient_data;
+  return Status::ok;
+}
+
+/// The seed paper's regression, literally: per complete section s,
+///   mass:     Y_s = integral u a dt = m X_s,  X_s = integral a^2 dt  (line through origin)
+///   friction: U_s = Fc T_s + sigma V_s + Fs E_s(vs)  (least squares over sections)
+/// with vs picked from the fixed candidate bank and refined by a parabola
+/// through the best candidate and its neighbours.
+template <typename T, int Bands, int C>
+Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estimate<T>& out) {
+  (void)cfg;
+  T xy = T(0), xx = T(0), yy = T(0);
+  uint32_t nsec = 0;
+  for (int d = 0; d < 2; ++d) {
+    xy += s.dir[d].sec_xy.get();
+    xx += s.dir[d].sec_xx.get();
+    yy += s.dir[d].sec_yy.get();
+    nsec += s.dir[d].sections;
+  }
+  out.mass_flags = 0;
+  if (xx > T(0) && nsec >= 2) {
+    out.mass_kg = xy / xx;
+    const T res = port::max(T(0), yy - out.mass_kg * xy);
+    out.mass_se_kg = port::sqrt(res / T(nsec - 1) / xx);
+    if (out.mass_se_kg > T(0.1) * port::abs(out.mass_kg)) out.mass_flags |= flag_no_acceleration;
+    if (!(out.mass_kg > T(0))) out.mass_flags |= flag_not_physical;
+  } else {
+    out.mass_flags |= flag_no_acceleration;
+  }
+
+  for (int d = 0; d < 2; ++d) {
+    const DirectionSums<T, C>& ds = s.dir[d];
+    DirectionEstimate<T>& e = d == 0 ? out.pos : out.neg;
+    e = DirectionEstimate<T>{};
+    e.sections = ds.sections;
+    for (int j = 0; j < Bands; ++j) e.time_in_bands_s += s.band[d][j].time_s.get();
+    if (ds.sections < 4) { e.flags |= flag_no_data; continue; }
+    // Normal equations at candidate i (sums interpolated between candidates
+    // when t is fractional).
+    auto normal = [&](int i, T frac, SymMatrix<T, 3>& a, Vector<T, 3>& b) {
+      const int i1 = i + 1 < C ? i + 1 : i;
+      auto lerp = [&](const Sum<T>* arr) { return arr[i].get() + frac * (arr[i1].get() - arr[i].get()); };
+      a.a[0][0] = ds.sec_tt.get(); a.a[0][1] = a.a[1][0] = ds.sec_tv.get(); a.a[1][1] = ds.sec_vv.get();
+      a.a[0][2] = a.a[2][0] = lerp(ds.cand_et);
+      a.a[1][2] = a.a[2][1] = lerp(ds.cand_ev);
+      a.a[2][2] = lerp(ds.cand_ee);
+      b.v[0] = ds.sec_tu.get(); b.v[1] = ds.sec_vu.get(); b.v[2] = lerp(ds.cand_eu);
+    };
+    auto cost = [&](int i, T frac, Vector<T, 3>& th, Vector<T, 3>* inv) {
+      SymMatrix<T, 3> a; Vector<T, 3> b;
+      normal(i, frac, a, b);
+      if (!solve_normal_equations(a, b, T(sizeof(T) == 4 ? 1e-6 : 1e-12), th, inv)) return T(-1);
+      return port::max(T(0), ds.sec_uu.get() - (th.v[0] * b.v[0] + th.v[1] * b.v[1] + th.v[2] * b.v[2]));
+    };
+    T c[C];
+    int best = -1;
+    Vector<T, 3> th;
+    for (int i = 0; i < C; ++i) {
+      c[i] = cost(i, T(0), th, nullptr);
+      if (c[i] >= T(0) && (best < 0 || c[i] < c[best])) best = i;
+    }
+    if (best < 0) { e.flags |= flag_fit_failed; continue; }
+    // Parabola through (best-1, best, best+1) in log vs: one bounded update.
+    const T lstep = port::log(s.vs_candidate[C > 1 ? 1 : 0] / s.vs_candidate[0]);
+    T offset = T(0), curvature = T(0);
+    if (best > 0 && best < C - 1 && c[best - 1] >= T(0) && c[best + 1] >= T(0)) {
+      const T den = c[best - 1] - T(2) * c[best] + c[best + 1];
+      if (den > T(0)) {
+        offset = port::clamp(T(0.5) * (c[best - 1] - c[best + 1]) / den, T(-0.5), T(0.5));
+        curvature = den / (lstep * lstep);
+      }
+    } else {
+      e.flags |= flag_stribeck_at_search_bound;
+    }
+    const int base = offset < T(0) ? best - 1 : best;
+    const T frac = offset < T(0) ? T(1) + offset : offset;
+    Vector<T, 3> inv;
+    const T ssr = cost(base, frac, th, &inv);
+    const T vs = s.vs_candidate[best] * port::exp(offset * lstep);
+    e.coulomb_N = th.v[0];
+    e.viscous_Ns_m = th.v[1];
+    e.breakaway_N = th.v[2];
+    e.stribeck_velocity_m_s = vs;
+    const T s2 = ssr / T(ds.sections - 3);
+    e.coulomb_se = port::sqrt(s2 * inv.v[0]);
+    e.viscous_se = port::sqrt(s2 * inv.v[1]);
+    e.breakaway_se = port::sqrt(s2 * inv.v[2]);
+    e.stribeck_velocity_se = curvature > T(0) ? vs * port::sqrt(T(2) * s2 / curvature) : vs * T(1e3);
+    const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
+    if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
+    if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
+        e.stribeck_velocity_se > T(0.25) * vs)
+      e.flags |= flag_stribeck_uncertain;
+    if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
+    // R^2 of section means: 1 - SSR / total sum of squares about the mean force.
+    e.friction_r2 = ds.sec_uu.get() > T(0) ? T(1) - ssr / ds.sec_uu.get() : T(0);
+  }
+  out.force_noise_N = s.noise_count > 0 ? port::sqrt(s.noise_d2.get() / (T(6) * T(s.noise_count))) : T(0);
+  if (out.pos.flags & flag_no_data && out.neg.flags & flag_no_data) return Status::insufficient_data;
+  return Status::ok;
+}
+
+}  // namespace detail
+}  // namespace feedid

@@ -1,0 +1,36 @@
+// Reading and writing traces as CSV. Host only.
+#pragma once
+#include <string>
+
+#include "trace.hpp"
+
+namespace feedid::host {
+
+/// Which CSV columns hold which signal (names from the header row).
+struct CsvColumns {
+  std::string time = "t";
+  std::string position = "x";   ///< optional if velocity is present
+  std::string velocity = "v";   ///< optional if position is present
+  std::string force = "u";
+};
+
+/// Result of reading: ok, or an error message that names file, line and column.
+struct CsvResult {
+  bool ok = false;
+  std::string error;
+  Trace trace;
+};
+
+/// Reads a CSV with a header row. Columns are looked up by name; time and force
+/// are required, and at least one of position and velocity. When a column is
+/// missing, has_position / has_velocity say so. Every value must parse as a
+/// finite number and time must increase strictly; the first violation is
+/// reported as "<file>:<line>: column '<name>': <problem>". Blank lines and a
+/// trailing newline are allowed; separators ',' (and ';' or tab if the header
+/// uses them).
+CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);
+
+/// Writes t,x,v,u with full precision. Returns false with `error` set on failure.
+bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error);
+
+}  // namespace feedid::host

@@ -1,0 +1,23 @@
+// A recorded or simulated trace of one axis, in SI units, as the host tools
+// pass it around. Host only: uses the standard library freely.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace feedid::host {
+
+struct TraceSample {
+  double t_s = 0.0;      ///< time (s)
+  double x_m = 0.0;      ///< position (m), load side
+  double v_m_s = 0.0;    ///< velocity (m/s), as the drive reports it
+  double u_N = 0.0;      ///< drive force (N), load side
+};
+
+struct Trace {
+  std::vector<TraceSample> samples;
+  bool has_position = true;
+  bool has_velocity = true;
+  std::string source;  ///< file name or "simulator", for messages
+};
+
+}  // namespace feedid::host
