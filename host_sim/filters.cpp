@@ -1,0 +1,82 @@
+#include "filters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace feedid::host {
+namespace {
+
+struct Biquad {
+  double b0, b1, b2, a1, a2;  // a0 normalised to 1
+  double z1 = 0, z2 = 0;      // transposed direct form II state
+  double step(double x) {
+    const double y = b0 * x + z1;
+    z1 = b1 * x - a1 * y + z2;
+    z2 = b2 * x - a2 * y;
+    return y;
+  }
+  // State for a constant input x0 (DC gain 1): output equals input.
+  void settle(double x0) {
+    const double y = x0;
+    z2 = b2 * x0 - a2 * y;
+    z1 = b1 * x0 - a1 * y + z2;
+  }
+};
+
+// Low-pass biquad with bilinear transform and pre-warped cut-off (RBJ form).
+Biquad lowpass(double cutoff_hz, double rate_hz, double q) {
+  const double w0 = 2.0 * M_PI * cutoff_hz / rate_hz;
+  const double alpha = std::sin(w0) / (2.0 * q);
+  const double c = std::cos(w0);
+  const double a0 = 1.0 + alpha;
+  Biquad b{};
+  b.b0 = (1.0 - c) / 2.0 / a0;
+  b.b1 = (1.0 - c) / a0;
+  b.b2 = b.b0;
+  b.a1 = -2.0 * c / a0;
+  b.a2 = (1.0 - alpha) / a0;
+  return b;
+}
+
+void run(std::vector<double>& y, double cutoff_hz, double rate_hz) {
+  // Butterworth order 4 = two sections with Q = 1/(2 cos(pi/8)), 1/(2 cos(3pi/8)).
+  Biquad s1 = lowpass(cutoff_hz, rate_hz, 1.0 / (2.0 * std::cos(M_PI / 8.0)));
+  Biquad s2 = lowpass(cutoff_hz, rate_hz, 1.0 / (2.0 * std::cos(3.0 * M_PI / 8.0)));
+  s1.settle(y.front());
+  s2.settle(y.front());
+  for (double& v : y) v = s2.step(s1.step(v));
+}
+
+}  // namespace
+
+std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz, double rate_hz) {
+  if (!(cutoff_hz > 0.0) || !(rate_hz > 2.0 * cutoff_hz))
+    throw std::invalid_argument("filter cut-off must be > 0 Hz and below half the sample rate");
+  const std::size_t n = x.size();
+  if (n < 3) return x;
+  const std::size_t pad = std::min<std::size_t>(n - 1, static_cast<std::size_t>(3.0 * rate_hz / cutoff_hz) + 12);
+  std::vector<double> y;
+  y.reserve(n + 2 * pad);
+  for (std::size_t i = pad; i >= 1; --i) y.push_back(2.0 * x.front() - x[i]);
+  y.insert(y.end(), x.begin(), x.end());
+  for (std::size_t i = 1; i <= pad; ++i) y.push_back(2.0 * x.back() - x[n - 1 - i]);
+  run(y, cutoff_hz, rate_hz);
+  std::reverse(y.begin(), y.end());
+  run(y, cutoff_hz, rate_hz);
+  std::reverse(y.begin(), y.end());
+  return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(pad),
+                             y.begin() + static_cast<std::ptrdiff_t>(pad + n));
+}
+
+std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t) {
+  const std::size_t n = y.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 2) return d;
+  d[0] = (y[1] - y[0]) / (t[1] - t[0]);
+  d[n - 1] = (y[n - 1] - y[n - 2]) / (t[n - 1] - t[n - 2]);
+  for (std::size_t k = 1; k + 1 < n; ++k) d[k] = (y[k + 1] - y[k - 1]) / (t[k + 1] - t[k - 1]);
+  return d;
+}
+
+}  // namespace feedid::host

@@ -1,0 +1,19 @@
+// Signal conditioning for traces that lack velocity: a zero-phase
+// 4th-order Butterworth low-pass (forward-backward, like MATLAB's filtfilt)
+// and central differences, as in the EMPS reference protocol. Host only.
+#pragma once
+#include <vector>
+
+namespace feedid::host {
+
+/// Zero-phase low-pass: 4th-order Butterworth (two biquads) run forward then
+/// backward, so the magnitude response is squared and the phase is zero.
+/// Ends are padded by odd reflection (3 cut-off periods) with the filter
+/// state started at steady state, which keeps edge transients small.
+std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz, double rate_hz);
+
+/// Central difference dy/dt at each sample ((y[k+1]-y[k-1])/(t[k+1]-t[k-1]),
+/// one-sided at the ends): the derivative at t_k, without lag.
+std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t);
+
+}  // namespace feedid::host

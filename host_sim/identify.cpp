@@ -1,0 +1,393 @@
+#include "identify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "filters.hpp"
+
+namespace feedid::host {
+namespace {
+
+double median_step(const std::vector<double>& t) {
+  std::vector<double> d;
+  d.reserve(t.size());
+  for (std::size_t k = 1; k < t.size(); ++k) d.push_back(t[k] - t[k - 1]);
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+double quantile_abs(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  for (double& x : v) x = std::fabs(x);
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
+}
+
+/// Encoder quantum: the smallest position step, if the steps are (nearly
+/// all) integer multiples of it; 0 for an unquantised or resampled position.
+double position_quantum(const std::vector<double>& x) {
+  double q = 0.0;
+  const double scale = 1e-12 * std::max(1.0, quantile_abs(x, 1.0));
+  for (std::size_t k = 1; k < x.size(); ++k) {
+    const double d = std::fabs(x[k] - x[k - 1]);
+    if (d > scale && (q == 0.0 || d < q)) q = d;
+  }
+  if (q == 0.0) return 0.0;
+  std::size_t on_grid = 0, n = 0;
+  for (std::size_t k = 1; k < x.size(); k += 7) {
+    const double r = (x[k] - x[k - 1]) / q;
+    ++n;
+    if (std::fabs(r - std::round(r)) < 1e-3) ++on_grid;
+  }
+  return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
+}
+
+feedid::ForceAlignment parse_alignment(const std::string& s, bool measured_velocity) {
+  if (s == "auto")
+    return measured_velocity ? feedid::ForceAlignment::held_force_backward_velocity
+                             : feedid::ForceAlignment::held_force_instant_velocity;
+  if (s == "held-backward") return feedid::ForceAlignment::held_force_backward_velocity;
+  if (s == "held-instant") return feedid::ForceAlignment::held_force_instant_velocity;
+  if (s == "trapezoid") return feedid::ForceAlignment::trapezoid;
+  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + s + "'");
+}
+
+const char* alignment_name(feedid::ForceAlignment a) {
+  switch (a) {
+    case feedid::ForceAlignment::held_force_backward_velocity: return "held-backward";
+    case feedid::ForceAlignment::held_force_instant_velocity: return "held-instant";
+    case feedid::ForceAlignment::trapezoid: return "trapezoid";
+  }
+  return "?";
+}
+
+/// Force for the interval ending at sample k, with the core's pairing rule.
+double interval_force(const Signals& s, std::size_t k) {
+  switch (s.alignment) {
+    case feedid::ForceAlignment::held_force_backward_velocity:
+      return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
+    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
+    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
+  }
+  return s.u[k - 1];
+}
+
+/// RMS over blocks of the mean force residual (1/tau) [integral u - m dv - integral F],
+/// blocks of moving samples only (no derivative: differentiation noise would
+/// otherwise dominate the figure).
+double block_residual_rms(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  double sum2 = 0.0;
+  std::size_t blocks = 0;
+  double tau = 0.0, acc = 0.0, v_start = 0.0;
+  int dir = 0;
+  auto flush = [&](double v_end) {
+    if (tau >= 0.5 * block_s) {
+      const double r = (acc - p.mass_kg * (v_end - v_start)) / tau;
+      sum2 += r * r;
+      ++blocks;
+    }
+    tau = acc = 0.0;
+    dir = 0;
+  };
+  for (std::size_t k = 1; k < s.t.size(); ++k) {
+    const double dt = s.t[k] - s.t[k - 1];
+    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
+    const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
+    if (d == 0 || (dir != 0 && d != dir)) { flush(s.v[k - 1]); if (d == 0) continue; }
+    if (dir == 0) { dir = d; v_start = s.v[k - 1]; }
+    acc += (interval_force(s, k) - stribeck_friction(p, vm)) * dt;
+    tau += dt;
+    if (tau >= block_s) flush(s.v[k]);
+  }
+  return blocks > 0 ? std::sqrt(sum2 / static_cast<double>(blocks)) : 0.0;
+}
+
+nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
+  const bool fr = d.friction_identified();
+  const bool st = d.stribeck_identified();
+  return {
+      {"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s},
+      {"sigma_se", d.viscous_se}, {"fc_se", d.coulomb_se}, {"fs_se", d.breakaway_se}, {"vs_se", d.stribeck_velocity_se},
+      {"identifiable", {{"sigma", fr}, {"fc", fr}, {"fs", st}, {"vs", st}}},
+      {"flags", flag_names(d.flags)},
+      {"sections", d.sections}, {"bands_used", d.bands_used}, {"time_in_bands_s", d.time_in_bands_s},
+      {"friction_r2", d.friction_r2}, {"friction_rms_N", d.friction_rms_N},
+  };
+}
+
+}  // namespace
+
+Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
+  Signals s;
+  const std::size_t n = trace.samples.size();
+  s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    s.t[k] = trace.samples[k].t_s;
+    s.x[k] = trace.samples[k].x_m;
+    s.v[k] = trace.samples[k].v_m_s;
+    s.u[k] = trace.samples[k].u_N;
+  }
+  const double dt = median_step(s.t);
+  s.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
+  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
+  if (trace.has_velocity) {
+    s.velocity_origin = "measured";
+  } else {
+    if (!trace.has_position) throw std::invalid_argument(trace.source + ": neither velocity nor position column");
+    const double fc = std::min(opt.velocity_filter_hz, 0.4 * s.sample_rate_hz);
+    s.v = central_difference(filtfilt_butter4(s.x, fc, s.sample_rate_hz), s.t);
+    std::ostringstream o;
+    o << "derived: zero-phase 4th-order Butterworth " << fc << " Hz on position, central differences";
+    s.velocity_origin = o.str();
+  }
+  s.alignment = parse_alignment(opt.alignment, trace.has_velocity);
+  return s;
+}
+
+feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
+  feedid::Config<double> c;
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  // Velocity resolution: the encoder quantum per sample period, or the white
+  // noise of the velocity (second differences), whichever is larger.
+  double d2 = 0.0;
+  std::size_t nd = 0;
+  for (std::size_t k = 2; k < s.v.size(); ++k) {
+    const double e = s.v[k] - 2.0 * s.v[k - 1] + s.v[k - 2];
+    d2 += e * e;
+    ++nd;
+  }
+  const double v_noise = nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
+  const double v_res = std::max(s.position_quantum_m / dt, v_noise);
+  const double v_top = quantile_abs(s.v, 0.999);
+  c.velocity_resolution_m_s = opt.velocity_resolution_m_s > 0 ? opt.velocity_resolution_m_s : v_res;
+  c.velocity_min_m_s = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s
+                                                : std::max({2.0 * c.velocity_resolution_m_s, 1e-4 * v_top, 1e-6});
+  c.velocity_max_m_s = opt.velocity_max_m_s > 0 ? opt.velocity_max_m_s
+                                                : std::max(1.05 * v_top, 5.0 * c.velocity_min_m_s);
+  // Jumps beyond several times the largest acceleration in the trace are absurd.
+  std::vector<double> acc;
+  acc.reserve(s.v.size());
+  for (std::size_t k = 1; k < s.v.size(); ++k) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
+  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
+  c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
+  c.max_force_N = 1e9;
+  c.max_gap_s = std::max(10.0 * dt, 1e-3);
+  c.mass_window_s = std::max(0.02, 20.0 * dt);
+  c.min_section_s = std::max(0.02, 10.0 * dt);
+  c.force_alignment = s.alignment;
+  return c;
+}
+
+DriveParams to_drive_params(const feedid::Estimate<double>& e) {
+  DriveParams p;
+  p.mass_kg = e.mass_kg;
+  auto dir = [](const feedid::DirectionEstimate<double>& d) {
+    return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, d.breakaway_N,
+                             d.stribeck_velocity_m_s > 0 ? d.stribeck_velocity_m_s : 1e-9};
+  };
+  p.pos = dir(e.pos);
+  p.neg = dir(e.neg);
+  return p;
+}
+
+double predict_force(const DriveParams& p, double v_m_s, double a_m_s2) {
+  return p.mass_kg * a_m_s2 + stribeck_friction(p, v_m_s);
+}
+
+std::vector<std::string> flag_names(uint32_t flags) {
+  static const std::pair<uint32_t, const char*> names[] = {
+      {feedid::flag_no_data, "no_data"},
+      {feedid::flag_stribeck_below_resolution, "stribeck_below_resolution"},
+      {feedid::flag_stribeck_at_search_bound, "stribeck_at_search_bound"},
+      {feedid::flag_stribeck_uncertain, "stribeck_uncertain"},
+      {feedid::flag_no_low_speed_data, "no_low_speed_data"},
+      {feedid::flag_no_acceleration, "no_acceleration"},
+      {feedid::flag_not_physical, "not_physical"},
+      {feedid::flag_fit_failed, "fit_failed"},
+  };
+  std::vector<std::string> out;
+  for (const auto& [bit, name] : names)
+    if (flags & bit) out.emplace_back(name);
+  return out;
+}
+
+IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
+  IdentifyResult r;
+  const std::size_t n = trace.samples.size();
+  constexpr std::size_t min_samples = 100;
+  if (n < min_samples) {
+    r.status = feedid::Status::insufficient_data;
+    r.error = trace.source + ": trace too short to identify: " + std::to_string(n) + " samples (need at least " +
+              std::to_string(min_samples) + " and motion in both directions)";
+    return r;
+  }
+  r.signals = prepare_signals(trace, opt);
+  const Signals& s = r.signals;
+  r.duration_s = s.t.back() - s.t.front();
+  r.config = auto_config(s, opt);
+  auto core = std::make_unique<Core>();
+  if (core->init(r.config) != feedid::Status::ok) {
+    r.status = feedid::Status::invalid_config;
+    r.error = std::string("invalid configuration: ") + core->config_error();
+    return r;
+  }
+  const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  for (std::size_t k = 0; k < n; ++k) {
+    feedid::Sample<double> smp;
+    smp.dt_s = k == 0 ? 0.0 : s.t[k] - s.t[k - 1];
+    smp.position_m = s.x[k];
+    smp.velocity_m_s = s.v[k];
+    smp.force_N = s.u[k];
+    const feedid::Status st = core->push(smp);
+    if (st != feedid::Status::ok && r.first_rejections.size() < 10) r.first_rejections.push_back({k, st});
+    if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
+  }
+  r.status = core->solve(opt.method);
+  r.estimate = core->estimate();
+  r.diagnostics = core->diagnostics();
+  if (opt.progress) opt.progress(1.0);
+
+  const auto& st = core->statistics();
+  for (int d = 0; d < 2; ++d) {
+    for (int j = 0; j < Core::bands; ++j) {
+      const auto& b = st.band[d][j];
+      const double t = b.time_s.get();
+      if (t < 2e-3) continue;
+      r.friction_curve[d].push_back(
+          {b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
+    }
+  }
+  if (r.status == feedid::Status::insufficient_data) {
+    std::ostringstream o;
+    o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
+      << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
+      << " s moving negative above " << r.config.velocity_min_m_s
+      << " m/s; each direction needs data in at least 5 velocity bands";
+    r.error = o.str();
+    return r;
+  }
+  r.residual_rms_N = block_residual_rms(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+  return r;
+}
+
+nlohmann::json model_json(const DriveParams& p) {
+  auto dir = [](const DirectionFriction& d) {
+    return nlohmann::json{{"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s}};
+  };
+  return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)},
+          {"units", {{"m", "kg"}, {"sigma", "N s/m"}, {"fc", "N"}, {"fs", "N"}, {"vs", "m/s"}}}};
+}
+
+DriveParams model_from_json(const nlohmann::json& j) {
+  auto num = [](const nlohmann::json& o, const char* key, const std::string& where) {
+    if (!o.contains(key) || !o.at(key).is_number())
+      throw std::runtime_error("model JSON: missing number '" + where + key + "'");
+    return o.at(key).get<double>();
+  };
+  auto dir = [&](const char* name) {
+    if (!j.contains(name) || !j.at(name).is_object()) throw std::runtime_error(std::string("model JSON: missing object '") + name + "'");
+    const auto& o = j.at(name);
+    const std::string w = std::string(name) + ".";
+    return DirectionFriction{num(o, "sigma", w), num(o, "fc", w), num(o, "fs", w), num(o, "vs", w)};
+  };
+  DriveParams p;
+  p.mass_kg = num(j, "m", "");
+  p.pos = dir("pos");
+  p.neg = dir("neg");
+  return p;
+}
+
+nlohmann::json to_json(const IdentifyResult& r) {
+  const auto& e = r.estimate;
+  const auto& g = r.diagnostics;
+  nlohmann::json j;
+  j["status"] = feedid::status_name(r.status);
+  if (!r.error.empty()) j["error"] = r.error;
+  j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
+  j["m"] = e.mass_kg;
+  j["m_se"] = e.mass_se_kg;
+  j["m_identifiable"] = e.mass_identified();
+  j["m_flags"] = flag_names(e.mass_flags);
+  j["pos"] = direction_json(e.pos);
+  j["neg"] = direction_json(e.neg);
+  j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
+              {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
+              {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
+              {"force_noise_N", e.force_noise_N}};
+  nlohmann::json rej = nlohmann::json::array();
+  for (const auto& x : r.first_rejections) rej.push_back({{"sample", x.sample}, {"status", feedid::status_name(x.status)}});
+  j["counts"] = {{"samples", r.signals.t.size()}, {"accepted", g.samples_accepted}, {"rejected", g.samples_rejected},
+                 {"rejected_not_finite", g.rejected_not_finite},
+                 {"rejected_time_not_increasing", g.rejected_time_not_increasing},
+                 {"rejected_out_of_range", g.rejected_out_of_range},
+                 {"rejected_velocity_jump", g.rejected_velocity_jump}, {"first_rejections", rej},
+                 {"sections_pos", g.sections_complete[0]}, {"sections_neg", g.sections_complete[1]},
+                 {"sections_short", g.sections_short}, {"sections_split", g.sections_split},
+                 {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks}};
+  const auto& c = r.config;
+  j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
+                {"velocity", r.signals.velocity_origin}, {"force_alignment", alignment_name(r.signals.alignment)},
+                {"position_quantum_m", r.signals.position_quantum_m}};
+  j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
+                 {"velocity_resolution_m_s", c.velocity_resolution_m_s},
+                 {"section_enter_m_s", c.section_enter_m_s > 0 ? c.section_enter_m_s : 2 * c.velocity_min_m_s},
+                 {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
+                 {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s}};
+  nlohmann::json curve;
+  for (int d = 0; d < 2; ++d) {
+    nlohmann::json pts = nlohmann::json::array();
+    for (const auto& p : r.friction_curve[d]) pts.push_back({p.speed_m_s, p.friction_N, p.time_s});
+    curve[d == 0 ? "pos" : "neg"] = pts;
+  }
+  curve["columns"] = {"speed_m_s", "friction_N", "time_s"};
+  j["friction_curve"] = curve;
+  j["units"] = {{"m", "kg"}, {"sigma", "N s/m"}, {"fc", "N"}, {"fs", "N"}, {"vs", "m/s"}};
+  return j;
+}
+
+std::string summary(const IdentifyResult& r, const DriveParams* truth) {
+  std::ostringstream o;
+  const auto& e = r.estimate;
+  char buf[256];
+  o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
+    << feedid::status_name(r.status) << "; " << r.signals.t.size() << " samples, " << r.duration_s << " s at "
+    << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
+  auto line = [&](const char* name, const char* unit, double v, double se, double t, bool ok) {
+    if (truth)
+      std::snprintf(buf, sizeof buf, "  %-22s %12.6g %-6s +- %-10.3g truth %-11.6g err %+7.3f %%%s\n", name, v, unit, se, t,
+                    t != 0 ? 100.0 * (v / t - 1.0) : 0.0, ok ? "" : "  NOT IDENTIFIABLE");
+    else
+      std::snprintf(buf, sizeof buf, "  %-22s %12.6g %-6s +- %-10.3g%s\n", name, v, unit, se, ok ? "" : "  NOT IDENTIFIABLE");
+    o << buf;
+  };
+  line("mass m", "kg", e.mass_kg, e.mass_se_kg, truth ? truth->mass_kg : 0, e.mass_identified());
+  for (int d = 0; d < 2; ++d) {
+    const auto& de = d == 0 ? e.pos : e.neg;
+    const DirectionFriction* td = truth ? (d == 0 ? &truth->pos : &truth->neg) : nullptr;
+    const char* s = d == 0 ? "+" : "-";
+    std::string n;
+    n = std::string("viscous sigma") + s; line(n.c_str(), "N s/m", de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
+    n = std::string("Coulomb Fc") + s; line(n.c_str(), "N", de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.friction_identified());
+    n = std::string("break-away Fs") + s; line(n.c_str(), "N", de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
+    n = std::string("Stribeck vel. vs") + s; line(n.c_str(), "m/s", de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
+    if (de.flags) {
+      o << "    flags:";
+      for (const auto& f : flag_names(de.flags)) o << " " << f;
+      o << "\n";
+    }
+  }
+  std::snprintf(buf, sizeof buf,
+                "  friction curve R^2 %.5f (+) %.5f (-); RMS force residual %.3g N over %.0f ms blocks; force noise %.3g N\n",
+                e.pos.friction_r2, e.neg.friction_r2, r.residual_rms_N, 1e3 * r.residual_block_s, e.force_noise_N);
+  o << buf;
+  const auto& g = r.diagnostics;
+  o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "
+    << g.mass_windows << " mass windows; " << g.samples_rejected << " samples rejected\n";
+  return o.str();
+}
+
+}  // namespace feedid::host
