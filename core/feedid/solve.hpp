@@ -40,15 +40,23 @@ FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d
 
 /// Weighted least squares of  Y_j = Fc T_j + sigma V_j + Fs E_j(vs)  with
 /// weights 1/T_j (the noise of a band integral grows with its time).
-/// theta = {Fc, sigma, Fs}. Returns false if singular.
+/// theta = {Fc, sigma, Fs}. Fs is fitted only where the data can carry it:
+/// the exponential must reach at least two bands (otherwise it just fits one
+/// band's point exactly) and Fs must come out >= 0 (a negative break-away is
+/// not physical); else Fs = 0 and the curve is fitted with Fc and sigma
+/// (active set). Returns false if even that is singular.
 template <typename T, int Bands>
 bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& theta, T& ssr,
-                     Vector<T, 3>* inv_diag = nullptr) {
+                     Vector<T, 3>* inv_diag = nullptr, bool* stribeck_active = nullptr) {
   SymMatrix<T, 3> a;
   Vector<T, 3> b;
   T e[Bands];
+  T sum_e = T(0), sum_e2 = T(0);
   for (int k = 0; k < p.count; ++k) {
     e[k] = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs);
+    const T share = e[k] / p.time[k];  // mean of exp(-(v/vs)^2) in the band, 0..1
+    sum_e += share;
+    sum_e2 += share * share;
     const T phi[3] = {p.time[k], p.speed[k], e[k]};
     const T w = T(1) / p.time[k];
     for (int r = 0; r < 3; ++r) {
@@ -56,7 +64,24 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
       for (int c = 0; c < 3; ++c) a.a[r][c] += w * phi[r] * phi[c];
     }
   }
-  if (!solve_normal_equations(a, b, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
+  const T tol = T(sizeof(T) == 4 ? 1e-5 : 1e-10);
+  // Effective number of bands the exponential reaches: (sum s)^2 / sum s^2.
+  bool active = sum_e2 > T(0) && sum_e * sum_e >= T(2) * sum_e2 &&
+                solve_normal_equations(a, b, tol, theta, inv_diag) && theta.v[2] >= T(0);
+  if (!active) {
+    SymMatrix<T, 2> a2;
+    Vector<T, 2> b2, x2, d2;
+    for (int r = 0; r < 2; ++r) {
+      b2.v[r] = b.v[r];
+      for (int c = 0; c < 2; ++c) a2.a[r][c] = a.a[r][c];
+    }
+    if (!solve_normal_equations(a2, b2, tol, x2, inv_diag ? &d2 : nullptr)) return false;
+    theta.v[0] = x2.v[0];
+    theta.v[1] = x2.v[1];
+    theta.v[2] = T(0);
+    if (inv_diag) { inv_diag->v[0] = d2.v[0]; inv_diag->v[1] = d2.v[1]; inv_diag->v[2] = T(0); }
+  }
+  if (stribeck_active) *stribeck_active = active;
   ssr = T(0);
   for (int k = 0; k < p.count; ++k) {
     const T r = p.target[k] - theta.v[0] * p.time[k] - theta.v[1] * p.speed[k] - theta.v[2] * e[k];
@@ -133,7 +158,8 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   }
   const T vs = port::exp(log_vs);
   Vector<T, 3> th;
-  if (!fit_friction_at(p, vs, th, ssr)) { e.flags |= flag_fit_failed; return out; }
+  bool stribeck_active = false;
+  if (!fit_friction_at(p, vs, th, ssr, static_cast<Vector<T, 3>*>(nullptr), &stribeck_active)) { e.flags |= flag_fit_failed; return out; }
   e.coulomb_N = th.v[0];
   e.viscous_Ns_m = th.v[1];
   e.breakaway_N = th.v[2];
@@ -169,19 +195,21 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   const T s2 = out.dof > 0 ? ssr / T(out.dof) : T(0);
   SymMatrix<T, 4> fac = jtj;
   Vector<T, 4> zero, dummy, inv_diag;
-  if (solve_normal_equations(fac, zero, T(sizeof(T) == 4 ? 1e-7 : 1e-14), dummy, &inv_diag)) {
+  if (stribeck_active &&
+      solve_normal_equations(fac, zero, T(sizeof(T) == 4 ? 1e-7 : 1e-14), dummy, &inv_diag)) {
     e.coulomb_se = port::sqrt(s2 * inv_diag.v[0]);
     e.viscous_se = port::sqrt(s2 * inv_diag.v[1]);
     e.breakaway_se = port::sqrt(s2 * inv_diag.v[2]);
     e.stribeck_velocity_se = port::sqrt(s2 * inv_diag.v[3]);
   } else {
     // vs has no effect on the fit (Fs ~ 0 or no data near vs): unknowable.
+    // Standard errors of what was fitted; Fs and vs get no confident figure.
     Vector<T, 3> th3, inv3;
     T ssr3;
     if (fit_friction_at(p, vs, th3, ssr3, &inv3)) {
       e.coulomb_se = port::sqrt(s2 * inv3.v[0]);
       e.viscous_se = port::sqrt(s2 * inv3.v[1]);
-      e.breakaway_se = port::sqrt(s2 * inv3.v[2]);
+      e.breakaway_se = stribeck_active ? port::sqrt(s2 * inv3.v[2]) : port::max(e.coulomb_se, T(0)) * T(1e3);
     }
     e.stribeck_velocity_se = vs * T(1e3);
   }

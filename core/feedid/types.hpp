@@ -85,7 +85,7 @@ template <typename T> struct Config {
   T min_section_s = T(0.02);
   /// Sums are folded at least this often (s), so float running sums stay accurate;
   /// a longer section is split (it then no longer counts for the paper method).
-  T max_fold_s = T(2.0);
+  T max_fold_s = T(10.0);
   /// Length of the windows of the differentiation-free mass equation (s).
   T mass_window_s = T(0.02);
   /// An interval enters the friction bands only if its velocity change is at
