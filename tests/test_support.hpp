@@ -1,0 +1,88 @@
+// Small helpers shared by the tests: simulate a drive, turn a host Trace into
+// core samples, and a default core Config for a simulated sensor. No core
+// logic is repeated here.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "drive_sim.hpp"
+#include "feedid/feedid.hpp"
+#include "trace.hpp"
+
+namespace feedid::test {
+
+/// What varies between the simulated drives of the tests.
+struct SimSpec {
+  double mass_kg = 100.0;
+  double rate_hz = 2000.0;
+  std::uint64_t seed = 1;
+  double encoder_m = 1e-8;
+  double force_noise_N = 0.5;
+  double duration_s = 60.0;
+};
+
+/// Simulator configuration for a spec (all other settings at their defaults).
+inline host::SimConfig sim_config(const SimSpec& s) {
+  host::SimConfig c;
+  c.drive.mass_kg = s.mass_kg;
+  c.controller.servo_rate_hz = s.rate_hz;
+  c.seed = s.seed;
+  c.sensors.encoder_resolution_m = s.encoder_m;
+  c.sensors.force_noise_N = s.force_noise_N;
+  c.motion.duration_s = s.duration_s;
+  return c;
+}
+
+inline host::Trace simulate(const SimSpec& s) { return host::simulate(sim_config(s)); }
+
+/// The core configuration used throughout the tests for an encoder of
+/// quantum q (m) sampled at rate (Hz): the velocity quantum is q*rate.
+template <typename T> Config<T> default_config(double encoder_m, double rate_hz) {
+  const double res = encoder_m * rate_hz;
+  Config<T> c;
+  c.velocity_min_m_s = T(std::fmax(2.0 * res, 1e-5));
+  c.velocity_max_m_s = T(0.2);
+  c.velocity_resolution_m_s = T(res);
+  return c;
+}
+template <typename T> Config<T> default_config(const host::SimConfig& sc) {
+  return default_config<T>(sc.sensors.encoder_resolution_m, sc.controller.servo_rate_hz);
+}
+
+template <typename T> Sample<T> to_sample(const host::TraceSample& s, double dt_s) {
+  Sample<T> x;
+  x.dt_s = T(dt_s);
+  x.position_m = T(s.x_m);
+  x.velocity_m_s = T(s.v_m_s);
+  x.force_N = T(s.u_N);
+  return x;
+}
+
+struct PushCounts {
+  std::size_t accepted = 0;
+  std::size_t rejected = 0;
+};
+
+/// Pushes every sample of `tr` with dt from consecutive t. The first sample
+/// gets `first_dt_s` (irrelevant for a fresh estimator; when appending a
+/// trace to a running stream it is the step from the previous trace's end).
+template <typename T, int B, int C>
+PushCounts push_trace(Estimator<T, B, C>& est, const host::Trace& tr, double first_dt_s = 0.0) {
+  PushCounts n;
+  double t_prev = 0.0;
+  for (std::size_t k = 0; k < tr.samples.size(); ++k) {
+    const host::TraceSample& s = tr.samples[k];
+    const double dt = k == 0 ? first_dt_s : s.t_s - t_prev;
+    t_prev = s.t_s;
+    if (est.push(to_sample<T>(s, dt)) == Status::ok) ++n.accepted;
+    else ++n.rejected;
+  }
+  return n;
+}
+
+/// Relative error of an estimate against the truth.
+inline double rel_err(double estimate, double truth) { return std::fabs(estimate / truth - 1.0); }
+
+}  // namespace feedid::test
