@@ -10,6 +10,7 @@
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
+#include "validate.hpp"
 
 using namespace feedid::host;
 
@@ -107,6 +108,21 @@ int main(int argc, char** argv) {
   add_sim_options(c_demo, demo_sim);
   c_demo->add_option("--json", demo_json, "write the identification result as JSON");
 
+  std::string model_path, val_in, val_json;
+  CsvColumns val_cols;
+  ValidateOptions valopt;
+  auto* c_val = app.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
+  c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
+  c_val->add_option("--in", val_in, "trace CSV to predict")->required();
+  c_val->add_option("--json", val_json, "write the result as JSON");
+  c_val->add_option("--time", val_cols.time, "CSV column of time (s)")->capture_default_str();
+  c_val->add_option("--position", val_cols.position, "CSV column of position (m)")->capture_default_str();
+  c_val->add_option("--velocity", val_cols.velocity, "CSV column of velocity (m/s), used if no position")->capture_default_str();
+  c_val->add_option("--force", val_cols.force, "CSV column of force (N)")->capture_default_str();
+  c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
+  c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
+  c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -130,6 +146,23 @@ int main(int argc, char** argv) {
       Progress p("identify");
       if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
       return report_identify(identify(csv.trace, idopt), json_path, nullptr);
+    }
+    if (*c_val) {
+      std::ifstream mf(model_path);
+      if (!mf) { std::fprintf(stderr, "error: %s: cannot open\n", model_path.c_str()); return 2; }
+      nlohmann::json mj;
+      try { mf >> mj; } catch (const std::exception& e) {
+        std::fprintf(stderr, "error: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
+        return 2;
+      }
+      const DriveParams model = model_from_json(mj);
+      const CsvResult csv = read_trace_csv(val_in, val_cols);
+      if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
+      const ValidateResult r = validate(model, csv.trace, valopt);
+      std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g N\n",
+                  r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N);
+      if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
+      return 0;
     }
     if (*c_demo) {
       std::printf("== simulate: %.3g kg drive, %.6g Hz, %.3g s, encoder %.3g m, force noise %.3g N (seed %llu)\n",
