@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "csv_trace.hpp"
+#include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
@@ -123,6 +124,17 @@ int main(int argc, char** argv) {
   c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
   c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
 
+  CsvColumns dg_cols;
+  DiagnoseOptions dgopt;
+  std::string dg_in, dg_json, dg_report, dg_method = "bands";
+  auto* c_dg = app.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
+  c_dg->add_option("--in", dg_in, "trace CSV")->required();
+  c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
+  c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
+  add_identify_options(c_dg, dg_cols, dgopt.identify, dg_method);
+  c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
+  c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -162,6 +174,17 @@ int main(int argc, char** argv) {
       std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g N\n",
                   r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N);
       if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
+      return 0;
+    }
+    if (*c_dg) {
+      const CsvResult csv = read_trace_csv(dg_in, dg_cols);
+      if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
+      Progress p("diagnose");
+      if (csv.trace.samples.size() > 500000) dgopt.progress = std::ref(p);
+      const DiagnoseResult r = diagnose(csv.trace, dgopt);
+      if (!dg_json.empty() && !write_json(dg_json, to_json(r))) return 1;
+      if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
+      std::cout << summary(r);
       return 0;
     }
     if (*c_demo) {

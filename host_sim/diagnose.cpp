@@ -1,0 +1,735 @@
+#include "diagnose.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+#include "filters.hpp"
+
+namespace feedid::host {
+namespace {
+
+using Mat = Eigen::MatrixXd;
+using Vec = Eigen::VectorXd;
+
+/// Per interval (sample k-1 -> k), in the core's pairing convention.
+struct Intervals {
+  std::vector<double> t, x, v, dt, u, dv;  // mid time, mean position, mean velocity, length, force, velocity change
+  std::vector<double> since_reversal;      // distance since the last reversal (m)
+  std::vector<double> accel;               // smoothed acceleration at the interval (m/s^2)
+  std::vector<double> force_lp;            // low-passed measured force at the interval end (N)
+};
+
+struct Block {
+  std::size_t k0 = 0, k1 = 0;  // interval range [k0, k1)
+  int dir = 0;                 // +1 / -1
+  bool heldout = false;
+  double tau = 0, y = 0;       // length (s); mean force (N)
+  double t = 0, x = 0, v = 0;  // means
+  double since_reversal = 0;   // at the block start (m)
+  double accel_change = 0;     // |a_end - a_start| (m/s^2)
+};
+
+double interval_force(const Signals& s, std::size_t k) {
+  switch (s.alignment) {
+    case feedid::ForceAlignment::held_force_backward_velocity: return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
+    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
+    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
+  }
+  return s.u[k - 1];
+}
+
+Intervals make_intervals(const Signals& s, double v_min) {
+  Intervals iv;
+  const std::size_t n = s.t.size();
+  const double fs = s.sample_rate_hz;
+  // Acceleration for the compliance term and low-passed force for the delay
+  // term: zero-phase filters well above the motion's bandwidth.
+  const double fc = std::min(0.2 * fs, 300.0);
+  const std::vector<double> vf = filtfilt_butter4(s.v, fc, fs);
+  const std::vector<double> af = central_difference(vf, s.t);
+  const std::vector<double> uf = filtfilt_butter4(s.u, fc, fs);
+  int last_dir = 0;
+  double x_rev = s.x.empty() ? 0.0 : s.x[0];
+  for (std::size_t k = 1; k < n; ++k) {
+    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
+    const double xm = 0.5 * (s.x[k] + s.x[k - 1]);
+    const int d = vm >= v_min ? 1 : (vm <= -v_min ? -1 : 0);
+    if (d != 0 && d != last_dir) {
+      x_rev = xm;
+      last_dir = d;
+    }
+    iv.t.push_back(0.5 * (s.t[k] + s.t[k - 1]));
+    iv.x.push_back(xm);
+    iv.v.push_back(vm);
+    iv.dt.push_back(s.t[k] - s.t[k - 1]);
+    iv.u.push_back(interval_force(s, k));
+    iv.dv.push_back(s.v[k] - s.v[k - 1]);
+    iv.since_reversal.push_back(std::fabs(xm - x_rev));
+    iv.accel.push_back(0.5 * (af[k] + af[k - 1]));
+    iv.force_lp.push_back(uf[k]);
+  }
+  return iv;
+}
+
+/// Blocks of consecutive moving intervals of one direction inside one fold.
+std::vector<Block> make_blocks(const Intervals& iv, double v_min, double block_s, int folds, double t0, double t1) {
+  std::vector<Block> blocks;
+  const double fold_len = (t1 - t0) / folds;
+  Block b;
+  bool open = false;
+  int fold_open = -1;
+  auto close = [&](std::size_t k_end) {
+    if (open && b.tau >= 0.5 * block_s) {
+      b.k1 = k_end;
+      const std::size_t n = b.k1 - b.k0;
+      b.y /= b.tau;
+      b.t /= b.tau;
+      b.x /= b.tau;
+      b.v /= b.tau;
+      b.accel_change = std::fabs(iv.accel[b.k1 - 1] - iv.accel[b.k0]);
+      (void)n;
+      blocks.push_back(b);
+    }
+    open = false;
+  };
+  for (std::size_t k = 0; k < iv.t.size(); ++k) {
+    const int d = iv.v[k] >= v_min ? 1 : (iv.v[k] <= -v_min ? -1 : 0);
+    const int fold = std::min(folds - 1, static_cast<int>((iv.t[k] - t0) / fold_len));
+    const bool gap = k > 0 && iv.dt[k] > 5.0 * iv.dt[k - 1] && iv.dt[k] > 1e-3;
+    if (open && (d != b.dir || fold != fold_open || gap)) close(k);
+    if (d == 0) continue;
+    if (!open) {
+      b = Block{};
+      b.k0 = k;
+      b.dir = d;
+      b.heldout = fold % 2 == 1;
+      b.since_reversal = iv.since_reversal[k];
+      fold_open = fold;
+      open = true;
+    }
+    const double dt = iv.dt[k];
+    b.tau += dt;
+    b.y += iv.u[k] * dt;
+    b.t += iv.t[k] * dt;
+    b.x += iv.x[k] * dt;
+    b.v += iv.v[k] * dt;
+    if (b.tau >= block_s) close(k + 1);
+  }
+  close(iv.t.size());
+  return blocks;
+}
+
+/// Column of block means of g over each block's intervals: (1/tau) sum g dt.
+template <typename G> Vec block_column(const std::vector<Block>& blocks, const Intervals& iv, G&& g) {
+  Vec c(static_cast<Eigen::Index>(blocks.size()));
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    double s = 0.0;
+    for (std::size_t k = blocks[i].k0; k < blocks[i].k1; ++k) s += g(k) * iv.dt[k];
+    c(static_cast<Eigen::Index>(i)) = s / blocks[i].tau;
+  }
+  return c;
+}
+
+struct Fit {
+  Vec theta;
+  Vec residual;  // all blocks
+  double ssr_id = 0.0;
+  bool ok = false;
+};
+
+Fit fit_columns(const Mat& x, const Vec& y, const std::vector<char>& id_mask) {
+  Fit f;
+  const Eigen::Index n = x.rows(), p = x.cols();
+  Eigen::Index m = 0;
+  for (char c : id_mask) m += c;
+  Mat xi(m, p);
+  Vec yi(m);
+  for (Eigen::Index i = 0, j = 0; i < n; ++i)
+    if (id_mask[static_cast<std::size_t>(i)]) { xi.row(j) = x.row(i); yi(j) = y(i); ++j; }
+  // Scale columns so the rank decision is unit-free.
+  Vec scale(p);
+  for (Eigen::Index c = 0; c < p; ++c) {
+    const double nrm = xi.col(c).norm();
+    scale(c) = nrm > 0 ? 1.0 / nrm : 1.0;
+    xi.col(c) *= scale(c);
+  }
+  Eigen::ColPivHouseholderQR<Mat> qr(xi);
+  qr.setThreshold(1e-9);
+  f.theta = qr.solve(yi).cwiseProduct(scale);
+  f.residual = y - x * f.theta;
+  f.ssr_id = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (id_mask[static_cast<std::size_t>(i)]) f.ssr_id += f.residual(i) * f.residual(i);
+  f.ok = f.theta.allFinite();
+  return f;
+}
+
+/// R^2 of a column regressed on the base columns (identification blocks):
+/// near 1 means the effect's term is already a combination of the model's.
+double collinearity(const Mat& base, const Vec& col, const std::vector<char>& id_mask) {
+  const Fit f = fit_columns(base, col, id_mask);
+  double ss = 0.0, sr = 0.0, mean = 0.0;
+  std::size_t n = 0;
+  for (Eigen::Index i = 0; i < col.size(); ++i)
+    if (id_mask[static_cast<std::size_t>(i)]) { mean += col(i); ++n; }
+  mean /= std::max<std::size_t>(n, 1);
+  for (Eigen::Index i = 0; i < col.size(); ++i)
+    if (id_mask[static_cast<std::size_t>(i)]) {
+      ss += col(i) * col(i);  // uncentred: the base has no intercept of its own
+      sr += f.residual(i) * f.residual(i);
+    }
+  (void)mean;
+  return ss > 0 ? 1.0 - sr / ss : 1.0;
+}
+
+double rms_over(const Vec& r, const std::vector<Block>& blocks, bool heldout) {
+  double s = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < blocks.size(); ++i)
+    if (blocks[i].heldout == heldout) { s += r(static_cast<Eigen::Index>(i)) * r(static_cast<Eigen::Index>(i)); ++n; }
+  return n ? std::sqrt(s / static_cast<double>(n)) : 0.0;
+}
+
+/// White noise floor of the block residual: consecutive held-out blocks of
+/// one motion stretch differ by noise only (smooth structure cancels), so
+/// sigma = 1.4826 * median|r_i - r_{i-1}| / sqrt(2).
+double noise_floor(const Vec& r, const std::vector<Block>& blocks) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < blocks.size(); ++i)
+    if (blocks[i].heldout && blocks[i - 1].heldout && blocks[i].k0 == blocks[i - 1].k1)
+      d.push_back(std::fabs(r(static_cast<Eigen::Index>(i)) - r(static_cast<Eigen::Index>(i - 1))));
+  if (d.size() < 10) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return 1.4826 * d[d.size() / 2] / std::sqrt(2.0);
+}
+
+/// t statistic of the held-out improvement sum(r_base^2 - r_aug^2), with
+/// blocks grouped in runs of 20 so neighbouring blocks' correlation does not
+/// inflate it.
+double improvement_t(const Vec& rb, const Vec& ra, const std::vector<Block>& blocks) {
+  std::vector<double> g;
+  double acc = 0.0;
+  int in_group = 0;
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    if (!blocks[i].heldout) continue;
+    const auto j = static_cast<Eigen::Index>(i);
+    acc += rb(j) * rb(j) - ra(j) * ra(j);
+    if (++in_group == 20) { g.push_back(acc); acc = 0.0; in_group = 0; }
+  }
+  if (g.size() < 3) return 0.0;
+  const double mean = std::accumulate(g.begin(), g.end(), 0.0) / static_cast<double>(g.size());
+  double var = 0.0;
+  for (double x : g) var += (x - mean) * (x - mean);
+  var /= static_cast<double>(g.size() - 1);
+  return var > 0 ? mean / std::sqrt(var / static_cast<double>(g.size())) : 0.0;
+}
+
+std::vector<double> log_grid(double lo, double hi, int n) {
+  std::vector<double> g;
+  for (int i = 0; i < n; ++i) g.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1)));
+  return g;
+}
+
+/// A candidate effect: columns for a value of its nonlinear parameter, and
+/// how to name the fitted numbers.
+struct EffectModel {
+  std::string kind;
+  std::vector<double> grid;  // nonlinear parameter values (empty: none), log-spaced if continuous
+  bool continuous = false;   // refine between grid points by golden-section search
+  std::function<Mat(double)> columns;
+  std::function<nlohmann::json(double, const Vec& coef)> parameters;
+};
+
+/// Second-order low-pass response H(s) = w^2/(s^2 + 2 z w s + w^2) of the
+/// load behind a spring to the motor acceleration, by exact discretisation
+/// per step (the step is far below 1/w).
+std::vector<double> second_order_response(const std::vector<double>& in, const std::vector<double>& dt, double w, double z) {
+  std::vector<double> out(in.size());
+  double y = in.empty() ? 0.0 : in[0], yd = 0.0;
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    const double h = dt[k];
+    const int sub = std::max(1, static_cast<int>(std::ceil(h * w / 0.2)));
+    const double hs = h / sub;
+    for (int i = 0; i < sub; ++i) {  // semi-implicit Euler, stable for hs*w <= 0.2
+      yd += hs * (w * w * (in[k] - y) - 2.0 * z * w * yd);
+      y += hs * yd;
+    }
+    out[k] = y;
+  }
+  return out;
+}
+
+std::string fmt(double v, const char* unit) {
+  std::ostringstream o;
+  o.precision(3);
+  o << v << " " << unit;
+  return o.str();
+}
+
+}  // namespace
+
+DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
+  DiagnoseResult out;
+  if (trace.samples.size() < 1000) {
+    out.error = trace.source + ": trace too short to diagnose: " + std::to_string(trace.samples.size()) +
+                " samples (need at least 1000, moving in both directions)";
+    return out;
+  }
+  if (opt.folds < 2) throw std::invalid_argument("folds must be >= 2");
+  const Signals sig = prepare_signals(trace, opt.identify);
+  const double t0 = sig.t.front(), t1 = sig.t.back();
+  const double fold_len = (t1 - t0) / opt.folds;
+
+  // 1. Base model from the identification folds (even ones), by the core.
+  Trace id_trace;
+  id_trace.source = trace.source + " (identification folds)";
+  id_trace.has_velocity = true;
+  id_trace.has_position = trace.has_position;
+  for (std::size_t k = 0; k < sig.t.size(); ++k) {
+    const int fold = std::min(opt.folds - 1, static_cast<int>((sig.t[k] - t0) / fold_len));
+    if (fold % 2 == 0) id_trace.samples.push_back({sig.t[k], sig.x[k], sig.v[k], sig.u[k]});
+  }
+  IdentifyOptions idopt = opt.identify;
+  idopt.alignment = sig.alignment == feedid::ForceAlignment::held_force_backward_velocity ? "held-backward"
+                    : sig.alignment == feedid::ForceAlignment::held_force_instant_velocity ? "held-instant"
+                                                                                           : "trapezoid";
+  out.base = identify(id_trace, idopt);
+  if (!out.base.error.empty()) {
+    out.error = out.base.error;
+    return out;
+  }
+  if (opt.progress) opt.progress(0.2);
+  const auto& est = out.base.estimate;
+  const double v_min = out.base.config.velocity_min_m_s;
+
+  // 2. Blocks over the whole trace, with the base model's regressors.
+  const Intervals iv = make_intervals(sig, v_min);
+  const std::vector<Block> blocks = make_blocks(iv, v_min, opt.block_s, opt.folds, t0, t1);
+  std::vector<char> id_mask(blocks.size());
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    id_mask[i] = blocks[i].heldout ? 0 : 1;
+    out.blocks_identification += id_mask[i];
+  }
+  out.blocks_heldout = blocks.size() - out.blocks_identification;
+  if (out.blocks_identification < 50 || out.blocks_heldout < 50) {
+    out.error = trace.source + ": too little motion to diagnose: " + std::to_string(blocks.size()) +
+                " blocks of motion (need 50 for identification and 50 held out)";
+    return out;
+  }
+  Vec y(static_cast<Eigen::Index>(blocks.size()));
+  for (std::size_t i = 0; i < blocks.size(); ++i) y(static_cast<Eigen::Index>(i)) = blocks[i].y;
+
+  // Base columns: m, Fc+, Fc-, sigma+, sigma-, Fs+, Fs- (vs from the core).
+  // Negative-direction columns carry the model's signs so coefficients are magnitudes.
+  const double vsp = est.pos.stribeck_velocity_m_s, vsn = est.neg.stribeck_velocity_m_s;
+  std::vector<Vec> base_cols;
+  {
+    Vec mass(static_cast<Eigen::Index>(blocks.size()));
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      double dv = 0.0;
+      for (std::size_t k = blocks[i].k0; k < blocks[i].k1; ++k) dv += iv.dv[k];
+      mass(static_cast<Eigen::Index>(i)) = dv / blocks[i].tau;
+    }
+    base_cols.push_back(mass);
+  }
+  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? 1.0 : 0.0; }));
+  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? -1.0 : 0.0; }));
+  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? iv.v[k] : 0.0; }));
+  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? iv.v[k] : 0.0; }));
+  if (est.pos.stribeck_identified())
+    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
+      return iv.v[k] > 0 ? std::exp(-(iv.v[k] / vsp) * (iv.v[k] / vsp)) : 0.0;
+    }));
+  if (est.neg.stribeck_identified())
+    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
+      return iv.v[k] < 0 ? -std::exp(-(iv.v[k] / vsn) * (iv.v[k] / vsn)) : 0.0;
+    }));
+  // Linearised vs correction: d/dvs exp(-(v/vs)^2) = exp(..) 2 v^2 / vs^3. With
+  // these columns the joint fits can move vs locally, so an effect that
+  // biased the core's vs does not leave a residual the effect cannot explain.
+  if (est.pos.stribeck_identified())
+    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
+      const double q = iv.v[k] / vsp;
+      return iv.v[k] > 0 ? std::exp(-q * q) * 2.0 * q * q / vsp : 0.0;
+    }));
+  if (est.neg.stribeck_identified())
+    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
+      const double q = iv.v[k] / vsn;
+      return iv.v[k] < 0 ? -std::exp(-q * q) * 2.0 * q * q / vsn : 0.0;
+    }));
+  Mat base(static_cast<Eigen::Index>(blocks.size()), static_cast<Eigen::Index>(base_cols.size()));
+  for (std::size_t c = 0; c < base_cols.size(); ++c) base.col(static_cast<Eigen::Index>(c)) = base_cols[c];
+  const Fit base_fit = fit_columns(base, y, id_mask);
+  out.rms_base_N = rms_over(base_fit.residual, blocks, true);
+  out.noise_floor_N = noise_floor(base_fit.residual, blocks);
+
+  // 3. Candidate effects, each fitted jointly with the base terms on the
+  //    identification blocks (nonlinear parameter by grid search there too),
+  //    then judged on the held-out blocks only.
+  const double x_lo = *std::min_element(iv.x.begin(), iv.x.end());
+  const double x_hi = *std::max_element(iv.x.begin(), iv.x.end());
+  const double travel = std::max(x_hi - x_lo, 1e-6);
+  const double duration = t1 - t0;
+  const double fs = sig.sample_rate_hz;
+  auto one_col = [&](Vec c) { Mat m(c.size(), 1); m.col(0) = c; return m; };
+  std::vector<EffectModel> models;
+  models.push_back({"offset", {}, false, [&](double) { return one_col(block_column(blocks, iv, [](std::size_t) { return 1.0; })); },
+                    [](double, const Vec& c) { return nlohmann::json{{"force_N", c(0)}}; }});
+  models.push_back({"position_ripple", log_grid(std::max(4e-4, 1e-3 * travel), travel / 3.0, 160), true,
+                    [&](double p) {
+                      Mat m(static_cast<Eigen::Index>(blocks.size()), 2);
+                      m.col(0) = block_column(blocks, iv, [&](std::size_t k) { return std::sin(2 * M_PI * iv.x[k] / p); });
+                      m.col(1) = block_column(blocks, iv, [&](std::size_t k) { return std::cos(2 * M_PI * iv.x[k] / p); });
+                      return m;
+                    },
+                    [](double p, const Vec& c) {
+                      return nlohmann::json{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))},
+                                            {"phase_rad", std::atan2(c(1), c(0))}};
+                    }});
+  {
+    // Position friction: contiguous ranges of 20 cells of the travel.
+    std::vector<double> grid;
+    constexpr int cells = 20;
+    for (int a = 0; a < cells; ++a)
+      for (int b = a + 1; b <= cells; ++b)
+        if (!(a == 0 && b == cells)) grid.push_back(a * 100 + b);
+    models.push_back({"position_friction", grid, false,
+                      [&, cells](double code) {
+                        const int a = static_cast<int>(code) / 100, b = static_cast<int>(code) % 100;
+                        const double xa = x_lo + travel * a / cells, xb = x_lo + travel * b / cells;
+                        return one_col(block_column(blocks, iv, [&](std::size_t k) {
+                          return (iv.x[k] >= xa && iv.x[k] < xb) ? (iv.v[k] > 0 ? 1.0 : -1.0) : 0.0;
+                        }));
+                      },
+                      [&, cells](double code, const Vec& c) {
+                        const int a = static_cast<int>(code) / 100, b = static_cast<int>(code) % 100;
+                        return nlohmann::json{{"x_min_m", x_lo + travel * a / cells},
+                                              {"x_max_m", x_lo + travel * b / cells}, {"delta_N", c(0)}};
+                      }});
+  }
+  models.push_back({"thermal_drift", log_grid(std::max(1.0, 0.02 * duration), 5.0 * duration, 40), true,
+                    [&](double tc) {
+                      Mat m(static_cast<Eigen::Index>(blocks.size()), 2);
+                      m.col(0) = block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] * std::exp(-(iv.t[k] - t0) / tc); });
+                      m.col(1) = block_column(blocks, iv, [&](std::size_t k) {
+                        return (iv.v[k] > 0 ? 1.0 : -1.0) * std::exp(-(iv.t[k] - t0) / tc);
+                      });
+                      return m;
+                    },
+                    [](double tc, const Vec& c) {
+                      return nlohmann::json{{"time_constant_s", tc}, {"viscous_change_Ns_m", c(0)}, {"coulomb_change_N", c(1)}};
+                    }});
+  models.push_back({"quadratic_viscous", {}, false,
+                    [&](double) { return one_col(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] * std::fabs(iv.v[k]); })); },
+                    [](double, const Vec& c) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; }});
+  models.push_back({"presliding_hysteresis", log_grid(1e-6, std::min(2e-3, travel / 4), 40), true,
+                    [&](double d) {
+                      return one_col(block_column(blocks, iv, [&](std::size_t k) {
+                        return -(iv.v[k] > 0 ? 1.0 : -1.0) * std::exp(-iv.since_reversal[k] / d);
+                      }));
+                    },
+                    [](double d, const Vec& c) { return nlohmann::json{{"distance_m", d}, {"force_N", 0.5 * c(0)}}; }});
+  {
+    // Compliance: the load behind a spring follows the motor through
+    // H(s) = w^2/(s^2 + 2 z w s + w^2); the base model misses m2 (a2 - a1).
+    std::vector<double> grid = log_grid(3.0, std::min(0.25 * fs, 400.0), 50);
+    models.push_back({"compliance", grid, true,
+                      [&](double f) {
+                        const std::vector<double> a2 = second_order_response(iv.accel, iv.dt, 2 * M_PI * f, 0.05);
+                        return one_col(block_column(blocks, iv, [&](std::size_t k) { return a2[k] - iv.accel[k]; }));
+                      },
+                      [&](double f, const Vec& c) {
+                        // c = load mass m2; free resonance sqrt(k (m1+m2)/(m1 m2)) with k = m2 w^2.
+                        const double m2 = c(0), m_total = base_fit.theta(0);
+                        const double m1 = m_total - m2;
+                        const double fr = m1 > 0 && m2 > 0 ? f * std::sqrt(1.0 + m2 / m1) : f;
+                        return nlohmann::json{{"frequency_hz", fr}, {"load_frequency_hz", f}, {"load_mass_kg", m2}};
+                      }});
+  }
+  models.push_back({"delay", {}, false,
+                    [&](double) {
+                      Vec c(static_cast<Eigen::Index>(blocks.size()));
+                      for (std::size_t i = 0; i < blocks.size(); ++i)
+                        c(static_cast<Eigen::Index>(i)) =
+                            -(iv.force_lp[blocks[i].k1 - 1] - iv.force_lp[blocks[i].k0 > 0 ? blocks[i].k0 - 1 : 0]) / blocks[i].tau;
+                      return one_col(c);
+                    },
+                    [](double, const Vec& c) { return nlohmann::json{{"delay_s", c(0)}}; }});
+
+  for (std::size_t mi = 0; mi < models.size(); ++mi) {
+    const EffectModel& em = models[mi];
+    const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
+    double best_ssr = 1e300, best_p = grid[0];
+    Fit best;
+    Mat best_cols;
+    auto try_p = [&](double p) {
+      const Mat cols = em.columns(p);
+      Mat x(base.rows(), base.cols() + cols.cols());
+      x << base, cols;
+      const Fit f = fit_columns(x, y, id_mask);
+      if (f.ok && f.ssr_id < best_ssr) { best_ssr = f.ssr_id; best_p = p; best = f; best_cols = cols; }
+      return f.ok ? f.ssr_id : 1e300;
+    };
+    std::size_t best_i = 0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      const double before = best_ssr;
+      try_p(grid[i]);
+      if (best_ssr < before) best_i = i;
+    }
+    if (em.continuous && grid.size() >= 3) {
+      // Golden-section search in log p over the best grid cell's neighbours.
+      double a = std::log(grid[best_i > 0 ? best_i - 1 : 0]);
+      double b = std::log(grid[std::min(best_i + 1, grid.size() - 1)]);
+      const double g = 0.6180339887498949;
+      double x1 = b - g * (b - a), x2 = a + g * (b - a);
+      double f1 = try_p(std::exp(x1)), f2 = try_p(std::exp(x2));
+      for (int it = 0; it < 25; ++it) {
+        if (f1 < f2) { b = x2; x2 = x1; f2 = f1; x1 = b - g * (b - a); f1 = try_p(std::exp(x1)); }
+        else { a = x1; x1 = x2; f1 = f2; x2 = a + g * (b - a); f2 = try_p(std::exp(x2)); }
+      }
+    }
+    Candidate c;
+    c.kind = em.kind;
+    if (!best.ok) { c.note = "fit failed"; out.candidates.push_back(c); continue; }
+    const Vec coef = best.theta.tail(best_cols.cols());
+    c.parameters = em.parameters(best_p, coef);
+    c.heldout_rms_N = rms_over(best.residual, blocks, true);
+    c.t_statistic = improvement_t(base_fit.residual, best.residual, blocks);
+    const double excess = out.rms_base_N - out.noise_floor_N;
+    c.closed_fraction = excess > 0 ? std::clamp((out.rms_base_N - c.heldout_rms_N) / excess, -1.0, 1.0) : 0.0;
+    double r2 = 0.0;
+    for (Eigen::Index j = 0; j < best_cols.cols(); ++j) r2 = std::max(r2, collinearity(base, best_cols.col(j), id_mask));
+    c.indistinguishable = r2 > 0.995;
+    if (c.indistinguishable) {
+      c.note = "its term is a combination of the base model's terms on this data (R^2 " + std::to_string(r2) + ")";
+      if (em.kind == "offset") {
+        const double fcp = base_fit.theta(1), fcn = base_fit.theta(2);
+        c.note = "while the axis moves, a constant offset is indistinguishable from Coulomb friction that differs by "
+                 "direction: the fit's Fc+ - Fc- = " + fmt(fcp - fcn, "N") + " equals an offset of " + fmt(0.5 * (fcp - fcn), "N");
+        c.parameters = {{"force_N", 0.5 * (fcp - fcn)}};
+      }
+    }
+    c.significant = !c.indistinguishable && c.t_statistic >= opt.significance_t && c.heldout_rms_N < out.rms_base_N;
+    out.candidates.push_back(c);
+    if (opt.progress) opt.progress(0.2 + 0.7 * static_cast<double>(mi + 1) / static_cast<double>(models.size()));
+    // Keep the residual of the best candidate so far for the report.
+    (void)best_cols;
+  }
+  std::stable_sort(out.candidates.begin(), out.candidates.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.significant != b.significant) return a.significant;
+    return a.heldout_rms_N < b.heldout_rms_N;
+  });
+
+  // 4. Verdict.
+  const Candidate& top = out.candidates.front();
+  const double ratio = out.noise_floor_N > 0 ? out.rms_base_N / out.noise_floor_N : 0.0;
+  if (top.significant && top.closed_fraction >= opt.min_closed_fraction && ratio >= 1.05) {
+    out.effect = top.kind;
+    out.effect_parameters = top.parameters;
+    out.rms_augmented_N = top.heldout_rms_N;
+    out.closed_fraction = top.closed_fraction;
+  } else {
+    out.effect = ratio >= opt.unexplained_ratio ? "unexplained" : "none";
+    out.rms_augmented_N = out.rms_base_N;
+    out.closed_fraction = 0.0;
+  }
+
+  // Residual series for the report; refit the chosen effect to keep its residual.
+  Vec r_aug = base_fit.residual;
+  if (out.effect != "none" && out.effect != "unexplained") {
+    for (const auto& em : models)
+      if (em.kind == out.effect) {
+        const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
+        double best_ssr = 1e300;
+        for (double p : grid) {
+          const Mat cols = em.columns(p);
+          Mat x(base.rows(), base.cols() + cols.cols());
+          x << base, cols;
+          const Fit f = fit_columns(x, y, id_mask);
+          if (f.ok && f.ssr_id < best_ssr) { best_ssr = f.ssr_id; r_aug = f.residual; }
+        }
+      }
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    out.block_t.push_back(blocks[i].t);
+    out.block_x.push_back(blocks[i].x);
+    out.block_v.push_back(blocks[i].v);
+    out.block_r_base.push_back(base_fit.residual(static_cast<Eigen::Index>(i)));
+    out.block_r_aug.push_back(r_aug(static_cast<Eigen::Index>(i)));
+    out.block_heldout.push_back(blocks[i].heldout);
+  }
+
+  // 5. Where the held-out residual energy lies, by domain.
+  double e_total = 0.0, t_total = 0.0;
+  for (std::size_t i = 0; i < blocks.size(); ++i)
+    if (blocks[i].heldout) {
+      const double r = base_fit.residual(static_cast<Eigen::Index>(i));
+      e_total += r * r * blocks[i].tau;
+      t_total += blocks[i].tau;
+    }
+  auto where_bins = [&](const std::string& domain, const std::vector<double>& edges, auto value, const char* unit) {
+    WhereEntry best;
+    double best_lift = -1.0;
+    for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+      double e = 0.0, tt = 0.0;
+      for (std::size_t i = 0; i < blocks.size(); ++i) {
+        if (!blocks[i].heldout) continue;
+        const double q = value(blocks[i]);
+        if (q < edges[b] || q >= edges[b + 1]) continue;
+        const double r = base_fit.residual(static_cast<Eigen::Index>(i));
+        e += r * r * blocks[i].tau;
+        tt += blocks[i].tau;
+      }
+      if (tt < 0.02 * t_total || e_total <= 0) continue;
+      const double share = e / e_total, tshare = tt / t_total;
+      if (share - tshare > best_lift) {
+        best_lift = share - tshare;
+        best = {domain, fmt(edges[b], unit) + " .. " + fmt(edges[b + 1], unit), edges[b], edges[b + 1], share, tshare};
+      }
+    }
+    if (best_lift > -1.0) out.where.push_back(best);
+  };
+  {
+    const double vmax = out.base.config.velocity_max_m_s;
+    std::vector<double> ve;
+    for (int i = 8; i >= 0; --i) ve.push_back(-vmax * std::pow(v_min / vmax, i / 8.0));
+    ve.front() = -1e9;
+    std::vector<double> vp;
+    for (int i = 0; i <= 8; ++i) vp.push_back(vmax * std::pow(v_min / vmax, 1.0 - i / 8.0));
+    vp.back() = 1e9;
+    std::vector<double> edges = ve;
+    edges.insert(edges.end(), vp.begin(), vp.end());
+    where_bins("velocity", edges, [](const Block& b) { return b.v; }, "m/s");
+    std::vector<double> xe;
+    for (int i = 0; i <= 10; ++i) xe.push_back(x_lo + travel * i / 10.0);
+    xe.back() += 1e-12;
+    where_bins("position", xe, [](const Block& b) { return b.x; }, "m");
+    std::vector<double> te;
+    for (int i = 0; i <= 5; ++i) te.push_back(t0 + duration * i / 5.0);
+    te.back() += 1e-9;
+    where_bins("time", te, [](const Block& b) { return b.t; }, "s");
+    where_bins("after_reversal", {0.0, 1e-5, 1e-4, 1e-3, 1e9}, [](const Block& b) { return b.since_reversal; }, "m");
+    std::vector<double> ac;
+    for (const auto& b : blocks) ac.push_back(b.accel_change);
+    std::vector<double> sorted = ac;
+    std::sort(sorted.begin(), sorted.end());
+    const double p90 = sorted[sorted.size() * 9 / 10];
+    where_bins("acceleration_change", {0.0, p90, 1e12}, [](const Block& b) { return b.accel_change; }, "m/s^2");
+  }
+  {
+    // Frequency: periodogram of the held-out block residual over runs of
+    // contiguous blocks; the peak and its share of the energy.
+    const double fb = 1.0 / opt.block_s;
+    std::vector<double> freqs = log_grid(0.5, 0.45 * fb, 120);
+    std::vector<double> power(freqs.size(), 0.0);
+    std::size_t i = 0;
+    double total = 0.0;
+    while (i < blocks.size()) {
+      std::size_t j = i + 1;
+      while (j < blocks.size() && blocks[j].heldout && blocks[i].heldout && blocks[j].k0 == blocks[j - 1].k1) ++j;
+      if (blocks[i].heldout && j - i >= 32) {
+        for (std::size_t fi = 0; fi < freqs.size(); ++fi) {
+          double re = 0.0, im = 0.0;
+          for (std::size_t b = i; b < j; ++b) {
+            const double r = base_fit.residual(static_cast<Eigen::Index>(b));
+            re += r * std::cos(2 * M_PI * freqs[fi] * blocks[b].t);
+            im += r * std::sin(2 * M_PI * freqs[fi] * blocks[b].t);
+          }
+          power[fi] += (re * re + im * im) / static_cast<double>(j - i);
+        }
+      }
+      i = j;
+    }
+    for (double p : power) total += p;
+    if (total > 0) {
+      const auto pk = static_cast<std::size_t>(std::max_element(power.begin(), power.end()) - power.begin());
+      double near = 0.0;
+      for (std::size_t fi = 0; fi < freqs.size(); ++fi)
+        if (std::fabs(std::log(freqs[fi] / freqs[pk])) < 0.1) near += power[fi];
+      double tshare = 0.0;
+      for (std::size_t fi = 0; fi < freqs.size(); ++fi)
+        if (std::fabs(std::log(freqs[fi] / freqs[pk])) < 0.1) tshare += 1.0;
+      out.where.push_back({"frequency", fmt(freqs[pk], "Hz"), freqs[pk] * 0.9, freqs[pk] * 1.1, near / total,
+                           tshare / static_cast<double>(freqs.size())});
+    }
+  }
+  std::stable_sort(out.where.begin(), out.where.end(), [](const WhereEntry& a, const WhereEntry& b) {
+    return a.share - a.time_share > b.share - b.time_share;
+  });
+  if (opt.progress) opt.progress(1.0);
+  return out;
+}
+
+nlohmann::json to_json(const DiagnoseResult& r) {
+  nlohmann::json j;
+  if (!r.error.empty()) {
+    j["error"] = r.error;
+    return j;
+  }
+  j["effect"] = {{"kind", r.effect}, {"parameters", r.effect_parameters.is_null() ? nlohmann::json::object() : r.effect_parameters}};
+  for (auto it = r.effect_parameters.begin(); r.effect_parameters.is_object() && it != r.effect_parameters.end(); ++it)
+    j["effect"][it.key()] = it.value();
+  j["heldout"] = {{"rms_base_N", r.rms_base_N}, {"rms_augmented_N", r.rms_augmented_N},
+                  {"closed_fraction", r.closed_fraction},
+                  {"gap_ratio", r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0},
+                  {"blocks", r.blocks_heldout}};
+  j["noise_floor_N"] = r.noise_floor_N;
+  nlohmann::json w = nlohmann::json::array();
+  for (const auto& e : r.where)
+    w.push_back({{"domain", e.domain}, {"range", e.range}, {"lo", e.lo}, {"hi", e.hi}, {"share", e.share}, {"time_share", e.time_share}});
+  j["where"] = w;
+  nlohmann::json c = nlohmann::json::array();
+  for (const auto& x : r.candidates)
+    c.push_back({{"kind", x.kind}, {"parameters", x.parameters}, {"heldout_rms_N", x.heldout_rms_N},
+                 {"closed_fraction", x.closed_fraction}, {"t_statistic", x.t_statistic},
+                 {"significant", x.significant}, {"indistinguishable", x.indistinguishable}, {"note", x.note}});
+  j["candidates"] = c;
+  nlohmann::json ind = nlohmann::json::array();
+  for (const auto& x : r.candidates)
+    if (x.indistinguishable) ind.push_back({{"kind", x.kind}, {"note", x.note}, {"parameters", x.parameters}});
+  j["indistinguishable"] = ind;
+  j["base_model"] = to_json(r.base);
+  j["split"] = {{"method", "time folds; odd folds held out"}, {"blocks_identification", r.blocks_identification},
+                {"blocks_heldout", r.blocks_heldout}};
+  return j;
+}
+
+std::string summary(const DiagnoseResult& r) {
+  std::ostringstream o;
+  if (!r.error.empty()) return "error: " + r.error + "\n";
+  char buf[300];
+  std::snprintf(buf, sizeof buf, "held-out gap: RMS %.3g N (noise floor %.3g N, ratio %.2f) over %zu blocks\n",
+                r.rms_base_N, r.noise_floor_N, r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0, r.blocks_heldout);
+  o << buf;
+  o << "effect: " << r.effect;
+  if (r.effect_parameters.is_object() && !r.effect_parameters.empty()) o << " " << r.effect_parameters.dump();
+  o << "\n";
+  if (r.effect != "none" && r.effect != "unexplained") {
+    std::snprintf(buf, sizeof buf, "  adding it: held-out RMS %.3g -> %.3g N, closes %.0f %% of the excess over the noise floor\n",
+                  r.rms_base_N, r.rms_augmented_N, 100.0 * r.closed_fraction);
+    o << buf;
+  }
+  o << "where the residual lies (share of held-out residual energy vs share of time):\n";
+  for (std::size_t i = 0; i < r.where.size() && i < 4; ++i) {
+    std::snprintf(buf, sizeof buf, "  %-20s %-28s %5.1f %% of energy in %5.1f %% of time\n", r.where[i].domain.c_str(),
+                  r.where[i].range.c_str(), 100 * r.where[i].share, 100 * r.where[i].time_share);
+    o << buf;
+  }
+  o << "candidates (held-out RMS, t statistic, share of excess closed):\n";
+  for (const auto& c : r.candidates) {
+    std::snprintf(buf, sizeof buf, "  %-22s %8.3g N  t %7.1f  closes %6.1f %%%s%s\n", c.kind.c_str(), c.heldout_rms_N,
+                  c.t_statistic, 100 * c.closed_fraction, c.significant ? "  significant" : "",
+                  c.indistinguishable ? "  indistinguishable from base" : "");
+    o << buf;
+  }
+  for (const auto& c : r.candidates)
+    if (c.indistinguishable && !c.note.empty()) o << "  note (" << c.kind << "): " << c.note << "\n";
+  return o.str();
+}
+
+}  // namespace feedid::host
