@@ -1,0 +1,528 @@
+#include "batch_reference.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+namespace feedid::host {
+namespace {
+
+constexpr int kBands = 32;
+constexpr int kCandidates = 16;
+using LD = long double;
+
+/// A long double total and the total of the magnitudes of its terms.
+struct Acc {
+  LD value = 0.0L;
+  LD magnitude = 0.0L;
+  void add(LD x) { value += x; magnitude += std::fabs(x); }
+  /// A product term a*b of two sums, with |a|*|b| as its magnitude.
+  void add_product(const Acc& a, const Acc& b) {
+    value += a.value * b.value;
+    magnitude += a.magnitude * b.magnitude;
+  }
+  void add_product(LD a, LD b) { add_product(Acc{a, std::fabs(a)}, Acc{b, std::fabs(b)}); }
+};
+
+void store(const Acc& a, Sum<double>& value, Sum<double>& magnitude) {
+  value.value = static_cast<double>(a.value);
+  value.carry = 0.0;
+  magnitude.value = static_cast<double>(a.magnitude);
+  magnitude.carry = 0.0;
+}
+
+// ---------------------------------------------------------------- pass 1 --
+/// An accepted sample.
+struct Point {
+  double v = 0.0, u = 0.0;
+  double dt = 0.0;         ///< interval length ending here (with skipped time); 0 at a chain start
+  bool chain_start = false;
+};
+
+/// An interval between two consecutive accepted samples of one chain.
+struct Interval {
+  std::size_t end = 0;      ///< index into points of the sample ending it
+  double dt = 0.0;          ///< s
+  double u = 0.0;           ///< interval force per ForceAlignment (N)
+  double v = 0.0;           ///< mean velocity (m/s)
+  double dv = 0.0;          ///< velocity change (m/s)
+  double v_start = 0.0, v_end = 0.0;
+  double speed = 0.0;
+  bool moving = false;      ///< speed >= velocity_min: enters bands/windows
+  int dir = 0;              ///< 0 positive, 1 negative (only if moving)
+  int band = 0;
+  bool steady = false;      ///< quasi-steady: enters the friction bands
+  bool chain_first = false; ///< first interval after a chain start
+};
+
+bool finite(double x) { return std::isfinite(x); }
+
+/// Validation and per-sample state. Sequential by nature (a sample is judged
+/// against the last accepted one), but holds nothing but the previous
+/// accepted sample and the skipped time.
+std::vector<Point> validate(const std::vector<Sample<double>>& in, const Config<double>& c, Diagnostics& dg) {
+  std::vector<Point> pts;
+  pts.reserve(in.size());
+  const bool from_x = c.velocity_source == VelocitySource::from_position;
+  bool have = false;
+  double v_last = 0.0, x_last = 0.0, skipped = 0.0;
+  for (const Sample<double>& s : in) {
+    Status why = Status::ok;
+    double v = 0.0;
+    if (!finite(s.dt_s) || !finite(s.force_N) || !(from_x ? finite(s.position_m) : finite(s.velocity_m_s))) {
+      why = Status::rejected_not_finite;
+    } else if (have && !(s.dt_s > 0.0)) {
+      why = Status::rejected_time_not_increasing;
+    } else {
+      v = !from_x ? s.velocity_m_s : (have ? (s.position_m - x_last) / (s.dt_s + skipped) : 0.0);
+      if (!finite(v)) {
+        why = Status::rejected_not_finite;
+      } else if (std::fabs(v) > c.max_speed_m_s || std::fabs(s.force_N) > c.max_force_N) {
+        why = Status::rejected_out_of_range;
+      } else if (have) {
+        const double span = s.dt_s + skipped;
+        const double allowed = c.max_acceleration_m_s2 * span + 4.0 * c.velocity_resolution_m_s;
+        if (span <= c.max_gap_s && std::fabs(v - v_last) > allowed) why = Status::rejected_velocity_jump;
+      }
+    }
+    if (why != Status::ok) {
+      ++dg.samples_rejected;
+      switch (why) {
+        case Status::rejected_not_finite: ++dg.rejected_not_finite; break;
+        case Status::rejected_time_not_increasing: ++dg.rejected_time_not_increasing; break;
+        case Status::rejected_out_of_range: ++dg.rejected_out_of_range; break;
+        default: ++dg.rejected_velocity_jump; break;
+      }
+      if (have && finite(s.dt_s) && s.dt_s > 0.0) skipped += s.dt_s;
+      continue;
+    }
+    ++dg.samples_accepted;
+    Point p;
+    p.v = v;
+    p.u = s.force_N;
+    if (!have) {
+      p.chain_start = true;
+    } else {
+      const double span = s.dt_s + skipped;
+      skipped = 0.0;
+      if (span > c.max_gap_s) {
+        p.chain_start = true;
+        ++dg.continuity_breaks;
+      } else {
+        p.dt = span;
+      }
+    }
+    have = true;
+    v_last = v;
+    x_last = s.position_m;
+    pts.push_back(p);
+  }
+  return pts;
+}
+
+int band_of(const BatchLayout& layout, double speed) {
+  // edge[j] <= speed < edge[j+1]; the top band also takes faster speeds.
+  const double* first = layout.edge;
+  const double* last = layout.edge + kBands + 1;
+  const auto j = static_cast<int>(std::upper_bound(first, last, speed) - first) - 1;
+  return std::clamp(j, 0, kBands - 1);
+}
+
+std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<double>& c,
+                                   const BatchLayout& layout) {
+  std::vector<Interval> out;
+  out.reserve(pts.size());
+  std::size_t chain_begin = 0;
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    if (pts[k].chain_start) { chain_begin = k; continue; }
+    Interval iv;
+    iv.end = k;
+    iv.dt = pts[k].dt;
+    const std::size_t in_chain = k - chain_begin;  // >= 1
+    switch (c.force_alignment) {
+      case ForceAlignment::held_force_backward_velocity:
+        iv.u = in_chain >= 2 ? 0.5 * (pts[k - 2].u + pts[k - 1].u) : pts[k - 1].u;
+        break;
+      case ForceAlignment::held_force_instant_velocity: iv.u = pts[k - 1].u; break;
+      case ForceAlignment::trapezoid: iv.u = 0.5 * (pts[k - 1].u + pts[k].u); break;
+    }
+    iv.v_start = pts[k - 1].v;
+    iv.v_end = pts[k].v;
+    iv.v = 0.5 * (iv.v_start + iv.v_end);
+    iv.dv = iv.v_end - iv.v_start;
+    iv.speed = std::fabs(iv.v);
+    iv.moving = iv.speed >= c.velocity_min_m_s;
+    iv.dir = iv.v > 0.0 ? 0 : 1;
+    iv.band = iv.moving ? band_of(layout, iv.speed) : 0;
+    iv.steady = iv.moving && std::fabs(iv.dv) <= c.max_step_speed_ratio * iv.speed;
+    iv.chain_first = in_chain == 1;
+    out.push_back(iv);
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- pass 2 --
+enum class SectionEnd { rest, reversal, gap, end_of_data };
+
+struct Section {
+  int dir = 0;
+  std::size_t first = 0, last = 0;  ///< interval indices, inclusive
+  SectionEnd end = SectionEnd::end_of_data;
+  double duration = 0.0;            ///< running double sum of its intervals' dt
+  bool split = false;               ///< folded while open (pass 5)
+};
+
+/// Hysteresis over each chain's velocity array, one decision per sample that
+/// ends an interval (the first sample of a chain opens nothing). The interval
+/// ending at a sample belongs to the section open once that sample's opening
+/// and reversal rules have run; the rest rule runs after it, so the interval
+/// whose end sample completes rest_samples is still in the section, while the
+/// interval that reverses already belongs to the new section.
+std::vector<Section> label_sections(const std::vector<Point>& pts, const std::vector<Interval>& ivs,
+                                    const Config<double>& c, std::vector<int>& section_of) {
+  std::vector<Section> secs;
+  section_of.assign(ivs.size(), -1);
+  const double enter = c.section_enter_m_s;
+  int open = -1;  // index into secs
+  unsigned below = 0;
+  auto sign = [](int dir) { return dir == 0 ? 1.0 : -1.0; };
+  for (std::size_t i = 0; i < ivs.size(); ++i) {
+    if (ivs[i].chain_first && open >= 0) {  // the chain before ended at a gap
+      secs[open].end = SectionEnd::gap;
+      open = -1;
+    }
+    const double v = pts[ivs[i].end].v;
+    if (open >= 0) {
+      if (sign(secs[open].dir) * v <= -enter) {
+        secs[open].end = SectionEnd::reversal;  // last stays at i-1
+        open = -1;
+        secs.push_back(Section{v > 0.0 ? 0 : 1, i, i});
+        open = static_cast<int>(secs.size()) - 1;
+        below = 0;
+      }
+    } else if (std::fabs(v) >= enter) {
+      secs.push_back(Section{v > 0.0 ? 0 : 1, i, i});
+      open = static_cast<int>(secs.size()) - 1;
+      below = 0;
+    }
+    if (open < 0) continue;
+    Section& s = secs[open];
+    s.last = i;
+    s.duration += ivs[i].dt;
+    section_of[i] = open;
+    if (sign(s.dir) * v < c.velocity_min_m_s) {
+      if (++below >= c.rest_samples) { s.end = SectionEnd::rest; open = -1; }
+    } else {
+      below = 0;
+    }
+  }
+  // A section still open at the end stays end_of_data (solve() splits it).
+  return secs;
+}
+
+// ---------------------------------------------------------------- pass 3 --
+struct Window {
+  int dir = 0;
+  std::size_t first = 0, last = 0;  ///< interval indices, inclusive
+};
+
+std::vector<Window> cut_windows(const std::vector<Interval>& ivs, const Config<double>& c, uint32_t& counted) {
+  std::vector<Window> out;
+  bool active = false;
+  Window w;
+  double tau = 0.0;
+  auto close = [&]() {
+    if (active && w.last > w.first) out.push_back(w);  // at least two intervals
+    active = false;
+  };
+  for (std::size_t i = 0; i < ivs.size(); ++i) {
+    const Interval& iv = ivs[i];
+    if (iv.chain_first) close();
+    if (!iv.moving) { close(); continue; }
+    if (active && w.dir != iv.dir) close();
+    if (!active) { active = true; w = Window{iv.dir, i, i}; tau = 0.0; }
+    w.last = i;
+    tau += iv.dt;
+    if (tau >= c.mass_window_s) close();
+  }
+  close();
+  counted = static_cast<uint32_t>(out.size());
+  return out;
+}
+
+// ---------------------------------------------------------------- pass 4 --
+struct BandAcc {
+  Acc time, speed, speed2, force, dvel;
+};
+
+void add_to_band(BandAcc& b, const Interval& iv) {
+  const LD sgn = iv.dir == 0 ? 1.0L : -1.0L;
+  const LD dt = iv.dt, sp = iv.speed;
+  b.time.add(dt);
+  b.speed.add(sp * dt);
+  b.speed2.add(sp * sp * dt);
+  b.force.add(sgn * iv.u * dt);
+  b.dvel.add(sgn * iv.dv);
+}
+
+}  // namespace
+
+BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Config<double>& cfg_in) {
+  {
+    Estimator<double, kBands, kCandidates> probe;  // the core's own config check
+    if (probe.init(cfg_in) != Status::ok)
+      throw std::invalid_argument(std::string("batch_compute: invalid config: ") + probe.config_error());
+  }
+  BatchResult r;
+  Config<double> c = cfg_in;
+  if (!(c.section_enter_m_s > 0.0)) c.section_enter_m_s = 2.0 * c.velocity_min_m_s;
+  r.config = c;
+  r.layout.init(c.velocity_min_m_s, c.velocity_max_m_s);
+  {
+    const double lo = detail::stribeck_lo(c), hi = detail::stribeck_hi(c);
+    for (int i = 0; i < kCandidates; ++i)
+      r.stats.vs_candidate[i] = r.magnitude.vs_candidate[i] =
+          lo * port::exp(port::log(hi / lo) * double(i) / double(kCandidates - 1));
+  }
+  Diagnostics& dg = r.diagnostics;
+
+  // Pass 1: accepted samples and intervals.
+  const std::vector<Point> pts = validate(samples, c, dg);
+  const std::vector<Interval> ivs = intervals_of(pts, c, r.layout);
+
+  // Pass 2: sections.
+  std::vector<int> section_of;
+  std::vector<Section> secs = label_sections(pts, ivs, c, section_of);
+
+  // Pass 3: mass windows.
+  const std::vector<Window> wins = cut_windows(ivs, c, dg.mass_windows);
+
+  // Pass 4a: friction bands over every quasi-steady moving interval.
+  BandAcc bands[2][kBands];
+  for (const Interval& iv : ivs)
+    if (iv.steady) add_to_band(bands[iv.dir][iv.band], iv);
+  for (int d = 0; d < 2; ++d)
+    for (int j = 0; j < kBands; ++j) {
+      BandSums<double>& bv = r.stats.band[d][j];
+      BandSums<double>& bm = r.magnitude.band[d][j];
+      store(bands[d][j].time, bv.time_s, bm.time_s);
+      store(bands[d][j].speed, bv.speed, bm.speed);
+      store(bands[d][j].speed2, bv.speed2, bm.speed2);
+      store(bands[d][j].force, bv.force, bm.force);
+      store(bands[d][j].dvel, bv.dvel, bm.dvel);
+    }
+
+  // Pass 4b: window projections.
+  {
+    Acc proj[2][kBands][3];
+    Acc dv_force[2], dv2[2], tau_dv2[2];
+    for (const Window& w : wins) {
+      const double sgn = w.dir == 0 ? 1.0 : -1.0;
+      const double dvw = sgn * ivs[w.last].v_end - sgn * ivs[w.first].v_start;
+      Acc t[kBands], s1[kBands], s2[kBands], force, tau;
+      for (std::size_t i = w.first; i <= w.last; ++i) {
+        const Interval& iv = ivs[i];
+        const LD dt = iv.dt, sp = iv.speed;
+        t[iv.band].add(dt);
+        s1[iv.band].add(sp * dt);
+        s2[iv.band].add(sp * sp * dt);
+        force.add(LD(sgn) * iv.u * dt);
+        tau.add(dt);
+      }
+      const Acc dvw_acc{dvw, std::fabs(dvw)};
+      for (int j = 0; j < kBands; ++j) {
+        if (t[j].magnitude == 0.0L) continue;
+        proj[w.dir][j][0].add_product(dvw_acc, t[j]);
+        proj[w.dir][j][1].add_product(dvw_acc, s1[j]);
+        proj[w.dir][j][2].add_product(dvw_acc, s2[j]);
+      }
+      dv_force[w.dir].add_product(dvw_acc, force);
+      dv2[w.dir].add_product(dvw_acc, dvw_acc);
+      const LD dvw2 = LD(dvw) * dvw;
+      tau_dv2[w.dir].add_product(tau, Acc{dvw2, dvw2});
+    }
+    for (int d = 0; d < 2; ++d) {
+      for (int j = 0; j < kBands; ++j) {
+        store(proj[d][j][0], r.stats.band[d][j].proj_time, r.magnitude.band[d][j].proj_time);
+        store(proj[d][j][1], r.stats.band[d][j].proj_speed, r.magnitude.band[d][j].proj_speed);
+        store(proj[d][j][2], r.stats.band[d][j].proj_speed2, r.magnitude.band[d][j].proj_speed2);
+      }
+      store(dv_force[d], r.stats.dir[d].win_dv_force, r.magnitude.dir[d].win_dv_force);
+      store(dv2[d], r.stats.dir[d].win_dv2, r.magnitude.dir[d].win_dv2);
+      store(tau_dv2[d], r.stats.dir[d].win_tau_dv2, r.magnitude.dir[d].win_tau_dv2);
+    }
+  }
+
+  // Pass 4c: interval totals and the force second differences (within a chain).
+  {
+    Acc time, d2sum;
+    uint64_t d2n = 0;
+    for (const Interval& iv : ivs) time.add(iv.dt);
+    std::size_t chain_begin = 0;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      if (pts[k].chain_start) chain_begin = k;
+      if (k - chain_begin < 2) continue;
+      const double d2 = pts[k].u - 2.0 * pts[k - 1].u + pts[k - 2].u;
+      d2sum.add(LD(d2) * d2);
+      ++d2n;
+    }
+    store(time, r.stats.total_interval_time, r.magnitude.total_interval_time);
+    r.stats.interval_count = r.magnitude.interval_count = ivs.size();
+    store(d2sum, r.stats.noise_d2, r.magnitude.noise_d2);
+    r.stats.noise_count = r.magnitude.noise_count = d2n;
+  }
+
+  // Pass 5: fold periods per direction, splits, and the paper points.
+  {
+    // Per section: the paper mass equation terms over its same-direction
+    // moving intervals (all of them, not only the quasi-steady ones).
+    std::vector<Acc> sec_ua(secs.size()), sec_aa(secs.size());
+    for (std::size_t i = 0; i < ivs.size(); ++i) {
+      const int s = section_of[i];
+      const Interval& iv = ivs[i];
+      if (s < 0 || !iv.moving || iv.dir != secs[s].dir) continue;
+      const LD sgn = iv.dir == 0 ? 1.0L : -1.0L;
+      const LD um = sgn * iv.u, dvm = sgn * iv.dv;
+      sec_ua[s].add(um * dvm);
+      sec_aa[s].add(dvm * dvm / iv.dt);
+    }
+    // Events after interval i, in the order they happen: a section ended by
+    // rest closes (its rest test ran on the sample ending i), then the
+    // max_fold_s test, then a section ended by a reversal at the next sample
+    // closes (its reversal test runs before that sample's interval). A gap
+    // folds both directions before the next chain's first interval; a
+    // section open at a gap or at the end of data is split.
+    std::vector<int> closes_after(ivs.size(), -1);
+    for (std::size_t s = 0; s < secs.size(); ++s)
+      if (secs[s].end == SectionEnd::rest || secs[s].end == SectionEnd::reversal)
+        closes_after[secs[s].last] = static_cast<int>(s);
+
+    std::vector<std::size_t> period[2];  // intervals of the open fold period, per direction
+    double duration[2] = {0.0, 0.0};
+    Acc sec_sums[2][9];  // tt tv vv tu vu uu xy xx yy
+    Acc cand[2][4][kCandidates];  // et ev eu ee
+    auto fold = [&](int d, bool count = true) {
+      period[d].clear();
+      duration[d] = 0.0;
+      if (count) ++dg.folds;
+    };
+    auto paper_point = [&](const Section& s, std::size_t sidx) {
+      const int d = s.dir;
+      Acc t[kBands], v1[kBands], v2[kBands], f[kBands];
+      for (std::size_t i : period[d]) {
+        const Interval& iv = ivs[i];
+        const LD dt = iv.dt, sp = iv.speed, sgn = d == 0 ? 1.0L : -1.0L;
+        t[iv.band].add(dt);
+        v1[iv.band].add(sp * dt);
+        v2[iv.band].add(sp * sp * dt);
+        f[iv.band].add(sgn * iv.u * dt);
+      }
+      Acc ts, vs, us;
+      for (int j = 0; j < kBands; ++j) {
+        ts.value += t[j].value; ts.magnitude += t[j].magnitude;
+        vs.value += v1[j].value; vs.magnitude += v1[j].magnitude;
+        us.value += f[j].value; us.magnitude += f[j].magnitude;
+      }
+      if (!(ts.value > 0.0L)) return;
+      for (int i = 0; i < kCandidates; ++i) {
+        LD e = 0.0L;
+        for (int j = 0; j < kBands; ++j)
+          if (t[j].value > 0.0L)
+            e += exp_integral_moments<double>(double(t[j].value), double(v1[j].value), double(v2[j].value),
+                                              r.stats.vs_candidate[i]);
+        const Acc ea{e, std::fabs(e)};
+        cand[d][0][i].add_product(ea, ts);
+        cand[d][1][i].add_product(ea, vs);
+        cand[d][2][i].add_product(ea, us);
+        cand[d][3][i].add_product(ea, ea);
+      }
+      sec_sums[d][0].add_product(ts, ts);
+      sec_sums[d][1].add_product(ts, vs);
+      sec_sums[d][2].add_product(vs, vs);
+      sec_sums[d][3].add_product(ts, us);
+      sec_sums[d][4].add_product(vs, us);
+      sec_sums[d][5].add_product(us, us);
+      sec_sums[d][6].add_product(sec_aa[sidx], sec_ua[sidx]);
+      sec_sums[d][7].add_product(sec_aa[sidx], sec_aa[sidx]);
+      sec_sums[d][8].add_product(sec_ua[sidx], sec_ua[sidx]);
+      ++r.stats.dir[d].sections;
+      ++dg.sections_complete[d];
+    };
+    auto close_section = [&](std::size_t sidx) {
+      const Section& s = secs[sidx];
+      if (s.duration < c.min_section_s) ++dg.sections_short;
+      else if (!s.split) paper_point(s, sidx);
+      fold(s.dir);
+    };
+    for (std::size_t i = 0; i < ivs.size(); ++i) {
+      const Interval& iv = ivs[i];
+      if (iv.chain_first && i > 0) {
+        // gap (possibly several): the chain before ended; its open section is split.
+        const int s = section_of[i - 1];
+        if (s >= 0 && secs[s].end == SectionEnd::gap) ++dg.sections_split;
+        fold(0, false);  // counted below: two folds per continuity break
+        fold(1, false);
+      }
+      if (iv.steady) {
+        period[iv.dir].push_back(i);
+        duration[iv.dir] += iv.dt;
+      }
+      if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::rest)
+        close_section(static_cast<std::size_t>(closes_after[i]));
+      // The section still open after this interval's rest test.
+      int open = section_of[i];
+      if (open >= 0 && secs[open].last == i && secs[open].end == SectionEnd::rest) open = -1;
+      for (int d = 0; d < 2; ++d) {
+        if (duration[d] < c.max_fold_s) continue;
+        if (open >= 0 && secs[open].dir == d) { secs[open].split = true; ++dg.sections_split; }
+        fold(d);
+      }
+      if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::reversal)
+        close_section(static_cast<std::size_t>(closes_after[i]));
+    }
+    if (!ivs.empty() && section_of.back() >= 0 && secs[section_of.back()].end == SectionEnd::end_of_data)
+      ++dg.sections_split;
+    // Two folds per gap (the validation pass counted the gaps) and two at solve().
+    dg.folds += 2u * dg.continuity_breaks + 2u;
+
+    for (int d = 0; d < 2; ++d) {
+      DirectionSums<double, kCandidates>& sv = r.stats.dir[d];
+      DirectionSums<double, kCandidates>& sm = r.magnitude.dir[d];
+      Sum<double>* vals[9] = {&sv.sec_tt, &sv.sec_tv, &sv.sec_vv, &sv.sec_tu, &sv.sec_vu,
+                              &sv.sec_uu, &sv.sec_xy, &sv.sec_xx, &sv.sec_yy};
+      Sum<double>* mags[9] = {&sm.sec_tt, &sm.sec_tv, &sm.sec_vv, &sm.sec_tu, &sm.sec_vu,
+                              &sm.sec_uu, &sm.sec_xy, &sm.sec_xx, &sm.sec_yy};
+      for (int k = 0; k < 9; ++k) store(sec_sums[d][k], *vals[k], *mags[k]);
+      for (int i = 0; i < kCandidates; ++i) {
+        store(cand[d][0][i], sv.cand_et[i], sm.cand_et[i]);
+        store(cand[d][1][i], sv.cand_ev[i], sm.cand_ev[i]);
+        store(cand[d][2][i], sv.cand_eu[i], sm.cand_eu[i]);
+        store(cand[d][3][i], sv.cand_ee[i], sm.cand_ee[i]);
+      }
+      sm.sections = sv.sections;
+    }
+  }
+  return r;
+}
+
+BatchStatistics batch_statistics(const std::vector<Sample<double>>& samples, const Config<double>& cfg,
+                                 Diagnostics* diag) {
+  BatchResult r = batch_compute(samples, cfg);
+  if (diag) *diag = r.diagnostics;
+  return r.stats;
+}
+
+Estimate<double> batch_estimate(const std::vector<Sample<double>>& samples, const Config<double>& cfg,
+                                Method method, Status* status) {
+  const BatchResult r = batch_compute(samples, cfg);
+  Estimate<double> e;
+  e.method = method;
+  const Status st = method == Method::paper ? detail::solve_paper(r.stats, r.config, e)
+                                            : detail::solve_bands(r.stats, r.layout, r.config, e);
+  if (status) *status = st;
+  return e;
+}
+
+}  // namespace feedid::host
