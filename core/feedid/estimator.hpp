@@ -45,16 +45,25 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (verdict != Status::ok) return reject(verdict, s);
     ++diag_.samples_accepted;
 
-    const T v = velocity_of(s);
-    if (!has_prev_) { start_from(s, v); return Status::ok; }
+    const bool from_position = cfg_.velocity_source == VelocitySource::from_position;
     const T dt = s.dt_s + skipped_dt_;
-    skipped_dt_ = T(0);
-    if (dt > cfg_.max_gap_s) {  // no integral may span the gap
+    if ((has_prev_ || has_x_prev_) && dt > cfg_.max_gap_s) {  // no integral may span the gap
       ++diag_.continuity_breaks;
       break_continuity();
-      start_from(s, v);
+      has_prev_ = has_x_prev_ = false;
+    }
+    if (!has_prev_) {
+      skipped_dt_ = T(0);
+      if (from_position && !has_x_prev_) {  // velocity needs a second position
+        has_x_prev_ = true;
+        x_prev_ = s.position_m;
+        return Status::ok;
+      }
+      start_from(s, from_position ? (s.position_m - x_prev_) / dt : s.velocity_m_s);
       return Status::ok;
     }
+    const T v = velocity_of(s);
+    skipped_dt_ = T(0);
     open_section_if_moving(v);
     accumulate_interval(dt, interval_force(s.force_N), T(0.5) * (v_prev_ + v), v - v_prev_, v);
     accumulate_noise(s.force_N);
@@ -73,7 +82,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   [[nodiscard]] Status solve(Method method = Method::bands) {
     if (!initialized_) return Status::not_initialized;
     close_window();
-    if (section_open_) { section_from_rest_ = false; ++diag_.sections_split; }
+    if (section_open_) mark_split();
     fold(0);
     fold(1);
     Estimate<T> e;
@@ -99,6 +108,11 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   struct Pending {
     T time[Bands], speed[Bands], speed2[Bands], force[Bands], dvel[Bands];
     T duration;
+  };
+  // The open section's own integrals, for the paper method only.
+  struct PaperSection {
+    T time[Bands], speed[Bands], speed2[Bands];
+    T force;
   };
   struct Window {
     T time[Bands], speed[Bands], speed2[Bands];
@@ -136,7 +150,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
 
   T velocity_of(const Sample<T>& s) const {
     if (cfg_.velocity_source == VelocitySource::measured) return s.velocity_m_s;
-    return has_prev_ ? (s.position_m - x_prev_) / (s.dt_s + skipped_dt_) : T(0);
+    return has_x_prev_ ? (s.position_m - x_prev_) / (s.dt_s + skipped_dt_) : T(0);
   }
 
   Status vet(const Sample<T>& s) const {
@@ -144,7 +158,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (!port::is_finite(s.dt_s) || !port::is_finite(s.force_N) ||
         (need_x ? !port::is_finite(s.position_m) : !port::is_finite(s.velocity_m_s)))
       return Status::rejected_not_finite;
-    if (has_prev_ && !(s.dt_s > T(0))) return Status::rejected_time_not_increasing;
+    if ((has_prev_ || has_x_prev_) && !(s.dt_s > T(0))) return Status::rejected_time_not_increasing;
     const T v = velocity_of(s);
     if (!port::is_finite(v)) return Status::rejected_not_finite;
     if (port::abs(v) > cfg_.max_speed_m_s || port::abs(s.force_N) > cfg_.max_force_N)
@@ -166,23 +180,25 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
       default: ++diag_.rejected_velocity_jump; break;
     }
     // Time still passed: the next good sample's interval spans this one.
-    if (has_prev_ && port::is_finite(s.dt_s) && s.dt_s > T(0)) skipped_dt_ += s.dt_s;
+    if ((has_prev_ || has_x_prev_) && port::is_finite(s.dt_s) && s.dt_s > T(0)) skipped_dt_ += s.dt_s;
     return why;
   }
 
   void start_from(const Sample<T>& s, T v) {
-    has_prev_ = true;
+    has_prev_ = has_x_prev_ = true;
     x_prev_ = s.position_m;
     v_prev_ = v;
     u_prev_ = s.force_N;
     u_history_ = 1;
     section_open_ = false;
     below_count_ = 0;
+    // A section opened before the axis was seen at rest did not start at rest.
+    rest_seen_ = port::abs(v) < cfg_.velocity_min_m_s;
   }
 
   void break_continuity() {
     close_window();
-    if (section_open_) { section_open_ = false; ++diag_.sections_split; }
+    if (section_open_) { mark_split(); section_open_ = false; }
     fold(0);
     fold(1);
   }
@@ -192,15 +208,18 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   // close after rest_samples consecutive samples below velocity_min, or at a
   // reversal beyond section_enter. Jitter of a few quanta around zero never
   // reaches section_enter, so it opens no sections.
+  // A reversal passes through zero velocity, so it ends one section and
+  // starts the next as rest does (the end points' inertia term is ~0).
   void open_section_if_moving(T v) {
     if (section_open_) {
       if (T(section_dir_sign()) * v <= -cfg_.section_enter_m_s) {
-        close_section(true);
+        close_section();
         open_section(v > T(0) ? 0 : 1, true);
       }
       return;
     }
-    if (port::abs(v) >= cfg_.section_enter_m_s) open_section(v > T(0) ? 0 : 1, true);
+    if (port::abs(v) < cfg_.velocity_min_m_s) rest_seen_ = true;
+    if (port::abs(v) >= cfg_.section_enter_m_s) open_section(v > T(0) ? 0 : 1, rest_seen_);
   }
 
   void open_section(int dir, bool from_rest) {
@@ -211,22 +230,30 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     section_ua_ = T(0);
     section_aa_ = T(0);
     below_count_ = 0;
+    split_counted_ = false;
+    paper_ = PaperSection{};
+  }
+
+  /// The open section will not count for the paper method; counted once.
+  void mark_split() {
+    section_from_rest_ = false;
+    if (!split_counted_) { ++diag_.sections_split; split_counted_ = true; }
   }
 
   void close_section_if_resting(T v) {
     if (!section_open_) return;
     if (T(section_dir_sign()) * v < cfg_.velocity_min_m_s) {
-      if (++below_count_ >= cfg_.rest_samples) close_section(true);
+      if (++below_count_ >= cfg_.rest_samples) { close_section(); rest_seen_ = true; }
     } else {
       below_count_ = 0;
     }
   }
 
-  void close_section(bool ended_at_rest) {
+  void close_section() {
     section_open_ = false;
     const int d = section_dir_;
     if (section_time_ < cfg_.min_section_s) ++diag_.sections_short;
-    else if (ended_at_rest && section_from_rest_) add_paper_point(d);
+    else if (section_from_rest_) add_paper_point(d);
     fold(d);
   }
 
@@ -246,6 +273,15 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     const T um = sign * u, dvm = sign * dv;
     const int j = layout_.index(speed);
     const T sdt = speed * dt;
+    // Paper method: the section's own integrals over all its moving intervals.
+    if (section_open_ && section_dir_ == d) {
+      paper_.time[j] += dt;
+      paper_.speed[j] += sdt;
+      paper_.speed2[j] += speed * sdt;
+      paper_.force += um * dt;
+      section_ua_ += um * dvm;
+      section_aa_ += dvm * dvm / dt;
+    }
     // Friction bands take quasi-steady intervals only: one that sweeps a
     // large part of its speed in a single step carries a large inertia
     // force, and any force/velocity timing error of the log leaks from it
@@ -277,11 +313,6 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     window_.lo = j < window_.lo ? j : window_.lo;
     window_.hi = j > window_.hi ? j : window_.hi;
     if (window_.tau >= cfg_.mass_window_s) close_window();
-    // Paper's mass equation: integral u a dt = sum u dv; integral a^2 dt = sum dv^2/dt.
-    if (section_open_ && section_dir_ == d) {
-      section_ua_ += um * dvm;
-      section_aa_ += dvm * dvm / dt;
-    }
   }
 
   T interval_force(T u_now) const {
@@ -328,13 +359,16 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     w.active = false;
   }
 
-  /// Section end (not per sample): the section's point for the paper method,
-  /// with integral exp(-(v/vs_i)^2) dt for each candidate vs_i from the
-  /// section's band moments: Bands x Candidates exponentials.
+  /// Section end (not per sample): the section's point for the paper method
+  /// (integral u dt = Fc T + sigma V + Fs E over the section), with
+  /// integral exp(-(v/vs_i)^2) dt for each candidate vs_i from the section's
+  /// band moments: Bands x Candidates exponentials. Paper mass equation:
+  /// integral u a dt = sum u dv; integral a^2 dt = sum dv^2/dt.
   void add_paper_point(int d) {
-    const Pending& p = pending_[d];
-    T ts = T(0), vs_ = T(0), us = T(0);
-    for (int j = 0; j < Bands; ++j) { ts += p.time[j]; vs_ += p.speed[j]; us += p.force[j]; }
+    const PaperSection& p = paper_;
+    T ts = T(0), vs_ = T(0);
+    const T us = p.force;
+    for (int j = 0; j < Bands; ++j) { ts += p.time[j]; vs_ += p.speed[j]; }
     if (!(ts > T(0))) return;
     DirectionSums<T, Candidates>& ds = stats_.dir[d];
     for (int i = 0; i < Candidates; ++i) {
@@ -390,7 +424,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   void fold_if_due() {
     for (int d = 0; d < 2; ++d) {
       if (pending_[d].duration < cfg_.max_fold_s) continue;
-      if (section_open_ && section_dir_ == d) { section_from_rest_ = false; ++diag_.sections_split; }
+      if (section_open_ && section_dir_ == d) mark_split();
       fold(d);
     }
     if (stats_interval_time_ >= cfg_.max_fold_s) fold_scalars();  // e.g. a long rest
@@ -401,17 +435,20 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   Stats stats_{};
   Pending pending_[2] = {};
   Window window_{};
+  PaperSection paper_{};
   Estimate<T> estimate_{};
   Diagnostics diag_{};
   const char* config_error_ = nullptr;
   bool initialized_ = false;
   // Previous accepted sample.
-  bool has_prev_ = false;
+  bool has_prev_ = false;    ///< previous sample with a velocity
+  bool has_x_prev_ = false;  ///< previous position known (from_position)
+  bool rest_seen_ = false;   ///< axis below velocity_min since the last start
   T x_prev_ = T(0), v_prev_ = T(0), u_prev_ = T(0), u_prev2_ = T(0);
   int u_history_ = 0;
   T skipped_dt_ = T(0);  ///< time of rejected samples since the last good one (s)
   // Section state.
-  bool section_open_ = false, section_from_rest_ = false;
+  bool section_open_ = false, section_from_rest_ = false, split_counted_ = false;
   int section_dir_ = 0;
   uint16_t below_count_ = 0;
   T section_time_ = T(0), section_ua_ = T(0), section_aa_ = T(0);
