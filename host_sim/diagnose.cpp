@@ -243,6 +243,8 @@ struct EffectModel {
   bool continuous = false;   // refine between grid points by golden-section search
   std::function<Mat(double)> columns;
   std::function<nlohmann::json(double, const Vec& coef)> parameters;
+  /// Discrete refinement: more values to try around the best grid value.
+  std::function<std::vector<double>(double)> refine = {};
 };
 
 /// Second-order low-pass response H(s) = w^2/(s^2 + 2 z w s + w^2) of the
@@ -324,10 +326,14 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   Vec y(static_cast<Eigen::Index>(blocks.size()));
   for (std::size_t i = 0; i < blocks.size(); ++i) y(static_cast<Eigen::Index>(i)) = blocks[i].y;
 
-  // Base columns: m, Fc+, Fc-, sigma+, sigma-, Fs+, Fs- (vs from the core).
-  // Negative-direction columns carry the model's signs so coefficients are magnitudes.
-  const double vsp = est.pos.stribeck_velocity_m_s, vsn = est.neg.stribeck_velocity_m_s;
-  std::vector<Vec> base_cols;
+  // Base columns: m, Fc+, Fc-, sigma+, sigma-, and where the core found a
+  // Stribeck dip, Fs+/- with the linearised vs correction dE/dvs. Negative-
+  // direction columns carry the model's signs so coefficients are magnitudes.
+  // Stribeck columns wherever the direction's friction was identified: the
+  // least-squares fit sets Fs near 0 if there is no dip.
+  const bool stribeck_pos = est.pos.friction_identified() && est.pos.breakaway_N > 0,
+             stribeck_neg = est.neg.friction_identified() && est.neg.breakaway_N > 0;
+  std::vector<Vec> fixed_cols;
   {
     Vec mass(static_cast<Eigen::Index>(blocks.size()));
     for (std::size_t i = 0; i < blocks.size(); ++i) {
@@ -335,36 +341,99 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
       for (std::size_t k = blocks[i].k0; k < blocks[i].k1; ++k) dv += iv.dv[k];
       mass(static_cast<Eigen::Index>(i)) = dv / blocks[i].tau;
     }
-    base_cols.push_back(mass);
+    fixed_cols.push_back(mass);
   }
-  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? 1.0 : 0.0; }));
-  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? -1.0 : 0.0; }));
-  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? iv.v[k] : 0.0; }));
-  base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? iv.v[k] : 0.0; }));
-  if (est.pos.stribeck_identified())
-    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
-      return iv.v[k] > 0 ? std::exp(-(iv.v[k] / vsp) * (iv.v[k] / vsp)) : 0.0;
-    }));
-  if (est.neg.stribeck_identified())
-    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
-      return iv.v[k] < 0 ? -std::exp(-(iv.v[k] / vsn) * (iv.v[k] / vsn)) : 0.0;
-    }));
-  // Linearised vs correction: d/dvs exp(-(v/vs)^2) = exp(..) 2 v^2 / vs^3. With
-  // these columns the joint fits can move vs locally, so an effect that
-  // biased the core's vs does not leave a residual the effect cannot explain.
-  if (est.pos.stribeck_identified())
-    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
-      const double q = iv.v[k] / vsp;
-      return iv.v[k] > 0 ? std::exp(-q * q) * 2.0 * q * q / vsp : 0.0;
-    }));
-  if (est.neg.stribeck_identified())
-    base_cols.push_back(block_column(blocks, iv, [&](std::size_t k) {
-      const double q = iv.v[k] / vsn;
-      return iv.v[k] < 0 ? -std::exp(-q * q) * 2.0 * q * q / vsn : 0.0;
-    }));
-  Mat base(static_cast<Eigen::Index>(blocks.size()), static_cast<Eigen::Index>(base_cols.size()));
-  for (std::size_t c = 0; c < base_cols.size(); ++c) base.col(static_cast<Eigen::Index>(c)) = base_cols[c];
-  const Fit base_fit = fit_columns(base, y, id_mask);
+  fixed_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? 1.0 : 0.0; }));
+  fixed_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? -1.0 : 0.0; }));
+  fixed_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] > 0 ? iv.v[k] : 0.0; }));
+  fixed_cols.push_back(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] < 0 ? iv.v[k] : 0.0; }));
+  // exp(-(v/vs)^2) and its vs-derivative exp(..) 2 v^2 / vs^3, per direction.
+  auto stribeck_cols = [&](int dir, double vs, Vec& e, Vec& de) {
+    e = block_column(blocks, iv, [&](std::size_t k) {
+      const double q = iv.v[k] / vs;
+      return (dir > 0 ? iv.v[k] > 0 : iv.v[k] < 0) ? dir * std::exp(-q * q) : 0.0;
+    });
+    de = block_column(blocks, iv, [&](std::size_t k) {
+      const double q = iv.v[k] / vs;
+      return (dir > 0 ? iv.v[k] > 0 : iv.v[k] < 0) ? dir * std::exp(-q * q) * 2.0 * q * q / vs : 0.0;
+    });
+  };
+  auto base_matrix = [&](double vp, double vn) {
+    std::vector<Vec> cols = fixed_cols;
+    Vec e, de;
+    if (stribeck_pos) { stribeck_cols(1, vp, e, de); cols.push_back(e); cols.push_back(de); }
+    if (stribeck_neg) { stribeck_cols(-1, vn, e, de); cols.push_back(e); cols.push_back(de); }
+    Mat m(static_cast<Eigen::Index>(blocks.size()), static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t c = 0; c < cols.size(); ++c) m.col(static_cast<Eigen::Index>(c)) = cols[c];
+    return m;
+  };
+  // The core's vs search range and grid; Stribeck columns precomputed on it.
+  const std::vector<double> vs_grid = log_grid(0.5 * v_min, 0.25 * out.base.config.velocity_max_m_s, 24);
+  std::vector<Vec> grid_e[2], grid_de[2];
+  for (int d = 0; d < 2; ++d)
+    if (d == 0 ? stribeck_pos : stribeck_neg)
+      for (double vs : vs_grid) {
+        Vec e, de;
+        stribeck_cols(d == 0 ? 1 : -1, vs, e, de);
+        grid_e[d].push_back(e);
+        grid_de[d].push_back(de);
+      }
+  auto grid_matrix = [&](int gp, int gn, const Mat& extra) {
+    std::vector<const Vec*> cols;
+    for (const auto& c : fixed_cols) cols.push_back(&c);
+    if (stribeck_pos) { cols.push_back(&grid_e[0][gp]); cols.push_back(&grid_de[0][gp]); }
+    if (stribeck_neg) { cols.push_back(&grid_e[1][gn]); cols.push_back(&grid_de[1][gn]); }
+    Mat m(static_cast<Eigen::Index>(blocks.size()), static_cast<Eigen::Index>(cols.size()) + extra.cols());
+    for (std::size_t c = 0; c < cols.size(); ++c) m.col(static_cast<Eigen::Index>(c)) = *cols[c];
+    if (extra.cols() > 0) m.rightCols(extra.cols()) = extra;
+    return m;
+  };
+  auto nearest = [&](double vs) {
+    std::size_t best = 0;
+    for (std::size_t g = 0; g < vs_grid.size(); ++g)
+      if (std::fabs(std::log(vs_grid[g] / vs)) < std::fabs(std::log(vs_grid[best] / vs))) best = g;
+    return static_cast<int>(best);
+  };
+  // Joint fit of the base terms and extra columns with vs+/- free: an
+  // unmodelled effect biases the core's vs (quadratic damping pulled it from
+  // 2 to 17 mm/s), so each fit picks vs on the grid by coordinate search,
+  // then Gauss-Newton steps through the dE/dvs columns.
+  double vs_base_pos = est.pos.stribeck_velocity_m_s, vs_base_neg = est.neg.stribeck_velocity_m_s;
+  auto fit_joint = [&](const Mat& extra, double& vp, double& vn, int steps) {
+    int gp = nearest(vp), gn = nearest(vn);
+    double best_ssr = fit_columns(grid_matrix(gp, gn, extra), y, id_mask).ssr_id;
+    for (int round = 0; round < 2; ++round)
+      for (int d = 0; d < 2; ++d) {
+        if (!(d == 0 ? stribeck_pos : stribeck_neg)) continue;
+        for (int g = 0; g < static_cast<int>(vs_grid.size()); ++g) {
+          const int tp = d == 0 ? g : gp, tn = d == 1 ? g : gn;
+          const Fit f = fit_columns(grid_matrix(tp, tn, extra), y, id_mask);
+          if (f.ok && f.ssr_id < best_ssr) { best_ssr = f.ssr_id; gp = tp; gn = tn; }
+        }
+      }
+    vp = vs_grid[gp];
+    vn = vs_grid[gn];
+    Fit f;
+    for (int it = 0; it <= steps; ++it) {
+      const Mat b = base_matrix(vp, vn);
+      Mat x(b.rows(), b.cols() + extra.cols());
+      if (extra.cols() > 0) x << b, extra; else x = b;
+      f = fit_columns(x, y, id_mask);
+      if (!f.ok || it == steps) break;
+      Eigen::Index c = static_cast<Eigen::Index>(fixed_cols.size());
+      auto step = [&](double& vs) {
+        const double fs_coef = f.theta(c), d_coef = f.theta(c + 1);
+        if (fs_coef > 0) vs = std::clamp(vs + d_coef / fs_coef, 0.7 * vs, 1.4 * vs);
+        c += 2;
+      };
+      if (stribeck_pos) step(vp);
+      if (stribeck_neg) step(vn);
+    }
+    return f;
+  };
+  const Mat no_extra(static_cast<Eigen::Index>(blocks.size()), 0);
+  const Fit base_fit = fit_joint(no_extra, vs_base_pos, vs_base_neg, 6);
+  const Mat base = base_matrix(vs_base_pos, vs_base_neg);
   out.rms_base_N = rms_over(base_fit.residual, blocks, true);
   out.noise_floor_N = noise_floor(base_fit.residual, blocks);
 
@@ -392,25 +461,36 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
                                             {"phase_rad", std::atan2(c(1), c(0))}};
                     }});
   {
-    // Position friction: contiguous ranges of 20 cells of the travel.
+    // Position friction: a contiguous range of the travel, on 200 cells:
+    // coarse ranges of 10 cells, then each edge moved cell by cell.
+    constexpr int cells = 200, coarse = 10;
     std::vector<double> grid;
-    constexpr int cells = 20;
-    for (int a = 0; a < cells; ++a)
-      for (int b = a + 1; b <= cells; ++b)
-        if (!(a == 0 && b == cells)) grid.push_back(a * 100 + b);
-    models.push_back({"position_friction", grid, false,
-                      [&, cells](double code) {
-                        const int a = static_cast<int>(code) / 100, b = static_cast<int>(code) % 100;
-                        const double xa = x_lo + travel * a / cells, xb = x_lo + travel * b / cells;
-                        return one_col(block_column(blocks, iv, [&](std::size_t k) {
-                          return (iv.x[k] >= xa && iv.x[k] < xb) ? (iv.v[k] > 0 ? 1.0 : -1.0) : 0.0;
-                        }));
-                      },
-                      [&, cells](double code, const Vec& c) {
-                        const int a = static_cast<int>(code) / 100, b = static_cast<int>(code) % 100;
-                        return nlohmann::json{{"x_min_m", x_lo + travel * a / cells},
-                                              {"x_max_m", x_lo + travel * b / cells}, {"delta_N", c(0)}};
-                      }});
+    for (int a = 0; a < cells; a += coarse)
+      for (int b = a + coarse; b <= cells; b += coarse)
+        if (!(a == 0 && b == cells)) grid.push_back(a * 1000 + b);
+    EffectModel pf{"position_friction", grid, false,
+                   [&, cells](double code) {
+                     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
+                     const double xa = x_lo + travel * a / cells, xb = x_lo + travel * b / cells;
+                     return one_col(block_column(blocks, iv, [&](std::size_t k) {
+                       return (iv.x[k] >= xa && iv.x[k] < xb) ? (iv.v[k] > 0 ? 1.0 : -1.0) : 0.0;
+                     }));
+                   },
+                   [&, cells](double code, const Vec& c) {
+                     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
+                     return nlohmann::json{{"x_min_m", x_lo + travel * a / cells},
+                                           {"x_max_m", x_lo + travel * b / cells}, {"delta_N", c(0)}};
+                   }};
+    pf.refine = [cells, coarse](double code) {
+      const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
+      std::vector<double> out;
+      for (int d = -coarse; d <= coarse; ++d) {
+        if (a + d >= 0 && a + d < b) out.push_back((a + d) * 1000 + b);
+        if (b + d > a && b + d <= cells) out.push_back(a * 1000 + b + d);
+      }
+      return out;
+    };
+    models.push_back(pf);
   }
   models.push_back({"thermal_drift", log_grid(std::max(1.0, 0.02 * duration), 5.0 * duration, 40), true,
                     [&](double tc) {
@@ -481,6 +561,10 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
       try_p(grid[i]);
       if (best_ssr < before) best_i = i;
     }
+    if (em.refine) {
+      for (int round = 0; round < 2; ++round)
+        for (double p : em.refine(best_p)) try_p(p);
+    }
     if (em.continuous && grid.size() >= 3) {
       // Golden-section search in log p over the best grid cell's neighbours.
       double a = std::log(grid[best_i > 0 ? best_i - 1 : 0]);
@@ -495,6 +579,11 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
     }
     Candidate c;
     c.kind = em.kind;
+    if (best.ok) {  // the chosen effect refitted with vs free as for the base
+      double vp = vs_base_pos, vn = vs_base_neg;
+      const Fit refit = fit_joint(best_cols, vp, vn, 6);
+      if (refit.ok) best = refit;
+    }
     if (!best.ok) { c.note = "fit failed"; out.candidates.push_back(c); continue; }
     const Vec coef = best.theta.tail(best_cols.cols());
     c.parameters = em.parameters(best_p, coef);
@@ -542,6 +631,7 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   // Residual series for the report; refit the chosen effect to keep its residual.
   Vec r_aug = base_fit.residual;
   if (out.effect != "none" && out.effect != "unexplained") {
+    Mat best_cols;
     for (const auto& em : models)
       if (em.kind == out.effect) {
         const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
@@ -551,8 +641,11 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
           Mat x(base.rows(), base.cols() + cols.cols());
           x << base, cols;
           const Fit f = fit_columns(x, y, id_mask);
-          if (f.ok && f.ssr_id < best_ssr) { best_ssr = f.ssr_id; r_aug = f.residual; }
+          if (f.ok && f.ssr_id < best_ssr) { best_ssr = f.ssr_id; best_cols = cols; }
         }
+        double vp = vs_base_pos, vn = vs_base_neg;
+        const Fit f = fit_joint(best_cols, vp, vn, 6);
+        if (f.ok) r_aug = f.residual;
       }
   }
   for (std::size_t i = 0; i < blocks.size(); ++i) {
