@@ -38,7 +38,8 @@ void store(const Acc& a, Sum<double>& value, Sum<double>& magnitude) {
 struct Point {
   double v = 0.0, u = 0.0;
   double dt = 0.0;         ///< interval length ending here (with skipped time); 0 at a chain start
-  bool chain_start = false;
+  bool chain_start = false;    ///< first sample with a velocity after a (re)start: no interval ends here
+  bool position_only = false;  ///< from_position: first sample after a (re)start, gives x_prev only
 };
 
 /// An interval between two consecutive accepted samples of one chain.
@@ -62,13 +63,25 @@ bool finite(double x) { return std::isfinite(x); }
 /// Validation and per-sample state. Sequential by nature (a sample is judged
 /// against the last accepted one), but holds nothing but the previous
 /// accepted sample and the skipped time.
+///
+/// With velocity from position, the first accepted sample after a (re)start
+/// (stream start or a gap) gives only a position; the next accepted one is the
+/// chain's start sample, v = (x - x_prev) / (its dt + skipped time), with no
+/// interval and no velocity-jump test (there is no previous velocity). A gap
+/// sample's velocity is not formed (no velocity across the gap): it only
+/// restarts from its position.
 std::vector<Point> validate(const std::vector<Sample<double>>& in, const Config<double>& c, Diagnostics& dg) {
   std::vector<Point> pts;
   pts.reserve(in.size());
   const bool from_x = c.velocity_source == VelocitySource::from_position;
-  bool have = false;
+  enum class Known { nothing, position, velocity };
+  Known known = Known::nothing;  // what the last accepted sample provides
   double v_last = 0.0, x_last = 0.0, skipped = 0.0;
   for (const Sample<double>& s : in) {
+    const bool have = known != Known::nothing;
+    const double span = s.dt_s + skipped;
+    // A gap (or the very first sample) restarts: nothing before it pairs with it.
+    const bool restart = !have || span > c.max_gap_s;
     Status why = Status::ok;
     double v = 0.0;
     if (!finite(s.dt_s) || !finite(s.force_N) || !(from_x ? finite(s.position_m) : finite(s.velocity_m_s))) {
@@ -76,15 +89,15 @@ std::vector<Point> validate(const std::vector<Sample<double>>& in, const Config<
     } else if (have && !(s.dt_s > 0.0)) {
       why = Status::rejected_time_not_increasing;
     } else {
-      v = !from_x ? s.velocity_m_s : (have ? (s.position_m - x_last) / (s.dt_s + skipped) : 0.0);
+      if (!from_x) v = s.velocity_m_s;
+      else if (!restart) v = (s.position_m - x_last) / span;
       if (!finite(v)) {
         why = Status::rejected_not_finite;
       } else if (std::fabs(v) > c.max_speed_m_s || std::fabs(s.force_N) > c.max_force_N) {
         why = Status::rejected_out_of_range;
-      } else if (have) {
-        const double span = s.dt_s + skipped;
+      } else if (known == Known::velocity && !restart) {
         const double allowed = c.max_acceleration_m_s2 * span + 4.0 * c.velocity_resolution_m_s;
-        if (span <= c.max_gap_s && std::fabs(v - v_last) > allowed) why = Status::rejected_velocity_jump;
+        if (std::fabs(v - v_last) > allowed) why = Status::rejected_velocity_jump;
       }
     }
     if (why != Status::ok) {
@@ -99,22 +112,20 @@ std::vector<Point> validate(const std::vector<Sample<double>>& in, const Config<
       continue;
     }
     ++dg.samples_accepted;
+    skipped = 0.0;
+    if (have && span > c.max_gap_s) ++dg.continuity_breaks;
     Point p;
     p.v = v;
     p.u = s.force_N;
-    if (!have) {
+    if (restart && from_x) {
+      p.position_only = true;
+      known = Known::position;
+    } else if (restart || known == Known::position) {
       p.chain_start = true;
+      known = Known::velocity;
     } else {
-      const double span = s.dt_s + skipped;
-      skipped = 0.0;
-      if (span > c.max_gap_s) {
-        p.chain_start = true;
-        ++dg.continuity_breaks;
-      } else {
-        p.dt = span;
-      }
+      p.dt = span;
     }
-    have = true;
     v_last = v;
     x_last = s.position_m;
     pts.push_back(p);
@@ -136,6 +147,7 @@ std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<d
   out.reserve(pts.size());
   std::size_t chain_begin = 0;
   for (std::size_t k = 0; k < pts.size(); ++k) {
+    if (pts[k].position_only) continue;
     if (pts[k].chain_start) { chain_begin = k; continue; }
     Interval iv;
     iv.end = k;
@@ -171,7 +183,9 @@ struct Section {
   std::size_t first = 0, last = 0;  ///< interval indices, inclusive
   SectionEnd end = SectionEnd::end_of_data;
   double duration = 0.0;            ///< running double sum of its intervals' dt
-  bool split = false;               ///< folded while open (pass 5)
+  bool at_reversal = false;         ///< opened at a reversal of the section before it
+  bool from_rest = false;           ///< starts at rest (pass 2b)
+  bool split = false;               ///< folded while open by max_fold_s (pass 5)
 };
 
 /// Hysteresis over each chain's velocity array, one decision per sample that
@@ -199,6 +213,7 @@ std::vector<Section> label_sections(const std::vector<Point>& pts, const std::ve
         secs[open].end = SectionEnd::reversal;  // last stays at i-1
         open = -1;
         secs.push_back(Section{v > 0.0 ? 0 : 1, i, i});
+        secs.back().at_reversal = true;
         open = static_cast<int>(secs.size()) - 1;
         below = 0;
       }
@@ -220,6 +235,34 @@ std::vector<Section> label_sections(const std::vector<Point>& pts, const std::ve
   }
   // A section still open at the end stays end_of_data (solve() splits it).
   return secs;
+}
+
+/// Pass 2b: which sections start at rest. Within a chain, rest is seen at its
+/// start sample if |v| < velocity_min there, at a later sample with
+/// |v| < velocity_min when no section is open at that sample (tested before
+/// the sample may open one), and after a section closes at rest; once seen it
+/// holds until the chain ends. A section opened at a reversal starts at rest
+/// (the velocity passed through zero); any other starts at rest iff rest was
+/// seen in its chain up to its opening sample.
+void mark_from_rest(const std::vector<Point>& pts, const std::vector<Interval>& ivs, const Config<double>& c,
+                    const std::vector<int>& section_of, std::vector<Section>& secs) {
+  const std::size_t n = ivs.size();
+  // Section closed at rest by the sample ending interval i.
+  std::vector<char> rest_close(n, 0);
+  for (const Section& s : secs)
+    if (s.end == SectionEnd::rest) rest_close[s.last] = 1;
+  // seen[i]: rest seen in i's chain up to and including the rest test of the
+  // sample ending i (which precedes that sample's opening test).
+  std::vector<char> seen(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Interval& iv = ivs[i];
+    const bool open_before = !iv.chain_first && section_of[i - 1] >= 0 && !rest_close[i - 1];
+    const bool rest_here = !open_before && std::fabs(pts[iv.end].v) < c.velocity_min_m_s;
+    const bool before = iv.chain_first ? std::fabs(pts[iv.end - 1].v) < c.velocity_min_m_s  // start sample
+                                       : (seen[i - 1] || rest_close[i - 1]);
+    seen[i] = before || rest_here;
+  }
+  for (Section& s : secs) s.from_rest = s.at_reversal || seen[s.first];
 }
 
 // ---------------------------------------------------------------- pass 3 --
@@ -295,6 +338,7 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
   // Pass 2: sections.
   std::vector<int> section_of;
   std::vector<Section> secs = label_sections(pts, ivs, c, section_of);
+  mark_from_rest(pts, ivs, c, section_of, secs);
 
   // Pass 3: mass windows.
   const std::vector<Window> wins = cut_windows(ivs, c, dg.mass_windows);
@@ -362,6 +406,7 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
     for (const Interval& iv : ivs) time.add(iv.dt);
     std::size_t chain_begin = 0;
     for (std::size_t k = 0; k < pts.size(); ++k) {
+      if (pts[k].position_only) continue;  // not part of any chain (its next accepted sample starts one)
       if (pts[k].chain_start) chain_begin = k;
       if (k - chain_begin < 2) continue;
       const double d2 = pts[k].u - 2.0 * pts[k - 1].u + pts[k - 2].u;
@@ -376,18 +421,6 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
 
   // Pass 5: fold periods per direction, splits, and the paper points.
   {
-    // Per section: the paper mass equation terms over its same-direction
-    // moving intervals (all of them, not only the quasi-steady ones).
-    std::vector<Acc> sec_ua(secs.size()), sec_aa(secs.size());
-    for (std::size_t i = 0; i < ivs.size(); ++i) {
-      const int s = section_of[i];
-      const Interval& iv = ivs[i];
-      if (s < 0 || !iv.moving || iv.dir != secs[s].dir) continue;
-      const LD sgn = iv.dir == 0 ? 1.0L : -1.0L;
-      const LD um = sgn * iv.u, dvm = sgn * iv.dv;
-      sec_ua[s].add(um * dvm);
-      sec_aa[s].add(dvm * dvm / iv.dt);
-    }
     // Events after interval i, in the order they happen: a section ended by
     // rest closes (its rest test ran on the sample ending i), then the
     // max_fold_s test, then a section ended by a reversal at the next sample
@@ -399,31 +432,33 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
       if (secs[s].end == SectionEnd::rest || secs[s].end == SectionEnd::reversal)
         closes_after[secs[s].last] = static_cast<int>(s);
 
-    std::vector<std::size_t> period[2];  // intervals of the open fold period, per direction
-    double duration[2] = {0.0, 0.0};
+    double duration[2] = {0.0, 0.0};  // quasi-steady time of the open fold period, per direction
     Acc sec_sums[2][9];  // tt tv vv tu vu uu xy xx yy
     Acc cand[2][4][kCandidates];  // et ev eu ee
     auto fold = [&](int d, bool count = true) {
-      period[d].clear();
       duration[d] = 0.0;
       if (count) ++dg.folds;
     };
-    auto paper_point = [&](const Section& s, std::size_t sidx) {
+    // The paper's section point: integral u dt = Fc T + sigma V + Fs E over
+    // the section's own moving intervals of its direction (quasi-steady or
+    // not), and its mass equation terms sum u dv, sum dv^2/dt over the same.
+    auto paper_point = [&](const Section& s) {
       const int d = s.dir;
-      Acc t[kBands], v1[kBands], v2[kBands], f[kBands];
-      for (std::size_t i : period[d]) {
+      const LD sgn = d == 0 ? 1.0L : -1.0L;
+      Acc t[kBands], v1[kBands], v2[kBands];
+      Acc ts, vs, us, ua, aa;
+      for (std::size_t i = s.first; i <= s.last; ++i) {
         const Interval& iv = ivs[i];
-        const LD dt = iv.dt, sp = iv.speed, sgn = d == 0 ? 1.0L : -1.0L;
+        if (!iv.moving || iv.dir != d) continue;
+        const LD dt = iv.dt, sp = iv.speed, um = sgn * iv.u, dvm = sgn * iv.dv;
         t[iv.band].add(dt);
         v1[iv.band].add(sp * dt);
         v2[iv.band].add(sp * sp * dt);
-        f[iv.band].add(sgn * iv.u * dt);
-      }
-      Acc ts, vs, us;
-      for (int j = 0; j < kBands; ++j) {
-        ts.value += t[j].value; ts.magnitude += t[j].magnitude;
-        vs.value += v1[j].value; vs.magnitude += v1[j].magnitude;
-        us.value += f[j].value; us.magnitude += f[j].magnitude;
+        ts.add(dt);
+        vs.add(sp * dt);
+        us.add(um * dt);
+        ua.add(um * dvm);
+        aa.add(dvm * dvm / dt);
       }
       if (!(ts.value > 0.0L)) return;
       for (int i = 0; i < kCandidates; ++i) {
@@ -444,31 +479,27 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
       sec_sums[d][3].add_product(ts, us);
       sec_sums[d][4].add_product(vs, us);
       sec_sums[d][5].add_product(us, us);
-      sec_sums[d][6].add_product(sec_aa[sidx], sec_ua[sidx]);
-      sec_sums[d][7].add_product(sec_aa[sidx], sec_aa[sidx]);
-      sec_sums[d][8].add_product(sec_ua[sidx], sec_ua[sidx]);
+      sec_sums[d][6].add_product(aa, ua);
+      sec_sums[d][7].add_product(aa, aa);
+      sec_sums[d][8].add_product(ua, ua);
       ++r.stats.dir[d].sections;
       ++dg.sections_complete[d];
     };
     auto close_section = [&](std::size_t sidx) {
       const Section& s = secs[sidx];
       if (s.duration < c.min_section_s) ++dg.sections_short;
-      else if (!s.split) paper_point(s, sidx);
+      else if (s.from_rest && !s.split) paper_point(s);
       fold(s.dir);
     };
     for (std::size_t i = 0; i < ivs.size(); ++i) {
       const Interval& iv = ivs[i];
       if (iv.chain_first && i > 0) {
-        // gap (possibly several): the chain before ended; its open section is split.
-        const int s = section_of[i - 1];
-        if (s >= 0 && secs[s].end == SectionEnd::gap) ++dg.sections_split;
+        // gap (possibly several): the chain before ended (its open section
+        // is split, counted below).
         fold(0, false);  // counted below: two folds per continuity break
         fold(1, false);
       }
-      if (iv.steady) {
-        period[iv.dir].push_back(i);
-        duration[iv.dir] += iv.dt;
-      }
+      if (iv.steady) duration[iv.dir] += iv.dt;
       if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::rest)
         close_section(static_cast<std::size_t>(closes_after[i]));
       // The section still open after this interval's rest test.
@@ -476,14 +507,16 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
       if (open >= 0 && secs[open].last == i && secs[open].end == SectionEnd::rest) open = -1;
       for (int d = 0; d < 2; ++d) {
         if (duration[d] < c.max_fold_s) continue;
-        if (open >= 0 && secs[open].dir == d) { secs[open].split = true; ++dg.sections_split; }
+        if (open >= 0 && secs[open].dir == d) secs[open].split = true;
         fold(d);
       }
       if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::reversal)
         close_section(static_cast<std::size_t>(closes_after[i]));
     }
-    if (!ivs.empty() && section_of.back() >= 0 && secs[section_of.back()].end == SectionEnd::end_of_data)
-      ++dg.sections_split;
+    // Each section split at most once: by max_fold_s (any number of times),
+    // by a gap, or still open at solve().
+    for (const Section& s : secs)
+      if (s.split || s.end == SectionEnd::gap || s.end == SectionEnd::end_of_data) ++dg.sections_split;
     // Two folds per gap (the validation pass counted the gaps) and two at solve().
     dg.folds += 2u * dg.continuity_breaks + 2u;
 

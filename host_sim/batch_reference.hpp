@@ -9,17 +9,22 @@
 //      form the per-interval quantities of the accepted samples: interval
 //      length with the time of rejected samples added, interval force per
 //      ForceAlignment, mean velocity, velocity change; continuity chains
-//      split at gaps longer than max_gap_s;
+//      split at gaps longer than max_gap_s (with velocity from position, the
+//      first sample after the stream start or a gap gives only a position and
+//      the next one starts the chain);
 //   2. label velocity sections over each chain's velocity array (hysteresis:
 //      open at |v| >= section_enter, close after rest_samples consecutive
-//      samples below velocity_min or at a reversal beyond section_enter);
+//      samples below velocity_min or at a reversal beyond section_enter), and
+//      mark which start at rest (at a reversal, or after the axis was seen
+//      below velocity_min in the chain with no section open);
 //   3. cut mass windows (consecutive moving intervals of one direction, at
 //      most mass_window_s long, broken by rest, reversal and gaps);
 //   4. band, window, noise and interval sums by direct summation in long
 //      double;
 //   5. fold periods per direction (section ends, max_fold_s, gaps, the final
-//      solve()) decide which sections count for the paper method, and the
-//      per-section points are summed from the fold period's intervals.
+//      solve()) decide which sections are split (each counted once); the
+//      paper method's point of a complete section that started at rest is
+//      summed from the section's own moving intervals of its direction.
 //
 // Threshold decisions on accumulated time (window length >= mass_window_s,
 // section length < min_section_s, fold period >= max_fold_s) are evaluated on

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <random>
 
 #include "drive_sim.hpp"
 #include "feedid/feedid.hpp"
@@ -80,6 +81,27 @@ PushCounts push_trace(Estimator<T, B, C>& est, const host::Trace& tr, double fir
     else ++n.rejected;
   }
   return n;
+}
+
+/// An axis at rest under servo jitter: velocity a random whole number of
+/// quanta in [-max_quanta, max_quanta] (position is its running sum), force
+/// white noise of force_std_N; `seconds` long at rate_hz.
+inline host::Trace rest_jitter_trace(double rate_hz, double quantum_m_s, int max_quanta, double force_std_N,
+                                     double seconds, std::uint64_t seed) {
+  host::Trace tr;
+  tr.source = "rest jitter";
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<int> quanta(-max_quanta, max_quanta);
+  std::normal_distribution<double> force(0.0, force_std_N);
+  const double dt = 1.0 / rate_hz;
+  const auto n = static_cast<std::size_t>(seconds * rate_hz) + 1;
+  double x = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double v = k == 0 ? 0.0 : quanta(rng) * quantum_m_s;
+    x += v * dt;
+    tr.samples.push_back(host::TraceSample{static_cast<double>(k) * dt, x, v, force(rng)});
+  }
+  return tr;
 }
 
 /// Relative error of an estimate against the truth.

@@ -22,7 +22,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   /// unusable (push/solve return not_initialized) and config_error() names
   /// the field. Context: task.
   [[nodiscard]] Status init(const Config<T>& cfg) {
-    *this = Estimator{};
+    reset();
     config_error_ = check(cfg);
     if (config_error_) return Status::invalid_config;
     cfg_ = cfg;
@@ -47,11 +47,14 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
 
     const bool from_position = cfg_.velocity_source == VelocitySource::from_position;
     const T dt = s.dt_s + skipped_dt_;
-    if ((has_prev_ || has_x_prev_) && dt > cfg_.max_gap_s) {  // no integral may span the gap
+    // No integral may span a gap, nor a rejected sample whose time step was
+    // itself unknown (NaN dt): the elapsed time is then not known.
+    if ((has_prev_ || has_x_prev_) && (dt > cfg_.max_gap_s || time_lost_)) {
       ++diag_.continuity_breaks;
       break_continuity();
       has_prev_ = has_x_prev_ = false;
     }
+    time_lost_ = false;
     if (!has_prev_) {
       skipped_dt_ = T(0);
       if (from_position && !has_x_prev_) {  // velocity needs a second position
@@ -121,6 +124,31 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     bool active;
   };
 
+  /// Back to the state of a fresh object, in place: `*this = Estimator{}`
+  /// would build a whole temporary (8 KB for float) on the caller's stack.
+  /// All members are trivially copyable and zero bytes mean 0 / false.
+  void reset() {
+    zero(stats_);
+    zero(pending_);
+    zero(window_);
+    zero(paper_);
+    zero(diag_);
+    zero(layout_);
+    estimate_ = Estimate<T>{};
+    cfg_ = Config<T>{};
+    config_error_ = nullptr;
+    initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = false;
+    x_prev_ = v_prev_ = u_prev_ = u_prev2_ = skipped_dt_ = T(0);
+    u_history_ = 0;
+    section_open_ = section_from_rest_ = split_counted_ = false;
+    section_dir_ = 0;
+    below_count_ = 0;
+    section_time_ = section_ua_ = section_aa_ = T(0);
+    noise_d2_ = stats_interval_time_ = T(0);
+    noise_count_ = stats_interval_count_ = 0;
+  }
+  template <typename U> static void zero(U& obj) { __builtin_memset(static_cast<void*>(&obj), 0, sizeof obj); }
+
   static const char* check(const Config<T>& c) {
     auto pos = [](T x) { return port::is_finite(x) && x > T(0); };
     auto nonneg = [](T x) { return port::is_finite(x) && x >= T(0); };
@@ -159,14 +187,22 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
         (need_x ? !port::is_finite(s.position_m) : !port::is_finite(s.velocity_m_s)))
       return Status::rejected_not_finite;
     if ((has_prev_ || has_x_prev_) && !(s.dt_s > T(0))) return Status::rejected_time_not_increasing;
+    // After a gap (or unknown elapsed time) the sample restarts the chain:
+    // no velocity is formed across it, so none is range- or jump-checked.
+    const T dt = s.dt_s + skipped_dt_;
+    const bool continues = (has_prev_ || has_x_prev_) && dt <= cfg_.max_gap_s && !time_lost_;
+    const bool from_position = cfg_.velocity_source == VelocitySource::from_position;
+    if (from_position && !continues) {
+      if (port::abs(s.force_N) > cfg_.max_force_N) return Status::rejected_out_of_range;
+      return Status::ok;
+    }
     const T v = velocity_of(s);
     if (!port::is_finite(v)) return Status::rejected_not_finite;
     if (port::abs(v) > cfg_.max_speed_m_s || port::abs(s.force_N) > cfg_.max_force_N)
       return Status::rejected_out_of_range;
-    if (has_prev_) {
-      const T dt = s.dt_s + skipped_dt_;
+    if (has_prev_ && continues) {
       const T allowed = cfg_.max_acceleration_m_s2 * dt + T(4) * cfg_.velocity_resolution_m_s;
-      if (dt <= cfg_.max_gap_s && port::abs(v - v_prev_) > allowed) return Status::rejected_velocity_jump;
+      if (port::abs(v - v_prev_) > allowed) return Status::rejected_velocity_jump;
     }
     return Status::ok;
   }
@@ -181,6 +217,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     }
     // Time still passed: the next good sample's interval spans this one.
     if ((has_prev_ || has_x_prev_) && port::is_finite(s.dt_s) && s.dt_s > T(0)) skipped_dt_ += s.dt_s;
+    if (!port::is_finite(s.dt_s)) time_lost_ = true;
     return why;
   }
 
@@ -447,6 +484,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   T x_prev_ = T(0), v_prev_ = T(0), u_prev_ = T(0), u_prev2_ = T(0);
   int u_history_ = 0;
   T skipped_dt_ = T(0);  ///< time of rejected samples since the last good one (s)
+  bool time_lost_ = false;  ///< a rejected sample had no usable dt
   // Section state.
   bool section_open_ = false, section_from_rest_ = false, split_counted_ = false;
   int section_dir_ = 0;

@@ -130,6 +130,26 @@ bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int ma
   return true;
 }
 
+/// Whether the data shows the Stribeck bend at all: some time below vs, and
+/// bands within a factor 3 of vs on both sides of it. Data only far below
+/// (creep at stroke ends) and far above (cruise) fits some vs with a small
+/// Jacobian standard error and still says nothing about the curve between.
+template <typename T, int Bands, int C>
+uint32_t stribeck_coverage_flags(const Statistics<T, Bands, C>& s, int d, T vs) {
+  T slow_time = T(0);
+  int slow_bands = 0, below = 0, above = 0;
+  for (int j = 0; j < Bands; ++j) {
+    const T t = s.band[d][j].time_s.get();
+    if (!(t >= min_band_time_s<T>())) continue;
+    const T mean = s.band[d][j].speed.get() / t;
+    if (mean < vs) { slow_time += t; ++slow_bands; }
+    if (mean >= vs / T(3) && mean < vs) ++below;
+    if (mean >= vs && mean <= T(3) * vs) ++above;
+  }
+  const bool covered = slow_bands >= 2 && slow_time >= T(0.02) && below >= 1 && above >= 1 && below + above >= 3;
+  return covered ? 0u : static_cast<uint32_t>(flag_no_low_speed_data);
+}
+
 template <typename T> struct DirectionFit {
   DirectionEstimate<T> est{};
   T ssr = T(0);      ///< weighted residual (N^2 s)
@@ -221,14 +241,7 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
       e.stribeck_velocity_se > T(0.25) * vs)
     e.flags |= flag_stribeck_uncertain;
-  T slow_time = T(0);
-  int slow_bands = 0;
-  for (int j = 0; j < Bands; ++j) {
-    const T t = s.band[d][j].time_s.get();
-    // (layout edges are not stored in the statistics; the band mean speed is)
-    if (t >= min_band_time_s<T>() && s.band[d][j].speed.get() / t < vs) { slow_time += t; ++slow_bands; }
-  }
-  if (slow_bands < 2 || slow_time < T(0.02)) e.flags |= flag_no_low_speed_data;
+  e.flags |= stribeck_coverage_flags(s, d, vs);
   if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
   return out;
 }
@@ -408,6 +421,7 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
         e.stribeck_velocity_se > T(0.25) * vs)
       e.flags |= flag_stribeck_uncertain;
+    e.flags |= stribeck_coverage_flags(s, d, vs);
     if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
     // R^2 of section means: 1 - SSR / total sum of squares about the mean force.
     e.friction_r2 = ds.sec_uu.get() > T(0) ? T(1) - ssr / ds.sec_uu.get() : T(0);

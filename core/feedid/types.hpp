@@ -124,7 +124,7 @@ enum Flag : uint32_t {
   flag_stribeck_below_resolution = 1u << 1,  ///< vs < 3x velocity resolution / band floor
   flag_stribeck_at_search_bound = 1u << 2,   ///< best vs at the edge of the search range
   flag_stribeck_uncertain = 1u << 3,   ///< rel. std error of vs or Fs > 25 %, or Fs <= 0
-  flag_no_low_speed_data = 1u << 4,    ///< too little time spent below vs to see the Stribeck dip
+  flag_no_low_speed_data = 1u << 4,    ///< no data where the curve bends (within 3x of vs, both sides) or below vs
   flag_no_acceleration = 1u << 5,      ///< mass: too little velocity change to see inertia
   flag_not_physical = 1u << 6,         ///< a magnitude came out negative
   flag_fit_failed = 1u << 7,           ///< normal equations singular

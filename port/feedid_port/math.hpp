@@ -5,7 +5,8 @@
 // stays in float. Accuracy (checked on host against <cmath> in
 // tests/port_math_test.cpp over the ranges the core uses):
 //   exp: relative error < 2e-15 (double), < 3e-7 (float) for x in [-80, 80]
-//   log: absolute error < 2e-15 (double), < 3e-7 (float) for x in [1e-30, 1e30]
+//   log: absolute error < 2e-15 (double), < 3e-7 (float) times max(1, |ln x|)
+//        for x in [1e-30, 1e30] (the spacing of the results themselves grows with |ln x|)
 //   sqrt: relative error < 1e-15 (double), < 2e-7 (float)
 // Context: any (no state, no allocation); safe in an ISR.
 #pragma once

@@ -1,0 +1,190 @@
+// CSV traces: exact round trip and error messages that name file, line and
+// column (host_sim/csv_trace.hpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "csv_trace.hpp"
+#include "trace.hpp"
+
+namespace {
+
+using feedid::host::CsvColumns;
+using feedid::host::CsvResult;
+using feedid::host::read_trace_csv;
+using feedid::host::Trace;
+using feedid::host::TraceSample;
+using feedid::host::write_trace_csv;
+
+::testing::AssertionResult contains(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
+}
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "feedid_csv_" + name + ".csv";
+}
+
+std::string write_text(const std::string& name, const std::string& text) {
+  const std::string path = temp_path(name);
+  std::ofstream f(path, std::ios::binary);
+  f << text;
+  f.close();
+  EXPECT_TRUE(f.good()) << "cannot write " << path;
+  return path;
+}
+
+TEST(CsvTrace, RoundTripIsExact) {
+  // GIVEN a trace whose values need all 17 significant digits
+  Trace tr;
+  const double values[][4] = {
+      {0.0, 0.0, 0.0, 0.0},
+      {0.1, 1e-300, -0.0, 12.5},
+      {0.30000000000000004, -1.2345678901234567e10, 3.0e-5, -7.0000000000000009},
+      {1.0 / 3.0, 2.0 / 3.0, -1e-8, 6.02214076e23},
+  };
+  for (const auto& v : values) tr.samples.push_back(TraceSample{v[0], v[1], v[2], v[3]});
+  const std::string path = temp_path("roundtrip");
+  // WHEN it is written and read back
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, tr, err)) << err;
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN every value comes back bit for bit, with both signals present
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.trace.has_position);
+  EXPECT_TRUE(r.trace.has_velocity);
+  ASSERT_EQ(r.trace.samples.size(), tr.samples.size());
+  for (std::size_t i = 0; i < tr.samples.size(); ++i) {
+    EXPECT_EQ(r.trace.samples[i].t_s, tr.samples[i].t_s) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].x_m, tr.samples[i].x_m) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].v_m_s, tr.samples[i].v_m_s) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].u_N, tr.samples[i].u_N) << "row " << i;
+  }
+}
+
+TEST(CsvTrace, VelocityOnlyFileIsAccepted) {
+  // GIVEN a file with time, velocity and force but no position column
+  const std::string path = write_text("vonly", "t,v,u\n0,0,1\n0.001,0.5,2\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN it is accepted and says which signal is missing
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_FALSE(r.trace.has_position);
+  EXPECT_TRUE(r.trace.has_velocity);
+  ASSERT_EQ(r.trace.samples.size(), 2u);
+  EXPECT_EQ(r.trace.samples[1].v_m_s, 0.5);
+  EXPECT_EQ(r.trace.samples[1].u_N, 2.0);
+}
+
+TEST(CsvTrace, MissingColumnNamesColumnAndLineOne) {
+  // GIVEN a file without the force column
+  const std::string path = write_text("missing", "t,x,v\n0,0,0\n0.001,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names the file, line 1 and the missing column
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'u'"));
+  EXPECT_TRUE(contains(r.error, "missing"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, MissingRenamedTimeColumnIsNamed) {
+  // GIVEN columns renamed by the caller and a file that lacks the time column
+  CsvColumns cols;
+  cols.time = "time_s";
+  const std::string path = write_text("missing_time", "t,x,v,u\n0,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, cols);
+  // THEN the error names the caller's column name on line 1
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'time_s'"));
+}
+
+TEST(CsvTrace, NonNumericFieldNamesLineAndColumn) {
+  // GIVEN a bad velocity on the third line
+  const std::string path = write_text("nonnum", "t,x,v,u\n0,0,0,0\n0.001,1e-8,abc,3\n0.002,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 3, column 'v' and the offending text
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":3:"));
+  EXPECT_TRUE(contains(r.error, "column 'v'"));
+  EXPECT_TRUE(contains(r.error, "'abc'"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, TrailingGarbageInNumberIsRejected) {
+  // GIVEN a force value with a unit suffix on line 2
+  const std::string path = write_text("suffix", "t,x,v,u\n0,0,0,5N\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 2 and column 'u'
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":2:"));
+  EXPECT_TRUE(contains(r.error, "column 'u'"));
+}
+
+TEST(CsvTrace, NonIncreasingTimeNamesLine) {
+  // GIVEN time that repeats on line 4
+  const std::string path = write_text("time", "t,x,v,u\n0,0,0,0\n0.001,0,0,0\n0.001,0,0,0\n0.003,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 4, the time column, and the previous line 3
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":4:"));
+  EXPECT_TRUE(contains(r.error, "'t'"));
+  EXPECT_TRUE(contains(r.error, "line 3"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, DecreasingTimeIsRejected) {
+  // GIVEN time that goes back on line 3
+  const std::string path = write_text("time_back", "t,x,v,u\n1.0,0,0,0\n0.5,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 3
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":3:"));
+}
+
+TEST(CsvTrace, HeaderOnlyFileIsAnError) {
+  // GIVEN a header and no data rows
+  const std::string path = write_text("header_only", "t,x,v,u\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN it is an error that names the file and says there are no rows
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path));
+  EXPECT_TRUE(contains(r.error, "no data"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, NoPositionAndNoVelocityIsAnError) {
+  // GIVEN time and force only
+  const std::string path = write_text("no_motion", "t,u\n0,0\n0.001,1\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names both motion columns on line 1
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'x'"));
+  EXPECT_TRUE(contains(r.error, "'v'"));
+}
+
+TEST(CsvTrace, MissingFileIsAnError) {
+  // GIVEN a path that does not exist
+  const std::string path = temp_path("does_not_exist_9f3a");
+  std::remove(path.c_str());
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names the file
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path));
+}
+
+}  // namespace
