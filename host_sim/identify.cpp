@@ -156,6 +156,8 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   double d2 = 0.0;
   std::size_t nd = 0;
   for (std::size_t k = 2; k < s.v.size(); ++k) {
+    // Differences across a gap in time (e.g. held-out folds cut out) are not noise.
+    if (s.t[k] - s.t[k - 1] > 1.5 * dt || s.t[k - 1] - s.t[k - 2] > 1.5 * dt) continue;
     const double e = s.v[k] - 2.0 * s.v[k - 1] + s.v[k - 2];
     d2 += e * e;
     ++nd;
@@ -171,7 +173,8 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   // Jumps beyond several times the largest acceleration in the trace are absurd.
   std::vector<double> acc;
   acc.reserve(s.v.size());
-  for (std::size_t k = 1; k < s.v.size(); ++k) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
+  for (std::size_t k = 1; k < s.v.size(); ++k)
+    if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
   c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
   c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
   c.max_force_N = 1e9;

@@ -11,6 +11,7 @@
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
+#include "report.hpp"
 #include "validate.hpp"
 
 using namespace feedid::host;
@@ -123,6 +124,8 @@ int main(int argc, char** argv) {
   c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
   c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
   c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
+  std::string val_plot;
+  c_val->add_option("--plot", val_plot, "write measured against predicted force as SVG");
 
   CsvColumns dg_cols;
   DiagnoseOptions dgopt;
@@ -174,6 +177,10 @@ int main(int argc, char** argv) {
       std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g N\n",
                   r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N);
       if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
+      if (!val_plot.empty()) {
+        std::string err;
+        if (!write_force_plot_svg(r, val_plot, "Cross-test: " + val_in, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+      }
       return 0;
     }
     if (*c_dg) {
@@ -185,6 +192,11 @@ int main(int argc, char** argv) {
       if (!dg_json.empty() && !write_json(dg_json, to_json(r))) return 1;
       if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
       std::cout << summary(r);
+      if (!dg_report.empty()) {
+        std::string err;
+        if (!write_diagnosis_report(r, dg_report, dg_in, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+        std::printf("report: %s/report.md\n", dg_report.c_str());
+      }
       return 0;
     }
     if (*c_demo) {

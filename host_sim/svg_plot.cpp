@@ -1,0 +1,226 @@
+#include "svg_plot.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace feedid::host {
+namespace {
+
+const char* const kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
+                                "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+
+std::string escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+std::string num(double v, int prec = 4) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.*g", prec, v);
+  return b;
+}
+
+bool usable(double v, bool log) { return std::isfinite(v) && (!log || v > 0.0); }
+
+/// Axis after ranging: data range [lo, hi] (in log10 units on a log axis)
+/// and the tick positions with their labels.
+struct Scale {
+  bool log = false;
+  double lo = 0, hi = 1;  ///< in axis units (log10 of the value on a log axis)
+  std::vector<double> major, minor;  ///< in axis units
+  std::vector<std::string> labels;   ///< SVG text content for each major tick
+  double to_axis(double v) const { return log ? std::log10(v) : v; }
+};
+
+double nice_step(double span, int target) {
+  const double raw = span / target;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  const double f = raw / p;
+  return (f < 1.5 ? 1.0 : f < 3.0 ? 2.0 : f < 7.0 ? 5.0 : 10.0) * p;
+}
+
+Scale make_scale(const PlotAxis& ax, const std::vector<double>& data) {
+  Scale s;
+  s.log = ax.log;
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (double v : data)
+    if (usable(v, ax.log)) { lo = std::min(lo, v); hi = std::max(hi, v); }
+  if (usable(ax.min, ax.log)) lo = ax.min;
+  if (usable(ax.max, ax.log)) hi = ax.max;
+  if (!(lo <= hi)) { lo = ax.log ? 1.0 : 0.0; hi = ax.log ? 10.0 : 1.0; }
+  if (ax.log) {
+    double a = std::log10(lo), b = std::log10(hi);
+    if (!usable(ax.min, true)) a = std::floor(a + 1e-9);
+    if (!usable(ax.max, true)) b = std::ceil(b - 1e-9);
+    if (b <= a) { a -= 0.5; b += 0.5; }
+    s.lo = a;
+    s.hi = b;
+    const int k0 = static_cast<int>(std::ceil(a - 1e-9)), k1 = static_cast<int>(std::floor(b + 1e-9));
+    const int every = k1 - k0 > 8 ? 2 : 1;
+    for (int k = k0; k <= k1; ++k) {
+      if ((k - k0) % every != 0) { s.minor.push_back(k); continue; }
+      s.major.push_back(k);
+      s.labels.push_back("10<tspan dy=\"-6\" font-size=\"9\">" + std::to_string(k) + "</tspan>");
+    }
+    for (int k = static_cast<int>(std::floor(a)); k <= k1; ++k)
+      for (int m = 2; m <= 9; ++m) {
+        const double t = k + std::log10(static_cast<double>(m));
+        if (t > a && t < b) s.minor.push_back(t);
+      }
+    // Less than two labelled decades: label the 2 and 5 minors too.
+    if (s.major.size() < 2)
+      for (double t : std::vector<double>(s.minor))
+        if (std::fabs(std::fmod(t - std::floor(t), 1.0) - std::log10(2.0)) < 1e-9 ||
+            std::fabs(std::fmod(t - std::floor(t), 1.0) - std::log10(5.0)) < 1e-9) {
+          s.major.push_back(t);
+          s.labels.push_back(num(std::pow(10.0, t), 3));
+        }
+    return s;
+  }
+  if (hi == lo) {
+    const double w = lo == 0.0 ? 1.0 : 0.1 * std::fabs(lo);
+    lo -= w;
+    hi += w;
+  }
+  const double step = nice_step(hi - lo, 5);
+  if (!std::isfinite(ax.min)) lo = std::floor(lo / step + 1e-9) * step;
+  if (!std::isfinite(ax.max)) hi = std::ceil(hi / step - 1e-9) * step;
+  s.lo = lo;
+  s.hi = hi;
+  for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step) {
+    const double v = std::fabs(t) < 1e-12 * step ? 0.0 : t;
+    s.major.push_back(v);
+    s.labels.push_back(num(v));
+  }
+  return s;
+}
+
+}  // namespace
+
+std::string render_svg(const PlotSpec& p) {
+  std::vector<double> xs, ys;
+  for (const auto& s : p.series) {
+    xs.insert(xs.end(), s.x.begin(), s.x.end());
+    ys.insert(ys.end(), s.y.begin(), s.y.end());
+  }
+  const Scale sx = make_scale(p.x, xs), sy = make_scale(p.y, ys);
+  const double W = p.width_px, H = p.height_px;
+  const double left = 78, right = 24, top = p.title.empty() ? 20 : 44;
+  const double bottom = p.note.empty() ? 58 : 76;
+  const double pw = W - left - right, ph = H - top - bottom;
+  auto px = [&](double axis_x) { return left + (axis_x - sx.lo) / (sx.hi - sx.lo) * pw; };
+  auto py = [&](double axis_y) { return top + ph - (axis_y - sy.lo) / (sy.hi - sy.lo) * ph; };
+
+  std::ostringstream o;
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" viewBox=\"0 0 "
+    << W << " " << H << "\" font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
+  o << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  o << "<defs><clipPath id=\"plot\"><rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw
+    << "\" height=\"" << ph << "\"/></clipPath></defs>\n";
+  if (!p.title.empty())
+    o << "<text x=\"" << W / 2 << "\" y=\"26\" text-anchor=\"middle\" font-size=\"15\" font-weight=\"bold\">"
+      << escape(p.title) << "</text>\n";
+
+  // Grid and ticks.
+  o << "<g stroke=\"#e4e4e4\" stroke-width=\"1\">\n";
+  for (double t : sx.minor) o << "<line x1=\"" << num(px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(px(t), 6) << "\" y2=\"" << top + ph << "\" stroke=\"#f2f2f2\"/>\n";
+  for (double t : sy.minor) o << "<line x1=\"" << left << "\" y1=\"" << num(py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(py(t), 6) << "\" stroke=\"#f2f2f2\"/>\n";
+  for (double t : sx.major) o << "<line x1=\"" << num(px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(px(t), 6) << "\" y2=\"" << top + ph << "\"/>\n";
+  for (double t : sy.major) o << "<line x1=\"" << left << "\" y1=\"" << num(py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(py(t), 6) << "\"/>\n";
+  o << "</g>\n";
+  o << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
+    << "\" fill=\"none\" stroke=\"#333\"/>\n";
+  for (std::size_t i = 0; i < sx.major.size(); ++i)
+    o << "<text x=\"" << num(px(sx.major[i]), 6) << "\" y=\"" << top + ph + 18 << "\" text-anchor=\"middle\">"
+      << sx.labels[i] << "</text>\n";
+  for (std::size_t i = 0; i < sy.major.size(); ++i)
+    o << "<text x=\"" << left - 6 << "\" y=\"" << num(py(sy.major[i]) + 4, 6) << "\" text-anchor=\"end\">"
+      << sy.labels[i] << "</text>\n";
+  o << "<text x=\"" << left + pw / 2 << "\" y=\"" << top + ph + 40 << "\" text-anchor=\"middle\">"
+    << escape(p.x.label) << "</text>\n";
+  o << "<text transform=\"translate(18," << top + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
+    << escape(p.y.label) << "</text>\n";
+  if (!p.note.empty())
+    o << "<text x=\"" << left << "\" y=\"" << H - 8 << "\" font-size=\"10\" fill=\"#555\">" << escape(p.note)
+      << "</text>\n";
+
+  // Series, clipped to the plot area; invalid points break the line.
+  o << "<g clip-path=\"url(#plot)\" fill=\"none\" stroke-width=\"1.8\">\n";
+  for (std::size_t i = 0; i < p.series.size(); ++i) {
+    const PlotSeries& s = p.series[i];
+    const std::string color = s.color.empty() ? kPalette[i % (sizeof kPalette / sizeof *kPalette)] : s.color;
+    const std::size_t n = std::min(s.x.size(), s.y.size());
+    if (s.line) {
+      std::string d;
+      bool pen = false;
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!usable(s.x[k], p.x.log) || !usable(s.y[k], p.y.log)) { pen = false; continue; }
+        d += (pen ? " L" : " M") + num(px(sx.to_axis(s.x[k])), 6) + "," + num(py(sy.to_axis(s.y[k])), 6);
+        pen = true;
+      }
+      if (!d.empty())
+        o << "<path d=\"" << d.substr(1) << "\" stroke=\"" << color << "\""
+          << (s.dashed ? " stroke-dasharray=\"6,4\"" : "") << "/>\n";
+    }
+    if (s.markers)
+      for (std::size_t k = 0; k < n; ++k)
+        if (usable(s.x[k], p.x.log) && usable(s.y[k], p.y.log))
+          o << "<circle cx=\"" << num(px(sx.to_axis(s.x[k])), 6) << "\" cy=\"" << num(py(sy.to_axis(s.y[k])), 6)
+            << "\" r=\"3\" fill=\"" << color << "\" stroke=\"none\"/>\n";
+  }
+  o << "</g>\n";
+
+  // Legend.
+  std::vector<std::size_t> shown;
+  std::size_t longest = 0;
+  for (std::size_t i = 0; i < p.series.size(); ++i)
+    if (!p.series[i].label.empty()) { shown.push_back(i); longest = std::max(longest, p.series[i].label.size()); }
+  if (!shown.empty()) {
+    const double lw = 40 + 6.6 * static_cast<double>(longest), lh = 8 + 18.0 * static_cast<double>(shown.size());
+    const bool at_right = p.legend.find("right") != std::string::npos;
+    const bool at_bottom = p.legend.find("bottom") != std::string::npos;
+    const double lx = at_right ? left + pw - lw - 8 : left + 8;
+    const double ly = at_bottom ? top + ph - lh - 8 : top + 8;
+    o << "<g><rect x=\"" << lx << "\" y=\"" << ly << "\" width=\"" << num(lw, 6) << "\" height=\"" << lh
+      << "\" fill=\"white\" fill-opacity=\"0.9\" stroke=\"#999\"/>\n";
+    for (std::size_t r = 0; r < shown.size(); ++r) {
+      const PlotSeries& s = p.series[shown[r]];
+      const std::string color =
+          s.color.empty() ? kPalette[shown[r] % (sizeof kPalette / sizeof *kPalette)] : s.color;
+      const double yy = ly + 16 + 18.0 * static_cast<double>(r);
+      if (s.line)
+        o << "<line x1=\"" << lx + 6 << "\" y1=\"" << yy - 4 << "\" x2=\"" << lx + 28 << "\" y2=\"" << yy - 4
+          << "\" stroke=\"" << color << "\" stroke-width=\"1.8\"" << (s.dashed ? " stroke-dasharray=\"6,4\"" : "")
+          << "/>\n";
+      if (s.markers)
+        o << "<circle cx=\"" << lx + 17 << "\" cy=\"" << yy - 4 << "\" r=\"3\" fill=\"" << color << "\"/>\n";
+      o << "<text x=\"" << lx + 34 << "\" y=\"" << yy << "\">" << escape(s.label) << "</text>\n";
+    }
+    o << "</g>\n";
+  }
+  o << "</svg>\n";
+  return o.str();
+}
+
+bool write_svg(const std::string& path, const PlotSpec& spec, std::string& error) {
+  std::ofstream f(path);
+  if (!f) { error = path + ": cannot open for writing"; return false; }
+  f << render_svg(spec);
+  f.close();
+  if (!f) { error = path + ": write failed"; return false; }
+  return true;
+}
+
+}  // namespace feedid::host
