@@ -1,0 +1,117 @@
+#!/usr/bin/env bash
+# The whole firmware check (docs/firmware.md):
+#   1. install what is missing (arm-none-eabi toolchain with newlib and
+#      libstdc++, qemu-system-arm; host g++/cmake/nlohmann-json via .ci/setup),
+#   2. cross-build the Cortex-M4F firmware into build-m4/,
+#   3. fail if any ELF contains malloc, _sbrk, free, operator new/delete,
+#      __cxa_throw or __cxa_allocate_exception (arm-none-eabi-nm),
+#   4. run it on QEMU's mps2-an386 exactly as the README says, and again
+#      under -icount shift=0 for instruction counts; each must print PASS,
+#   5. print the footprint: flash and RAM of the core, sizeof, per-sample and
+#      solve cost.
+# Takes about a minute on a warm machine. Exit 0 only if every step passed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+start=$(date +%s)
+build=${FEEDID_M4_BUILD:-build-m4}
+qemu_timeout=${FEEDID_QEMU_TIMEOUT:-180}
+
+# --- 1. packages ----------------------------------------------------------------
+[ -f .ci/setup ] && bash .ci/setup
+pkgs=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib qemu-system-arm)
+missing=()
+for p in "${pkgs[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+if [ ${#missing[@]} -ne 0 ]; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  echo "firmware: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+passed=0
+failed=0
+verdict() {  # name status
+  if [ "$2" -eq 0 ]; then passed=$((passed + 1)); echo "firmware: $1: ok"
+  else failed=$((failed + 1)); echo "firmware: $1: FAILED"; fi
+}
+finish() {
+  echo "firmware check took $(( $(date +%s) - start )) s"
+  echo "firmware: $passed passed, $failed failed"
+  [ "$failed" -eq 0 ]
+}
+
+# --- 2. cross build ----------------------------------------------------------------
+logs="$build/logs"
+mkdir -p "$logs"
+if cmake -S . -B "$build" -DCMAKE_TOOLCHAIN_FILE=port/cortex_m/toolchain.cmake -DCMAKE_BUILD_TYPE=Release >"$logs/configure.log" 2>&1 &&
+   cmake --build "$build" -j2 2>&1 | tee "$logs/build.log" | grep -E 'error|warning|Memory region|FLASH:|RAM:|gen_trace: (double|float) final|check_symbols' ; [ "${PIPESTATUS[0]}" -eq 0 ]; then
+  verdict "cross build (arm-none-eabi-g++ $(arm-none-eabi-g++ -dumpversion), Cortex-M4F hard float)" 0
+else
+  cat "$logs/configure.log" "$logs/build.log" 2>/dev/null | tail -40
+  verdict "cross build" 1
+  finish
+  exit 1
+fi
+elfs=("$build/feedid_m4.elf" "$build/feedid_core_m4.elf" "$build/feedid_baseline_m4.elf")
+
+# --- 3. no heap, no exceptions -------------------------------------------------------
+rc=0
+bash port/cortex_m/check_symbols.sh "${elfs[@]}" || rc=$?
+verdict "symbol check (arm-none-eabi-nm: no malloc/_sbrk/free/new/delete/__cxa_throw/__cxa_allocate_exception)" $rc
+
+# The servo ISR as compiled: straight-line code, no call, no interrupt masking.
+isr=$(arm-none-eabi-objdump -d "$build/feedid_m4.elf" | awk '/<SysTick_Handler>:/,/^$/')
+isr_insns=$(printf '%s\n' "$isr" | grep -E '^ +[0-9a-f]+:' | grep -cv '\.word' || true)
+if [ "$isr_insns" -gt 0 ] && ! printf '%s\n' "$isr" | grep -qE $'\t(cpsid|bl|blx)\b'; then
+  verdict "servo ISR (SysTick_Handler): $isr_insns instructions, no call, no cpsid (never locks)" 0
+else
+  printf '%s\n' "$isr"
+  verdict "servo ISR (SysTick_Handler) must not call or mask interrupts" 1
+fi
+
+# --- 4. emulated runs --------------------------------------------------------------
+# The README's command. The firmware writes through semihosting, which QEMU
+# prints on stderr; a run passes only with exit status 0 and a PASS line.
+run_qemu() {  # log-file extra-args...
+  local log=$1 rc=0; shift
+  timeout "$qemu_timeout" qemu-system-arm -M mps2-an386 -nographic -semihosting "$@" \
+    -kernel "$build/feedid_m4.elf" >"$log" 2>&1 </dev/null || rc=$?
+  if [ $rc -eq 124 ]; then echo "firmware: QEMU timed out after ${qemu_timeout} s" >>"$log"; fi
+  grep -q '^PASS' "$log" && [ $rc -eq 0 ]
+}
+echo "--- qemu-system-arm -M mps2-an386 -nographic -semihosting -kernel $build/feedid_m4.elf"
+rc=0
+run_qemu "$build/qemu.log" || rc=$?
+cat "$build/qemu.log"
+verdict "emulated Cortex-M4 run (PASS line, exit status 0)" $rc
+
+echo "--- the same under -icount shift=0,sleep=off (1 instruction = 1 ns of virtual time)"
+rc=0
+run_qemu "$build/qemu-icount.log" -icount shift=0,sleep=off || rc=$?
+grep -E '^(servo|cost|  push|  solve|  hand-off|stack|timed|PASS|FAIL)' "$build/qemu-icount.log" || cat "$build/qemu-icount.log"
+verdict "emulated run with instruction counting (PASS line, exit status 0)" $rc
+
+# --- 5. footprint ---------------------------------------------------------------------
+# Flash = vector table + code + read-only data + .data load image; RAM = .data
+# + .bss (the 16 KB .stack section is listed apart). The core's share is the
+# core-only probe minus the start-up-only baseline.
+section_sum() {  # elf section...
+  local elf=$1; shift
+  arm-none-eabi-size -A "$elf" | awk -v want=" $* " 'index(want, " " $1 " ") {s += $2} END {print s + 0}'
+}
+echo "--- footprint (arm-none-eabi-size -A; Release, -O2)"
+arm-none-eabi-size "${elfs[@]}"
+for e in "${elfs[@]}"; do
+  printf '%-28s flash %7d B  RAM %6d B  + stack %d B\n' "$(basename "$e")" \
+    "$(section_sum "$e" .isr_vector .text .ARM.exidx .data)" "$(section_sum "$e" .data .bss)" \
+    "$(section_sum "$e" .stack)"
+done
+core_flash=$(( $(section_sum "${elfs[1]}" .isr_vector .text .ARM.exidx .data) - $(section_sum "${elfs[2]}" .isr_vector .text .ARM.exidx .data) ))
+core_ram=$(( $(section_sum "${elfs[1]}" .data .bss) - $(section_sum "${elfs[2]}" .data .bss) ))
+echo "core (Estimator<float,32,16>: init, push, solve bands+paper): flash $core_flash B, static RAM $core_ram B"
+echo "largest stack frames of the core (-fstack-usage, bytes):"
+sort -t$'\t' -k2 -n -r "$build"/port/cortex_m/CMakeFiles/feedid_core_m4.dir/core_only.cpp.su 2>/dev/null |
+  head -5 | awk -F'\t' '{f = $1; sub(/^[^:]*:[0-9]+:[0-9]+:/, "", f); sub(/ \[with.*/, "", f); printf "  %6d  %s\n", $2, f}'
+grep -E '^sizeof|^  push|^  solve|^  hand-off|^stack' "$build/qemu-icount.log" || true
+
+finish

@@ -1,0 +1,18 @@
+// RAM budget of one axis's estimator, checked at compile time by the
+// firmware (main.cpp, for the target's sizes) and by the host test suite
+// (tests/firmware_footprint_test.cpp). A change to the core that needs more
+// must raise the number here, on purpose, with the reason in docs/firmware.md.
+#pragma once
+
+#include <stddef.h>
+
+namespace feedid::fw {
+
+/// Estimator<float, 32, 16>, the target's instance (bytes). 10 KiB is 8 % of
+/// the 128 KB SRAM of an STM32F407-class part: room for four axes next to
+/// the drive's own firmware.
+constexpr size_t estimator_float_ram_budget = 10 * 1024;
+/// Estimator<double, 32, 16>, the host reference; about twice the float one.
+constexpr size_t estimator_double_ram_budget = 20 * 1024;
+
+}  // namespace feedid::fw

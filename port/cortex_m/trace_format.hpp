@@ -1,0 +1,36 @@
+// Layout of the trace the firmware replays from flash and of the reference
+// results it is compared with. The generator (gen_trace.cpp, host) writes
+// <build>/generated/trace_data.h in this layout; the firmware (main.cpp)
+// includes it. Freestanding: plain aggregates of float and integers.
+#pragma once
+
+#include <stdint.h>
+
+namespace feedid::fw {
+
+/// One recorded servo sample as the drive has it (SI units). Stored in flash.
+struct TracePoint {
+  float dt_s;          ///< time since the previous sample (s); 0 for the first
+  float velocity_m_s;  ///< load-side velocity, backward difference of the encoder (m/s)
+  float force_N;       ///< commanded force on the load side (N)
+};
+
+/// The nine identified parameters plus their flags, in float for the
+/// firmware's comparison (the host reference was computed in double and
+/// rounded once when the header was written).
+struct DirectionResult {
+  float viscous_Ns_m;           ///< sigma (N s/m)
+  float coulomb_N;              ///< Fc (N)
+  float breakaway_N;            ///< Fs (N)
+  float stribeck_velocity_m_s;  ///< vs (m/s)
+  uint32_t flags;               ///< feedid::Flag bits
+};
+
+struct Result {
+  float mass_kg;        ///< m (kg)
+  uint32_t mass_flags;  ///< feedid::Flag bits of the mass
+  DirectionResult pos;  ///< positive direction
+  DirectionResult neg;  ///< negative direction
+};
+
+}  // namespace feedid::fw
