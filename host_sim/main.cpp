@@ -102,6 +102,8 @@ int main(int argc, char** argv) {
   auto* c_id = app.add_subcommand("identify", "identify the nine parameters from a trace CSV");
   c_id->add_option("--in", in_path, "trace CSV (header row; SI units)")->required();
   c_id->add_option("--json", json_path, "write the result as JSON");
+  std::string id_plot;
+  c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
   add_identify_options(c_id, cols, idopt, method);
 
   SimConfig demo_sim;
@@ -160,7 +162,13 @@ int main(int argc, char** argv) {
       idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
       Progress p("identify");
       if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
-      return report_identify(identify(csv.trace, idopt), json_path, nullptr);
+      const IdentifyResult r = identify(csv.trace, idopt);
+      const int rc = report_identify(r, json_path, nullptr);
+      if (rc == 0 && !id_plot.empty()) {
+        std::string err;
+        if (!write_friction_curve_svg(r, id_plot, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+      }
+      return rc;
     }
     if (*c_val) {
       std::ifstream mf(model_path);
