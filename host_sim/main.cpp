@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "bench.hpp"
 #include "csv_trace.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
@@ -140,6 +141,24 @@ int main(int argc, char** argv) {
   c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
   c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
 
+  BenchOptions bo;
+  auto* c_bench = app.add_subcommand("bench", "streaming core against batch LM, a genetic algorithm and RLS on the same traces (docs/benchmarks.md)");
+  c_bench->add_option("--json", bo.json_path, "write the results as JSON");
+  c_bench->add_option("--plot-dir", bo.plot_dir, "write SVG figures into this folder");
+  c_bench->add_flag("--core-only", bo.core_only, "push --samples simulated samples through the core and solve (no file I/O)");
+  c_bench->add_option("--samples", bo.samples, "core-only: samples to push")->capture_default_str();
+  c_bench->add_option("--precision", bo.precision, "core-only: float or double")->capture_default_str();
+  c_bench->add_flag("--quick", bo.quick, "two short traces, small GA budget");
+  c_bench->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");
+  c_bench->add_option("--max-samples", bo.max_samples, "scaling: longest trace (samples)")->capture_default_str();
+  c_bench->add_option("--ga-max-samples", bo.ga_max_samples, "scaling: longest trace the GA runs on")->capture_default_str();
+  c_bench->add_option("--methods", bo.methods, "comma-separated subset of streaming,batch_lm,ga,rls");
+  c_bench->add_option("--repeats", bo.repeats, "timing: fastest of this many runs")->capture_default_str();
+  c_bench->add_option("--ga-population", bo.ga_population, "GA population")->capture_default_str();
+  c_bench->add_option("--ga-generations", bo.ga_generations, "GA generations")->capture_default_str();
+  c_bench->add_option("--filter-hz", bo.filter_hz, "batch_lm, ga: zero-phase Butterworth cut-off before differencing (Hz); 0 = none")->capture_default_str();
+  c_bench->add_flag("--lm-naive-start", bo.lm_naive_start, "batch_lm: textbook start (Fs = 0.2 Fc, vs = median speed)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -207,6 +226,7 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
+    if (*c_bench) return run_bench(bo);
     if (*c_demo) {
       std::printf("== simulate: %.3g kg drive, %.6g Hz, %.3g s, encoder %.3g m, force noise %.3g N (seed %llu)\n",
                   demo_sim.drive.mass_kg, demo_sim.controller.servo_rate_hz, demo_sim.motion.duration_s,
