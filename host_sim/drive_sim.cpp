@@ -3,13 +3,16 @@
 // Structure of one servo period [t_k, t_k + dt):
 //   1. sample the encoder at t_k, form the drive's velocity by position
 //      difference, evaluate the reference, run the P / PI cascade -> u_k;
-//   2. record (t_k, x_meas, v_meas, u_k + measurement noise);
+//   2. record (t_k, x_meas, v_meas, u_k + measurement noise), with u_k
+//      replaced by the delayed applied force when Effects::delay_s is set;
 //   3. hold u_k (zero-order hold) and integrate the plant over the period in
-//      `plant_substeps` RK4 substeps with Karnopp-style stick/slip.
+//      `plant_substeps` RK4 substeps with Karnopp-style stick/slip (motor
+//      side), the sim-to-real effects of Effects included.
 #include "drive_sim.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -50,6 +53,66 @@ void validate_friction(const DirectionFriction& f, const std::string& side) {
                    "m/s");
 }
 
+void require_finite(double v, const char* field, const char* unit) {
+  if (!std::isfinite(v)) reject(field, unit, "finite", v);
+}
+
+void validate_effects(const SimConfig& c) {
+  const Effects& e = c.effects;
+  require_finite(e.offset_N, "effects.offset_N", "N");
+
+  require_finite(e.ripple_amplitude_N, "effects.ripple_amplitude_N", "N");
+  require_finite(e.ripple_phase_rad, "effects.ripple_phase_rad", "rad");
+  if (e.ripple_amplitude_N != 0.0) require_positive(e.ripple_period_m, "effects.ripple_period_m", "m");
+
+  require_finite(e.position_friction_N, "effects.position_friction_N", "N");
+  if (e.position_friction_N != 0.0) {
+    const double floor = -std::min(c.drive.pos.coulomb_N, c.drive.neg.coulomb_N);
+    if (e.position_friction_N < floor)
+      reject("effects.position_friction_N", "N", ">= -min(Fc+, Fc-) (friction stays >= 0)", e.position_friction_N);
+    require_finite(e.position_friction_x_min_m, "effects.position_friction_x_min_m", "m");
+    require_finite(e.position_friction_x_max_m, "effects.position_friction_x_max_m", "m");
+    if (!(e.position_friction_x_max_m > e.position_friction_x_min_m))
+      reject("effects.position_friction_x_max_m", "m", "> effects.position_friction_x_min_m",
+             e.position_friction_x_max_m);
+  }
+
+  require_finite(e.drift_fraction, "effects.drift_fraction", "-");
+  if (e.drift_fraction != 0.0) {
+    if (!(e.drift_fraction > -1.0)) reject("effects.drift_fraction", "-", "> -1", e.drift_fraction);
+    require_positive(e.drift_time_constant_s, "effects.drift_time_constant_s", "s");
+  }
+
+  require_non_negative(e.quadratic_c2_Ns2_m2, "effects.quadratic_c2_Ns2_m2", "N s^2/m^2");
+
+  require_non_negative(e.presliding_force_N, "effects.presliding_force_N", "N");
+  if (e.presliding_force_N > 0.0) require_positive(e.presliding_distance_m, "effects.presliding_distance_m", "m");
+
+  require_non_negative(e.compliance_frequency_hz, "effects.compliance_frequency_hz", "Hz");
+  if (e.compliance_frequency_hz > 0.0) {
+    const double mu = e.compliance_mass_fraction;
+    if (!(std::isfinite(mu) && mu > 0.0 && mu < 1.0))
+      reject("effects.compliance_mass_fraction", "-", "in (0, 1)", mu);
+    require_non_negative(e.compliance_damping_ratio, "effects.compliance_damping_ratio", "-");
+    // RK4 must resolve the resonance: omega * h <= 0.5 with h = dt / substeps.
+    const double f_max = 0.5 * c.controller.servo_rate_hz * c.plant_substeps / (2.0 * kPi);
+    if (e.compliance_frequency_hz > f_max)
+      reject("effects.compliance_frequency_hz", "Hz",
+             "<= servo_rate * plant_substeps / (4 pi) (integration accuracy)", e.compliance_frequency_hz);
+  }
+
+  require_non_negative(e.delay_s, "effects.delay_s", "s");
+  if (e.delay_s > c.motion.duration_s) reject("effects.delay_s", "s", "<= motion.duration_s", e.delay_s);
+
+  require_finite(e.disturbance_amplitude_N, "effects.disturbance_amplitude_N", "N");
+  require_finite(e.disturbance_phase_rad, "effects.disturbance_phase_rad", "rad");
+  if (e.disturbance_amplitude_N != 0.0)
+    require_positive(e.disturbance_frequency_hz, "effects.disturbance_frequency_hz", "Hz");
+
+  require_non_negative(e.wander_force_N, "effects.wander_force_N", "N");
+  if (e.wander_force_N > 0.0) require_positive(e.wander_time_constant_s, "effects.wander_time_constant_s", "s");
+}
+
 void validate(const SimConfig& c) {
   require_positive(c.drive.mass_kg, "drive.mass_kg", "kg");
   validate_friction(c.drive.pos, "pos");
@@ -83,6 +146,8 @@ void validate(const SimConfig& c) {
   require_non_negative(s.force_process_noise_N, "sensors.force_process_noise_N", "N");
 
   if (c.plant_substeps < 1) reject("plant_substeps", "count", ">= 1", c.plant_substeps);
+
+  validate_effects(c);
 
   // Keep the sample count sane (the trace is held in memory).
   const double n = m.duration_s * k.servo_rate_hz;
@@ -216,16 +281,49 @@ class ReferenceGenerator {
 };
 
 // ---------------------------------------------------------------------------
-// Plant: m dv/dt = f_in - F(v) - extra(t, x, v), dx/dt = v, with f_in = u + w
-// held over the servo period. Karnopp stick/slip: at rest the body stays at
-// rest while |f_in - extra(t, x, 0)| <= Fc + Fs of the direction it pushes.
+// Plant (equations in drive_sim.hpp, struct Effects):
+//   m1 dv/dt  = f_in - F_fric(t, x, v) - extra(t, x, v) - F_load(t, x) - F_spring
+//   m2 dv2/dt = F_spring                                   (compliant plant only)
+//   dx/dt = v, dx2/dt = v2, f_in = u + w held over the servo period; m1 = m for
+//   a rigid plant. Karnopp stick/slip on the motor side: at rest it stays at
+//   rest while |f_in - extra - F_load - F_spring| <= the static band of the
+//   direction it pushes (Fc + Fs without friction effects).
+// With no effect on, every expression below reduces to the operations of the
+// rigid plant of earlier versions, so the traces are bit-for-bit the same.
 // ---------------------------------------------------------------------------
+struct State {
+  double x = 0.0, v = 0.0;    ///< motor side (the rigid body when not compliant)
+  double x2 = 0.0, v2 = 0.0;  ///< load behind the spring (compliant plant only)
+};
+
 class Plant {
  public:
-  Plant(const DriveParams& d, const ExtraForce& extra) : d_(d), extra_(extra) {}
+  Plant(const DriveParams& d, const Effects& e, const ExtraForce& extra) : d_(d), e_(e), extra_(extra) {
+    plain_friction_ = e.drift_fraction == 0.0 && e.position_friction_N == 0.0 && e.quadratic_c2_Ns2_m2 == 0.0 &&
+                      e.presliding_force_N == 0.0;
+    loads_ = e.offset_N != 0.0 || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
+             e.wander_force_N > 0.0;
+    two_mass_ = e.compliance_frequency_hz > 0.0;
+    m1_ = d.mass_kg;
+    if (two_mass_) {
+      // k = w^2 m1 m2 / m, c = 2 zeta w m1 m2 / m: free resonance w.
+      const double mu = e.compliance_mass_fraction;
+      m1_ = d.mass_kg * (1.0 - mu);
+      m2_ = d.mass_kg * mu;
+      const double w = 2.0 * kPi * e.compliance_frequency_hz;
+      const double reduced = m1_ * m2_ / d.mass_kg;
+      k_ = w * w * reduced;
+      c_ = 2.0 * e.compliance_damping_ratio * w * reduced;
+    }
+  }
 
-  double x() const { return x_; }
-  double v() const { return v_; }
+  double x() const { return s_.x; }
+  double v() const { return s_.v; }
+  double load_x() const { return s_.x2; }
+  double load_v() const { return s_.v2; }
+
+  /// Load force held over the coming servo period (the wandering disturbance), N.
+  void set_held_load(double f) { held_load_ = f; }
 
   /// Advance by h (s) with constant input force f_in (N), starting at time t.
   void step(double t, double h, double f_in) {
@@ -233,32 +331,45 @@ class Plant {
     // Each pass either finishes the substep or ends at a velocity zero
     // crossing (v clamped to 0); a few passes are enough in practice.
     for (int pass = 0; pass < 8 && remaining > 0.0; ++pass) {
-      if (std::fabs(v_) <= kRestVelocity) {
-        v_ = 0.0;
+      if (std::fabs(s_.v) <= kRestVelocity) {
+        s_.v = 0.0;
         // Net applied force excluding friction, at rest.
-        const double f_net = f_in - extra(t, x_, 0.0);
+        double f_net = f_in - extra(t, s_.x, 0.0);
+        if (loads_) f_net -= load(t, s_.x);
+        if (two_mass_) f_net -= spring(s_);
         const double s = f_net >= 0.0 ? 1.0 : -1.0;
-        const DirectionFriction& f = s > 0.0 ? d_.pos : d_.neg;
-        if (std::fabs(f_net) <= f.coulomb_N + f.breakaway_N) return;  // sticks
-        dir_ = s;  // breaks away in the direction of the applied force
+        if (std::fabs(f_net) <= static_band(t, s_.x, s)) {  // sticks
+          if (two_mass_) {
+            // The load keeps moving behind the spring while the motor sticks.
+            locked_ = true;
+            s_ = rk4(t, remaining, f_in, s_);
+            s_.v = 0.0;
+            locked_ = false;
+          }
+          return;
+        }
+        // Breaks away in the direction of the applied force; a break-away
+        // against the previous sliding direction is a reversal.
+        if (last_dir_ != 0.0 && s != last_dir_) since_reversal_ = 0.0;
+        dir_ = s;
       } else {
-        dir_ = v_ > 0.0 ? 1.0 : -1.0;
+        dir_ = s_.v > 0.0 ? 1.0 : -1.0;
       }
+      last_dir_ = dir_;
+      x_pass0_ = s_.x;
 
-      double x1 = x_, v1 = v_;
-      rk4(t, remaining, f_in, x_, v_, x1, v1);
-      if (dir_ * v1 > 0.0) {
-        x_ = x1;
-        v_ = v1;
+      const State s1 = rk4(t, remaining, f_in, s_);
+      if (dir_ * s1.v > 0.0) {
+        end_pass(s1);
         return;
       }
       // Velocity reached 0 within the step: locate the crossing time by
       // bracketed secant (Illinois) search on v(tau), then clamp v = 0.
-      const double tau = find_zero_crossing(t, remaining, f_in, v1);
-      double xc = x_, vc = v_;
-      if (tau > 0.0) rk4(t, tau, f_in, x_, v_, xc, vc);
-      x_ = xc;
-      v_ = 0.0;
+      const double tau = find_zero_crossing(t, remaining, f_in, s1.v);
+      State sc = s_;
+      if (tau > 0.0) sc = rk4(t, tau, f_in, s_);
+      sc.v = 0.0;
+      end_pass(sc);
       t += tau;
       remaining -= tau;
     }
@@ -267,40 +378,125 @@ class Plant {
  private:
   static constexpr double kRestVelocity = 1.0e-15;  ///< |v| treated as rest (m/s)
 
-  double extra(double t, double x, double v) const { return extra_ ? extra_(t, x, v) : 0.0; }
-
-  // Acceleration while sliding in direction dir_ (m/s^2).
-  double accel(double t, double x, double v, double f_in) const {
-    const DirectionFriction& f = dir_ > 0.0 ? d_.pos : d_.neg;
-    return (f_in - branch_friction(f, dir_, v) - extra(t, x, v)) / d_.mass_kg;
+  void end_pass(const State& s) {
+    if (e_.presliding_force_N > 0.0) since_reversal_ += dir_ * (s.x - x_pass0_);
+    s_ = s;
   }
 
-  // Classical RK4 on (x, v) over h from (x0, v0).
-  void rk4(double t, double h, double f_in, double x0, double v0, double& x1, double& v1) const {
-    const double k1v = accel(t, x0, v0, f_in);
-    const double k1x = v0;
-    const double k2v = accel(t + 0.5 * h, x0 + 0.5 * h * k1x, v0 + 0.5 * h * k1v, f_in);
-    const double k2x = v0 + 0.5 * h * k1v;
-    const double k3v = accel(t + 0.5 * h, x0 + 0.5 * h * k2x, v0 + 0.5 * h * k2v, f_in);
-    const double k3x = v0 + 0.5 * h * k2v;
-    const double k4v = accel(t + h, x0 + h * k3x, v0 + h * k3v, f_in);
-    const double k4x = v0 + h * k3v;
-    x1 = x0 + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-    v1 = v0 + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+  double extra(double t, double x, double v) const { return extra_ ? extra_(t, x, v) : 0.0; }
+
+  // F_load(t, x): offset, position ripple, time-periodic and wandering disturbance (N).
+  double load(double t, double x) const {
+    double f = e_.offset_N + held_load_;
+    if (e_.ripple_amplitude_N != 0.0)
+      f += e_.ripple_amplitude_N * std::sin(2.0 * kPi * x / e_.ripple_period_m + e_.ripple_phase_rad);
+    if (e_.disturbance_amplitude_N != 0.0)
+      f += e_.disturbance_amplitude_N * std::sin(2.0 * kPi * e_.disturbance_frequency_hz * t + e_.disturbance_phase_rad);
+    return f;
+  }
+
+  // Spring force on the load, = minus the force on the motor (N).
+  double spring(const State& s) const { return k_ * (s.x - s.x2) + c_ * (s.v - s.v2); }
+
+  double drift(double t) const {
+    return e_.drift_fraction != 0.0 ? e_.drift_fraction * std::exp(-t / e_.drift_time_constant_s) : 0.0;
+  }
+
+  double position_friction(double x) const {
+    return (e_.position_friction_N != 0.0 && x >= e_.position_friction_x_min_m && x <= e_.position_friction_x_max_m)
+               ? e_.position_friction_N
+               : 0.0;
+  }
+
+  // exp(-r/d) of the presliding term for distance r since the reversal.
+  double presliding_decay(double r) const { return std::exp(-r / e_.presliding_distance_m); }
+
+  // Friction while sliding in direction dir_ (continued through v = 0 for the
+  // RK stages, like branch_friction).
+  double friction(double t, double x, double v) const {
+    const DirectionFriction& f = dir_ > 0.0 ? d_.pos : d_.neg;
+    if (plain_friction_) return branch_friction(f, dir_, v);
+    const double r = v / f.stribeck_velocity_m_s;
+    const double ed = drift(t);
+    double F = dir_ * (f.coulomb_N * (1.0 + 0.3 * ed) + f.breakaway_N * std::exp(-r * r)) +
+               f.viscous_Ns_m * (1.0 + ed) * v;
+    F += e_.quadratic_c2_Ns2_m2 * v * std::fabs(v);
+    F += dir_ * position_friction(x);
+    if (e_.presliding_force_N > 0.0)
+      F -= 2.0 * e_.presliding_force_N * dir_ * presliding_decay(since_reversal_ + dir_ * (x - x_pass0_));
+    return F;
+  }
+
+  // Largest net force (N) the motor side withstands at rest when pushed in
+  // direction s: the sliding friction at v -> 0 in that direction.
+  double static_band(double t, double x, double s) const {
+    const DirectionFriction& f = s > 0.0 ? d_.pos : d_.neg;
+    if (plain_friction_) return f.coulomb_N + f.breakaway_N;
+    double band = f.coulomb_N * (1.0 + 0.3 * drift(t)) + f.breakaway_N + position_friction(x);
+    if (e_.presliding_force_N > 0.0) {
+      const double r = (last_dir_ != 0.0 && s != last_dir_) ? 0.0 : since_reversal_;
+      band -= 2.0 * e_.presliding_force_N * presliding_decay(r);
+    }
+    return std::max(0.0, band);
+  }
+
+  // Time derivative of the state while sliding in direction dir_ (or with the
+  // motor locked at rest).
+  State deriv(double t, const State& s, double f_in) const {
+    State d;
+    if (!locked_) {
+      double f = f_in - friction(t, s.x, s.v) - extra(t, s.x, s.v);
+      if (loads_) f -= load(t, s.x);
+      if (two_mass_) f -= spring(s);
+      d.x = s.v;
+      d.v = f / m1_;
+    }
+    if (two_mass_) {
+      d.x2 = s.v2;
+      d.v2 = spring(s) / m2_;
+    }
+    return d;
+  }
+
+  static State axpy(const State& s0, double a, const State& k) {
+    State s;
+    s.x = s0.x + a * k.x;
+    s.v = s0.v + a * k.v;
+    s.x2 = s0.x2 + a * k.x2;
+    s.v2 = s0.v2 + a * k.v2;
+    return s;
+  }
+
+  static double rk4_sum(double y0, double h, double k1, double k2, double k3, double k4) {
+    return y0 + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+  }
+
+  // Classical RK4 over h from s0.
+  State rk4(double t, double h, double f_in, const State& s0) const {
+    const State k1 = deriv(t, s0, f_in);
+    const State k2 = deriv(t + 0.5 * h, axpy(s0, 0.5 * h, k1), f_in);
+    const State k3 = deriv(t + 0.5 * h, axpy(s0, 0.5 * h, k2), f_in);
+    const State k4 = deriv(t + h, axpy(s0, h, k3), f_in);
+    State s1;
+    s1.x = rk4_sum(s0.x, h, k1.x, k2.x, k3.x, k4.x);
+    s1.v = rk4_sum(s0.v, h, k1.v, k2.v, k3.v, k4.v);
+    if (two_mass_) {
+      s1.x2 = rk4_sum(s0.x2, h, k1.x2, k2.x2, k3.x2, k4.x2);
+      s1.v2 = rk4_sum(s0.v2, h, k1.v2, k2.v2, k3.v2, k4.v2);
+    }
+    return s1;
   }
 
   // Time tau in (0, h] at which dir_ * v(tau) reaches 0, given dir_*v(h) <= 0.
   double find_zero_crossing(double t, double h, double f_in, double v_h) const {
-    double a = 0.0, fa = dir_ * v_;   // >= 0
-    double b = h, fb = dir_ * v_h;    // <= 0
+    double a = 0.0, fa = dir_ * s_.v;  // >= 0
+    double b = h, fb = dir_ * v_h;     // <= 0
     if (fa <= 0.0) return 0.0;
     int side = 0;
     for (int it = 0; it < 60; ++it) {
       double c = (a * fb - b * fa) / (fb - fa);
       if (!(c > a && c < b)) c = 0.5 * (a + b);
-      double xc, vc;
-      rk4(t, c, f_in, x_, v_, xc, vc);
-      const double fc = dir_ * vc;
+      const double fc = dir_ * rk4(t, c, f_in, s_).v;
       if (fc > 0.0) {
         a = c;
         fa = fc;
@@ -318,15 +514,40 @@ class Plant {
   }
 
   const DriveParams& d_;
+  const Effects& e_;
   const ExtraForce& extra_;
-  double x_ = 0.0;    ///< true position (m)
-  double v_ = 0.0;    ///< true velocity (m/s)
-  double dir_ = 1.0;  ///< sliding direction of the current pass
+  bool plain_friction_ = true;  ///< no friction effect: F_fric is the Stribeck model
+  bool loads_ = false;          ///< some F_load term is on
+  bool two_mass_ = false;       ///< compliant plant
+  bool locked_ = false;         ///< motor held at rest while the load moves (inside rk4 only)
+  double m1_ = 0.0, m2_ = 0.0;  ///< motor-side and load mass (kg)
+  double k_ = 0.0, c_ = 0.0;    ///< spring (N/m) and damper (N s/m)
+  double held_load_ = 0.0;      ///< wandering disturbance of this servo period (N)
+  State s_{};
+  double dir_ = 1.0;       ///< sliding direction of the current pass
+  double last_dir_ = 0.0;  ///< direction of the last sliding (0: never moved)
+  double since_reversal_ = std::numeric_limits<double>::infinity();  ///< distance slid since the last reversal (m)
+  double x_pass0_ = 0.0;   ///< motor position at the start of the current pass (m)
 };
 
 double quantise(double x, double q) { return q > 0.0 ? std::round(x / q) * q : x; }
 
 }  // namespace
+
+std::vector<std::string> active_effects(const Effects& e) {
+  std::vector<std::string> on;
+  if (e.offset_N != 0.0) on.push_back("offset");
+  if (e.ripple_amplitude_N != 0.0) on.push_back("position_ripple");
+  if (e.position_friction_N != 0.0) on.push_back("position_friction");
+  if (e.drift_fraction != 0.0) on.push_back("thermal_drift");
+  if (e.quadratic_c2_Ns2_m2 != 0.0) on.push_back("quadratic_viscous");
+  if (e.presliding_force_N != 0.0) on.push_back("presliding_hysteresis");
+  if (e.compliance_frequency_hz != 0.0) on.push_back("compliance");
+  if (e.delay_s != 0.0) on.push_back("delay");
+  if (e.disturbance_amplitude_N != 0.0) on.push_back("disturbance");
+  if (e.wander_force_N != 0.0) on.push_back("wander");
+  return on;
+}
 
 double stribeck_friction(const DriveParams& p, double v_m_s) {
   if (v_m_s > 0.0) return branch_friction(p.pos, 1.0, v_m_s);
@@ -357,7 +578,22 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   std::normal_distribution<double> normal(0.0, 1.0);
 
   ReferenceGenerator ref_gen(cfg.motion);
-  Plant plant(cfg.drive, cfg.extra_force);
+  Plant plant(cfg.drive, cfg.effects, cfg.extra_force);
+
+  // Delay of the recorded force: u_rec[k] = u(t_k - delay), linear between
+  // the applied samples (history kept only when a delay is set).
+  const Effects& fx = cfg.effects;
+  const double delay_samples = fx.delay_s / dt;
+  std::vector<double> u_applied;
+  if (fx.delay_s > 0.0) u_applied.reserve(n_samples);
+
+  // Wandering load force: Ornstein-Uhlenbeck, w <- a w + sqrt(1 - a^2) s n,
+  // a = exp(-dt / tau), stationary from the start; its own random stream.
+  std::mt19937_64 wander_rng(cfg.seed ^ 0x9E3779B97F4A7C15ull);
+  std::normal_distribution<double> wander_normal(0.0, 1.0);  // own object: normal_distribution caches draws
+  const double wander_a = fx.wander_force_N > 0.0 ? std::exp(-dt / fx.wander_time_constant_s) : 0.0;
+  const double wander_b = fx.wander_force_N * std::sqrt(std::max(0.0, 1.0 - wander_a * wander_a));
+  double wander = fx.wander_force_N > 0.0 ? fx.wander_force_N * wander_normal(wander_rng) : 0.0;
 
   Trace trace;
   trace.source = "simulator";
@@ -400,11 +636,28 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
     const double w_meas = normal(rng) * cfg.sensors.force_noise_N;
     const double w_proc = normal(rng) * cfg.sensors.force_process_noise_N;
 
-    trace.samples.push_back(TraceSample{t, x_meas, v_meas, u + w_meas});
+    double u_rec = u;
+    if (fx.delay_s > 0.0) {
+      u_applied.push_back(u);
+      const double pos = static_cast<double>(k) - delay_samples;  // fractional sample index
+      if (pos <= 0.0) {
+        u_rec = u_applied.front();
+      } else {
+        const auto i0 = static_cast<std::size_t>(std::floor(pos));
+        const double alpha = pos - static_cast<double>(i0);
+        u_rec = i0 + 1 < u_applied.size() ? (1.0 - alpha) * u_applied[i0] + alpha * u_applied[i0 + 1]
+                                          : u_applied[i0];
+      }
+    }
+    trace.samples.push_back(TraceSample{t, x_meas, v_meas, u_rec + w_meas});
 
     // Plant over [t_k, t_k + dt) with u held.
     if (k + 1 < n_samples) {
       const double f_in = u + w_proc;
+      if (fx.wander_force_N > 0.0) {
+        plant.set_held_load(wander);
+        wander = wander_a * wander + wander_b * wander_normal(wander_rng);
+      }
       for (int j = 0; j < cfg.plant_substeps; ++j) plant.step(t + j * h, h, f_in);
     }
 

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "trace.hpp"
 
@@ -56,10 +57,111 @@ struct SensorParams {
   double force_process_noise_N = 0.0;    ///< std of white disturbance force acting on the plant (N)
 };
 
-/// Extra force acting on the plant, for sim-to-real effects (issue 3). Returns
-/// the force (N) that adds to friction on the load side; it opposes motion when
-/// positive for positive velocity, like friction. Empty: none.
+/// Extra force acting on the plant: a generic hook beside `Effects`. Returns
+/// the force (N) that adds to friction (on the motor side when the plant is
+/// compliant); it opposes motion when positive for positive velocity, like
+/// friction, and acts at rest too. Empty: none.
 using ExtraForce = std::function<double(double t_s, double x_m, double v_m_s)>;
+
+/// Sim-to-real effects (NOTES.md table), each switched off by a zero first
+/// field; several may be on at once. SI units throughout. With every effect off
+/// the simulator produces exactly the traces it produced before effects existed.
+///
+/// Notation: x, v the motor-side position and velocity (what the encoder
+/// measures), t the time since the start of the trace, s = sign of the sliding
+/// velocity, m the total mass. The plant is
+///
+///     m1 dv/dt = u + w - F_fric(t, x, v) - F_load(t, x) - F_spring    (m1 = m unless compliant)
+///
+/// F_fric is friction: it is direction dependent, zero at rest and takes part
+/// in the stick/slip band. F_load acts at rest and in motion alike. A
+/// positive F_load needs positive drive force to hold the axis (like gravity on
+/// an axis inclined so that + is uphill).
+struct Effects {
+  // --- offset (in F_load) -------------------------------------------------
+  /// Constant load force F0 (N): F_load += F0. Gravity on an inclined axis,
+  /// cable drag, current-sensor offset. The recorded force shifts by +F0 in
+  /// both directions and at rest.
+  double offset_N = 0.0;
+
+  // --- position ripple (in F_load) ----------------------------------------
+  /// Amplitude A (N) of F_load += A sin(2 pi x / P + phi) (cogging, screw pitch error).
+  double ripple_amplitude_N = 0.0;
+  double ripple_period_m = 5.0e-3;  ///< P (m), > 0
+  double ripple_phase_rad = 0.0;    ///< phi (rad)
+
+  // --- position-dependent friction (in F_fric) ----------------------------
+  /// dF (N): F_fric += dF s for x_min <= x <= x_max; the static band there
+  /// grows by dF as well. May be negative (less friction there) down to
+  /// -min(Fc+, Fc-).
+  double position_friction_N = 0.0;
+  double position_friction_x_min_m = 0.04;  ///< x_min (m)
+  double position_friction_x_max_m = 0.07;  ///< x_max (m), > x_min
+
+  // --- thermal drift (in F_fric) ------------------------------------------
+  /// D (-): with e(t) = D exp(-t / tau), the viscous coefficient is
+  /// sigma (1 + e(t)) and the Coulomb force Fc (1 + 0.3 e(t)); the break-away
+  /// excess Fs is unchanged. D > 0: friction starts high and falls as the
+  /// lubricant warms. D > -1.
+  double drift_fraction = 0.0;
+  double drift_time_constant_s = 20.0;  ///< tau (s), > 0
+
+  // --- velocity-squared damping (in F_fric) -------------------------------
+  /// c2 (N s^2/m^2), >= 0: F_fric += c2 v |v|.
+  double quadratic_c2_Ns2_m2 = 0.0;
+
+  // --- presliding hysteresis (in F_fric) ----------------------------------
+  /// Fp (N), >= 0: Dahl-like bristle friction. After a reversal (the body
+  /// slides in the direction opposite to its previous sliding direction)
+  /// friction does not jump from -Fc to +Fc but builds up over distance d:
+  /// F_fric += -2 Fp s exp(-r / d), r = distance slid since the reversal
+  /// (evaluated exactly inside the integrator: r grows with x while sliding,
+  /// stops growing at rest, restarts from 0 at a reversal; before the first
+  /// motion r = infinity). The static band for a break-away is the sliding
+  /// friction at v -> 0 with the current r (so it is 2 Fp lower right after a
+  /// reversal), floored at 0.
+  double presliding_force_N = 0.0;
+  double presliding_distance_m = 20.0e-6;  ///< d (m), > 0
+
+  // --- structural compliance (two-mass plant) -----------------------------
+  /// f_r (Hz), >= 0: the mass splits into a motor side m1 = m (1 - mu) driven
+  /// by u and a load m2 = m mu behind a spring k and damper c,
+  ///     m1 a1 = u + w - F_fric - F_load - F_spring,  m2 a2 = F_spring,
+  ///     F_spring = k (x1 - x2) + c (v1 - v2),
+  /// with k = (2 pi f_r)^2 m1 m2 / m (so f_r = sqrt(k (m1 + m2) / (m1 m2)) / 2pi
+  /// is the free resonance; the anti-resonance, seen when the motor is held,
+  /// is f_r sqrt(1 - mu)) and c = 2 zeta (2 pi f_r) m1 m2 / m. Friction,
+  /// F_load, ExtraForce and stick/slip act on the motor side, which the
+  /// encoder measures (like the EMPS motor encoder). Starts relaxed at rest.
+  double compliance_frequency_hz = 0.0;
+  double compliance_mass_fraction = 0.3;  ///< mu (-), in (0, 1)
+  double compliance_damping_ratio = 0.05; ///< zeta (-), >= 0
+
+  // --- delay of the recorded force ----------------------------------------
+  /// delta (s), >= 0: the recorded force is the applied one delta earlier,
+  /// u_rec(t_k) = u(t_k - delta) interpolated linearly between the applied
+  /// samples (u(t) = u_0 for t < 0), then measurement noise is added. The
+  /// plant and controller are unchanged.
+  double delay_s = 0.0;
+
+  // --- outside the catalogue (for "unexplained") ---------------------------
+  /// B (N): time-periodic load force F_load += B sin(2 pi f t + psi), e.g. a
+  /// vibrating auxiliary unit (pump, unbalanced spindle) on the machine.
+  double disturbance_amplitude_N = 0.0;
+  double disturbance_frequency_hz = 2.0;  ///< f (Hz), > 0
+  double disturbance_phase_rad = 0.0;     ///< psi (rad)
+  /// Slowly wandering load force: a stationary Ornstein-Uhlenbeck process of
+  /// this standard deviation (N) and correlation time, updated once per servo
+  /// period and held (own random stream, so the noise of the other signals is
+  /// unchanged). F_load += w_wander.
+  double wander_force_N = 0.0;
+  double wander_time_constant_s = 2.0;  ///< correlation time (s), > 0
+};
+
+/// Catalogue names (diagnose's effect_kinds()) of the effects switched on, in
+/// catalogue order, followed by "disturbance" / "wander" for the two outside
+/// the catalogue. Empty when none is on.
+std::vector<std::string> active_effects(const Effects& e);
 
 struct SimConfig {
   DriveParams drive{};
@@ -69,9 +171,12 @@ struct SimConfig {
   std::uint64_t seed = 1;
   int plant_substeps = 20;  ///< integration steps per servo period
   ExtraForce extra_force{}; ///< optional, see above
+  Effects effects{};        ///< sim-to-real effects, all off by default
 };
 
 /// Simulate and return the recorded trace (t, x, v, u) at the servo rate.
+/// Throws std::invalid_argument naming the field and its unit when a
+/// parameter is out of range.
 /// `progress` (optional) is called with the fraction done, at most ~100 times.
 Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress = {});
 

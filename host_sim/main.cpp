@@ -12,6 +12,8 @@
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
+#include "blind_bench.hpp"
+#include "sim_cli.hpp"
 #include "report.hpp"
 #include "validate.hpp"
 
@@ -94,6 +96,7 @@ int main(int argc, char** argv) {
   std::string out_path, truth_path;
   auto* c_sim = app.add_subcommand("simulate", "simulate a closed-loop feed drive and write a trace CSV (t,x,v,u)");
   add_sim_options(c_sim, sim);
+  add_effect_options(c_sim, sim.effects);
   c_sim->add_option("--out", out_path, "trace CSV to write")->required();
   c_sim->add_option("--truth", truth_path, "also write the true parameters as JSON");
 
@@ -111,6 +114,7 @@ int main(int argc, char** argv) {
   std::string demo_json;
   auto* c_demo = app.add_subcommand("demo", "built-in default: simulate a drive, identify it, compare with the truth");
   add_sim_options(c_demo, demo_sim);
+  add_effect_options(c_demo, demo_sim.effects);
   c_demo->add_option("--json", demo_json, "write the identification result as JSON");
 
   std::string model_path, val_in, val_json;
@@ -141,6 +145,10 @@ int main(int argc, char** argv) {
   c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
   c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
 
+  BlindOptions blind;
+  auto* c_blind = app.add_subcommand("blind-bench", "diagnose many simulated traces whose effect is withheld, and score the verdicts");
+  add_blind_bench_options(c_blind, blind);
+
   BenchOptions bo;
   auto* c_bench = app.add_subcommand("bench", "streaming core against batch LM, a genetic algorithm and RLS on the same traces (docs/benchmarks.md)");
   c_bench->add_option("--json", bo.json_path, "write the results as JSON");
@@ -170,7 +178,11 @@ int main(int argc, char** argv) {
       const Trace t = run_simulation(sim);
       std::string err;
       if (!write_trace_csv(out_path, t, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-      if (!truth_path.empty() && !write_json(truth_path, model_json(sim.drive))) return 1;
+      if (!truth_path.empty()) {
+        nlohmann::json tj = model_json(sim.drive);
+        tj["effects"] = effects_json(sim.effects, sim.drive);
+        if (!write_json(truth_path, tj)) return 1;
+      }
       std::printf("wrote %s: %zu samples, %.3g s at %.6g Hz\n", out_path.c_str(), t.samples.size(),
                   sim.motion.duration_s, sim.controller.servo_rate_hz);
       return 0;
@@ -227,6 +239,11 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*c_bench) return run_bench(bo);
+    if (*c_blind) {
+      Progress p("blind-bench");
+      if (blind.quiet) blind.progress = std::ref(p);
+      return run_blind_bench(blind);
+    }
     if (*c_demo) {
       std::printf("== simulate: %.3g kg drive, %.6g Hz, %.3g s, encoder %.3g m, force noise %.3g N (seed %llu)\n",
                   demo_sim.drive.mass_kg, demo_sim.controller.servo_rate_hz, demo_sim.motion.duration_s,
