@@ -28,6 +28,9 @@ struct DiagnoseOptions {
   double significance_t = 4.0;    ///< t statistic a candidate's held-out improvement must exceed
   double min_closed_fraction = 0.5;  ///< share of the excess gap a named effect must close
   double unexplained_ratio = 1.25;   ///< held-out RMS / noise floor above which a gap is real
+  /// With no gap left, a Coulomb asymmetry |Fc+ - Fc-|/2 above this share of
+  /// the mean Coulomb force is named an offset (indistinguishable while moving).
+  double offset_asymmetry_ratio = 0.1;
   std::function<void(double)> progress;
 };
 
