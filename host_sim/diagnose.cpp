@@ -22,6 +22,16 @@ struct Intervals {
   std::vector<double> since_reversal;      // distance since the last reversal (m)
   std::vector<double> accel;               // smoothed acceleration at the interval (m/s^2)
   std::vector<double> force_lp;            // low-passed measured force at the interval end (N)
+  std::vector<double> sample_t, sample_uf; // per sample: time and low-passed force (for shifts)
+  /// Low-passed measured force at time t (linear interpolation, clamped).
+  double force_at(double t) const {
+    auto it = std::lower_bound(sample_t.begin(), sample_t.end(), t);
+    if (it == sample_t.begin()) return sample_uf.front();
+    if (it == sample_t.end()) return sample_uf.back();
+    const std::size_t j = static_cast<std::size_t>(it - sample_t.begin());
+    const double w = (t - sample_t[j - 1]) / (sample_t[j] - sample_t[j - 1]);
+    return sample_uf[j - 1] + w * (sample_uf[j] - sample_uf[j - 1]);
+  }
 };
 
 struct Block {
@@ -57,6 +67,8 @@ Intervals make_intervals(const Signals& s, double v_min) {
   const std::vector<double> vf = filtfilt_butter4(s.v, fc, fs);
   const std::vector<double> af = central_difference(vf, s.t);
   const std::vector<double> uf = filtfilt_butter4(s.u, fc, fs);
+  iv.sample_t = s.t;
+  iv.sample_uf = uf;
   int last_dir = 0;
   double x_rev = s.x.empty() ? 0.0 : s.x[0];
   for (std::size_t k = 1; k < n; ++k) {
@@ -291,6 +303,8 @@ struct EffectModel {
   std::function<nlohmann::json(double, const Vec& coef)> parameters;
   /// Discrete refinement: more values to try around the best grid value.
   std::function<std::vector<double>(double)> refine = {};
+  /// Physical plausibility of the fitted parameters ("" if plausible, else why not).
+  std::function<std::string(const nlohmann::json&)> implausible = {};
 };
 
 /// Second-order low-pass response H(s) = w^2/(s^2 + 2 z w s + w^2) of the
@@ -570,14 +584,42 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
                         return nlohmann::json{{"frequency_hz", fr}, {"load_frequency_hz", f}, {"load_mass_kg", m2}};
                       }});
   }
-  models.push_back({"delay", {}, false,
-                    [&](double) {
+  // Delay: the recorded force lags, u_rec(t) = u(t - d), so
+  // u_rec(t) = model(t) - [u_rec(t + d) - u_rec(t)]: regressor
+  // u_f(t + d) - u_f(t) (coefficient near -1), d by grid search. Exact for
+  // any d, unlike the first-order u - d du/dt.
+  models.push_back({"delay", log_grid(0.2 / fs, 25.0 / fs, 40), true,
+                    [&](double d) {
                       return one_col(block_column(blocks, iv, [&](std::size_t k) {
-                        return k > 0 ? -(iv.force_lp[k] - iv.force_lp[k - 1]) / iv.dt[k] : 0.0;
+                        const double te = iv.t[k] + 0.5 * iv.dt[k];
+                        return iv.force_at(te + d) - iv.force_lp[k];
                       }));
                     },
-                    [](double, const Vec& c) { return nlohmann::json{{"delay_s", c(0)}}; }});
+                    // For a force smooth on the scale of d only the product
+                    // c*d is identified (c*d*du/dt); -c*d is the delay.
+                    [](double d, const Vec& c) { return nlohmann::json{{"delay_s", -c(0) * d}, {"shift_s", d}, {"coefficient", c(0)}}; }});
 
+  // Fits that no physical effect of that kind can produce are never named:
+  // e.g. a "compliance" with a negative load mass at the top of its
+  // frequency grid is a delay in disguise (both look like jerk there).
+  const double f_top = std::min(0.25 * fs, 400.0);
+  for (auto& em : models) {
+    if (em.kind == "compliance")
+      em.implausible = [&, f_top](const nlohmann::json& p) {
+        const double m2 = p.value("load_mass_kg", 0.0), m = base_fit.theta(0);
+        if (!(m2 > 0.0) || !(m2 < m)) return std::string("load mass outside (0, m)");
+        if (p.value("load_frequency_hz", 0.0) > 0.97 * f_top) return std::string("frequency at the top of the search range");
+        return std::string();
+      };
+    if (em.kind == "delay")
+      em.implausible = [](const nlohmann::json& p) {
+        return p.value("delay_s", 0.0) > 0.0 ? std::string() : std::string("recorded force would lead the motion");
+      };
+    if (em.kind == "presliding_hysteresis")
+      em.implausible = [](const nlohmann::json& p) {
+        return p.value("force_N", 0.0) > 0.0 ? std::string() : std::string("friction would rise after a reversal");
+      };
+  }
   for (std::size_t mi = 0; mi < models.size(); ++mi) {
     const EffectModel& em = models[mi];
     const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
@@ -640,7 +682,10 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
         c.parameters = {{"force_N", 0.5 * (fcp - fcn)}};
       }
     }
-    c.significant = !c.indistinguishable && c.t_statistic >= opt.significance_t && c.heldout_rms_N < out.rms_base_N;
+    const std::string why_not = em.implausible ? em.implausible(c.parameters) : std::string();
+    if (!why_not.empty()) c.note = "not physical: " + why_not;
+    c.significant = !c.indistinguishable && why_not.empty() && c.t_statistic >= opt.significance_t &&
+                    c.heldout_rms_N < out.rms_base_N;
     out.candidates.push_back(c);
     if (opt.progress) opt.progress(0.2 + 0.7 * static_cast<double>(mi + 1) / static_cast<double>(models.size()));
     // Keep the residual of the best candidate so far for the report.
@@ -654,7 +699,7 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   // 4. Verdict.
   const Candidate& top = out.candidates.front();
   const double ratio = out.noise_floor_N > 0 ? out.rms_base_N / out.noise_floor_N : 0.0;
-  if (top.significant && top.closed_fraction >= opt.min_closed_fraction && ratio >= 1.05) {
+  if (top.significant && top.closed_fraction >= opt.min_closed_fraction && ratio >= opt.unexplained_ratio) {
     out.effect = top.kind;
     out.effect_parameters = top.parameters;
     out.rms_augmented_N = top.heldout_rms_N;
@@ -696,7 +741,18 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
         }
         double vp = vs_base_pos, vn = vs_base_neg;
         const Fit f = fit_joint(best_cols, vp, vn, 6);
-        if (f.ok) r_aug = f.residual;
+        if (f.ok) {
+          r_aug = f.residual;
+          // theta: m, Fc+, Fc-, sigma+, sigma-, then (Fs, dE) per direction with a dip.
+          DriveParams& a = out.augmented_model;
+          a.mass_kg = f.theta(0);
+          a.pos = {f.theta(3), f.theta(1), 0.0, vp};
+          a.neg = {f.theta(4), f.theta(2), 0.0, vn};
+          Eigen::Index c = 5;
+          if (stribeck_pos) { a.pos.breakaway_N = f.theta(c); c += 2; }
+          if (stribeck_neg) { a.neg.breakaway_N = f.theta(c); }
+          out.has_augmented_model = true;
+        }
       }
   }
   for (std::size_t i = 0; i < blocks.size(); ++i) {

@@ -25,9 +25,9 @@ struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
   double block_s = 0.005;         ///< residual block length (s): force residual is averaged per block
   int folds = 40;                 ///< trace cut in this many time blocks; odd ones are held out
-  double significance_t = 4.0;    ///< t statistic a candidate's held-out improvement must exceed
+  double significance_t = 3.0;    ///< t statistic a candidate's held-out improvement must exceed
   double min_closed_fraction = 0.5;  ///< share of the excess gap a named effect must close
-  double unexplained_ratio = 1.25;   ///< held-out RMS / noise floor above which a gap is real
+  double unexplained_ratio = 1.4;    ///< held-out RMS / noise floor above which a gap is real
   /// With no gap left, a Coulomb asymmetry |Fc+ - Fc-|/2 above this share of
   /// the mean Coulomb force is named an offset (indistinguishable while moving).
   double offset_asymmetry_ratio = 0.1;
@@ -64,6 +64,10 @@ struct DiagnoseResult {
   double closed_fraction = 0.0;
   std::vector<WhereEntry> where;
   std::vector<Candidate> candidates;  ///< ranked, best first
+  /// The base model refitted jointly with the chosen effect on the
+  /// identification folds (valid when has_augmented_model).
+  DriveParams augmented_model{};
+  bool has_augmented_model = false;
   std::size_t blocks_identification = 0, blocks_heldout = 0;
   // Series for the report (held-out blocks): centre time, position, velocity, residual before/after.
   std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;
