@@ -20,6 +20,7 @@ using Vec = Eigen::VectorXd;
 struct Intervals {
   std::vector<double> t, x, v, dt, u, dv;  // mid time, mean position, mean velocity, length, force, velocity change
   std::vector<double> since_reversal;      // distance since the last reversal (m)
+  std::vector<double> since_start;         // distance since the last reversal or start from rest (m)
   std::vector<double> accel;               // smoothed acceleration at the interval (m/s^2)
   std::vector<double> force_lp;            // low-passed measured force at the interval end (N)
   std::vector<double> sample_t, sample_uf; // per sample: time and low-passed force (for shifts)
@@ -70,7 +71,8 @@ Intervals make_intervals(const Signals& s, double v_min) {
   iv.sample_t = s.t;
   iv.sample_uf = uf;
   int last_dir = 0;
-  double x_rev = s.x.empty() ? 0.0 : s.x[0];
+  double x_rev = s.x.empty() ? 0.0 : s.x[0], x_start = x_rev;
+  bool resting = true;
   for (std::size_t k = 1; k < n; ++k) {
     const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
     const double xm = 0.5 * (s.x[k] + s.x[k - 1]);
@@ -79,6 +81,8 @@ Intervals make_intervals(const Signals& s, double v_min) {
       x_rev = xm;
       last_dir = d;
     }
+    if (d != 0 && resting) x_start = xm;
+    resting = d == 0;
     iv.t.push_back(0.5 * (s.t[k] + s.t[k - 1]));
     iv.x.push_back(xm);
     iv.v.push_back(vm);
@@ -86,6 +90,7 @@ Intervals make_intervals(const Signals& s, double v_min) {
     iv.u.push_back(interval_force(s, k));
     iv.dv.push_back(s.v[k] - s.v[k - 1]);
     iv.since_reversal.push_back(std::fabs(xm - x_rev));
+    iv.since_start.push_back(std::min(std::fabs(xm - x_rev), std::fabs(xm - x_start)));
     iv.accel.push_back(0.5 * (af[k] + af[k - 1]));
     iv.force_lp.push_back(uf[k]);
   }
@@ -560,13 +565,34 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   models.push_back({"quadratic_viscous", {}, false,
                     [&](double) { return one_col(block_column(blocks, iv, [&](std::size_t k) { return iv.v[k] * std::fabs(iv.v[k]); })); },
                     [](double, const Vec& c) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; }});
-  models.push_back({"presliding_hysteresis", log_grid(1e-6, std::min(2e-3, travel / 4), 40), true,
-                    [&](double d) {
-                      return one_col(block_column(blocks, iv, [&](std::size_t k) {
-                        return -(iv.v[k] > 0 ? 1.0 : -1.0) * std::exp(-iv.since_reversal[k] / d);
-                      }));
-                    },
-                    [](double d, const Vec& c) { return nlohmann::json{{"distance_m", d}, {"force_N", 0.5 * c(0)}}; }});
+  {
+    // Bristle friction builds up over a distance d after a reversal. Whether
+    // a stop also resets it depends on how the drive settles (a slip back
+    // below one encoder quantum during the stop is a reversal no measurement
+    // shows), so both readings of "distance" are tried: p > 0 counts from the
+    // last reversal, p < 0 from the last reversal or start from rest.
+    std::vector<double> grid = log_grid(1e-6, std::min(2e-3, travel / 4), 40);
+    const std::size_t n = grid.size();
+    for (std::size_t i = 0; i < n; ++i) grid.push_back(-grid[i]);
+    EffectModel ph{"presliding_hysteresis", grid, false,
+                   [&](double p) {
+                     const double d = std::fabs(p);
+                     const std::vector<double>& dist = p > 0 ? iv.since_reversal : iv.since_start;
+                     return one_col(block_column(blocks, iv, [&](std::size_t k) {
+                       return -(iv.v[k] > 0 ? 1.0 : -1.0) * std::exp(-dist[k] / d);
+                     }));
+                   },
+                   [](double p, const Vec& c) {
+                     return nlohmann::json{{"distance_m", std::fabs(p)}, {"force_N", 0.5 * c(0)},
+                                           {"resets", p > 0 ? "at reversals" : "at reversals and starts from rest"}};
+                   }};
+    ph.refine = [](double p) {  // finer steps in d around the best, same reading
+      std::vector<double> out;
+      for (int i = -4; i <= 4; ++i) out.push_back(p * std::pow(1.05, i));
+      return out;
+    };
+    models.push_back(ph);
+  }
   {
     // Compliance: the load behind a spring follows the motor through
     // H(s) = w^2/(s^2 + 2 z w s + w^2); the base model misses m2 (a2 - a1).
