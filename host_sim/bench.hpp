@@ -65,28 +65,9 @@ struct CoreLoop {
 };
 CoreLoop make_core_loop(double seconds = 30.0);
 
-/// The same configuration in precision T, field by field.
+/// The same configuration in precision T (identify.hpp).
 template <typename T> feedid::Config<T> config_as(const feedid::Config<double>& c) {
-  feedid::Config<T> o;
-  o.velocity_min_m_s = T(c.velocity_min_m_s);
-  o.velocity_max_m_s = T(c.velocity_max_m_s);
-  o.velocity_resolution_m_s = T(c.velocity_resolution_m_s);
-  o.section_enter_m_s = T(c.section_enter_m_s);
-  o.rest_samples = c.rest_samples;
-  o.min_section_s = T(c.min_section_s);
-  o.max_fold_s = T(c.max_fold_s);
-  o.mass_window_s = T(c.mass_window_s);
-  o.max_step_speed_ratio = T(c.max_step_speed_ratio);
-  o.max_acceleration_m_s2 = T(c.max_acceleration_m_s2);
-  o.max_speed_m_s = T(c.max_speed_m_s);
-  o.max_force_N = T(c.max_force_N < 1e30 ? c.max_force_N : 1e30);
-  o.max_gap_s = T(c.max_gap_s);
-  o.stribeck_min_m_s = T(c.stribeck_min_m_s);
-  o.stribeck_max_m_s = T(c.stribeck_max_m_s);
-  o.max_vs_iterations = c.max_vs_iterations;
-  o.velocity_source = c.velocity_source;
-  o.force_alignment = c.force_alignment;
-  return o;
+  return feedid::host::config_as<T, double>(c);
 }
 
 /// Samples [0, n) of the signals as the core takes them (dt from consecutive

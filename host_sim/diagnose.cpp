@@ -49,15 +49,6 @@ struct Block {
   double accel_change = 0;     // |a_end - a_start| (m/s^2)
 };
 
-double interval_force(const Signals& s, std::size_t k) {
-  switch (s.alignment) {
-    case feedid::ForceAlignment::held_force_backward_velocity: return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
-    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
-    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
-  }
-  return s.u[k - 1];
-}
-
 Intervals make_intervals(const Signals& s, double v_min) {
   Intervals iv;
   const std::size_t n = s.t.size();

@@ -65,17 +65,6 @@ const char* alignment_name(feedid::ForceAlignment a) {
   return "?";
 }
 
-/// Force for the interval ending at sample k, with the core's pairing rule.
-double interval_force(const Signals& s, std::size_t k) {
-  switch (s.alignment) {
-    case feedid::ForceAlignment::held_force_backward_velocity:
-      return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
-    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
-    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
-  }
-  return s.u[k - 1];
-}
-
 /// RMS over blocks of the mean force residual (1/tau) [integral u - m dv - integral F],
 /// blocks of moving samples only (no derivative: differentiation noise would
 /// otherwise dominate the figure).
@@ -120,6 +109,16 @@ nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
 }
 
 }  // namespace
+
+double interval_force(const Signals& s, std::size_t k) {
+  switch (s.alignment) {
+    case feedid::ForceAlignment::held_force_backward_velocity:
+      return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
+    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
+    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
+  }
+  return s.u[k - 1];
+}
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals s;

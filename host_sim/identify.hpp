@@ -70,6 +70,35 @@ struct IdentifyResult {
 /// Velocity (measured or derived) and the pairing convention for a trace.
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt);
 
+/// The same configuration in another precision, field by field (float on
+/// target, double on host; a force limit beyond float's range is clamped).
+template <typename To, typename From> feedid::Config<To> config_as(const feedid::Config<From>& c) {
+  feedid::Config<To> o;
+  o.velocity_min_m_s = To(c.velocity_min_m_s);
+  o.velocity_max_m_s = To(c.velocity_max_m_s);
+  o.velocity_resolution_m_s = To(c.velocity_resolution_m_s);
+  o.section_enter_m_s = To(c.section_enter_m_s);
+  o.rest_samples = c.rest_samples;
+  o.min_section_s = To(c.min_section_s);
+  o.max_fold_s = To(c.max_fold_s);
+  o.mass_window_s = To(c.mass_window_s);
+  o.max_step_speed_ratio = To(c.max_step_speed_ratio);
+  o.max_acceleration_m_s2 = To(c.max_acceleration_m_s2);
+  o.max_speed_m_s = To(c.max_speed_m_s);
+  o.max_force_N = To(c.max_force_N < From(1e30) ? c.max_force_N : From(1e30));
+  o.max_gap_s = To(c.max_gap_s);
+  o.stribeck_min_m_s = To(c.stribeck_min_m_s);
+  o.stribeck_max_m_s = To(c.stribeck_max_m_s);
+  o.max_vs_iterations = c.max_vs_iterations;
+  o.velocity_source = c.velocity_source;
+  o.force_alignment = c.force_alignment;
+  return o;
+}
+
+/// Force for the interval ending at sample k, with the core's pairing rule
+/// (Config::force_alignment); k >= 1.
+double interval_force(const Signals& s, std::size_t k);
+
 /// The core configuration the data calls for (docs/reference.md explains each choice).
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt);
 
