@@ -168,7 +168,7 @@ std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<d
     iv.moving = iv.speed >= c.velocity_min_m_s;
     iv.dir = iv.v > 0.0 ? 0 : 1;
     iv.band = iv.moving ? band_of(layout, iv.speed) : 0;
-    iv.steady = iv.moving && std::fabs(iv.dv) <= c.max_step_speed_ratio * iv.speed;
+    iv.steady = iv.moving && std::fabs(iv.dv) <= std::max(c.max_step_speed_ratio * iv.speed, 2.0 * c.velocity_resolution_m_s);
     iv.chain_first = in_chain == 1;
     out.push_back(iv);
   }
@@ -421,16 +421,22 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
 
   // Pass 5: fold periods per direction, splits, and the paper points.
   {
-    // Events after interval i, in the order they happen: a section ended by
-    // rest closes (its rest test ran on the sample ending i), then the
-    // max_fold_s test, then a section ended by a reversal at the next sample
-    // closes (its reversal test runs before that sample's interval). A gap
-    // folds both directions before the next chain's first interval; a
-    // section open at a gap or at the end of data is split.
+    // Events around interval i, in the order they happen: a gap folds both
+    // directions before the next chain's first interval; a section opening
+    // with interval i starts a fold period of its direction (before i is
+    // summed); a quasi-steady interval adds to its direction's period, which
+    // is folded as soon as it reaches max_fold_s (splitting the section open
+    // during i if it has that direction); then a section ended by rest
+    // closes (its rest test ran on the sample ending i); a section ended by
+    // a reversal closes after i (its reversal test runs before the next
+    // interval). A section open at a gap or at the end of data is split.
     std::vector<int> closes_after(ivs.size(), -1);
-    for (std::size_t s = 0; s < secs.size(); ++s)
+    std::vector<int> opens_at(ivs.size(), -1);
+    for (std::size_t s = 0; s < secs.size(); ++s) {
       if (secs[s].end == SectionEnd::rest || secs[s].end == SectionEnd::reversal)
         closes_after[secs[s].last] = static_cast<int>(s);
+      opens_at[secs[s].first] = static_cast<int>(s);
+    }
 
     double duration[2] = {0.0, 0.0};  // quasi-steady time of the open fold period, per direction
     Acc sec_sums[2][9];  // tt tv vv tu vu uu xy xx yy
@@ -499,17 +505,17 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
         fold(0, false);  // counted below: two folds per continuity break
         fold(1, false);
       }
-      if (iv.steady) duration[iv.dir] += iv.dt;
+      if (opens_at[i] >= 0) fold(secs[opens_at[i]].dir);
+      if (iv.steady) {
+        duration[iv.dir] += iv.dt;
+        if (duration[iv.dir] >= c.max_fold_s) {
+          const int open = section_of[i];  // open during interval i, even if it closes at rest after it
+          if (open >= 0 && secs[open].dir == iv.dir) secs[open].split = true;
+          fold(iv.dir);
+        }
+      }
       if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::rest)
         close_section(static_cast<std::size_t>(closes_after[i]));
-      // The section still open after this interval's rest test.
-      int open = section_of[i];
-      if (open >= 0 && secs[open].last == i && secs[open].end == SectionEnd::rest) open = -1;
-      for (int d = 0; d < 2; ++d) {
-        if (duration[d] < c.max_fold_s) continue;
-        if (open >= 0 && secs[open].dir == d) secs[open].split = true;
-        fold(d);
-      }
       if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::reversal)
         close_section(static_cast<std::size_t>(closes_after[i]));
     }

@@ -21,10 +21,11 @@
 //      most mass_window_s long, broken by rest, reversal and gaps);
 //   4. band, window, noise and interval sums by direct summation in long
 //      double;
-//   5. fold periods per direction (section ends, max_fold_s, gaps, the final
-//      solve()) decide which sections are split (each counted once); the
-//      paper method's point of a complete section that started at rest is
-//      summed from the section's own moving intervals of its direction.
+//   5. fold periods per direction (section starts and ends, max_fold_s,
+//      gaps, the final solve()) decide which sections are split (each
+//      counted once); the paper method's point of a complete section that
+//      started at rest is summed from the section's own moving intervals of
+//      its direction.
 //
 // Threshold decisions on accumulated time (window length >= mass_window_s,
 // section length < min_section_s, fold period >= max_fold_s) are evaluated on

@@ -9,6 +9,16 @@
 #include "feedid/types.hpp"
 #include "feedid_port/math.hpp"
 
+// The per-sample path is written as small functions; these keep it one
+// straight function (no calls, no spills) and the rare work out of it.
+#if defined(__GNUC__)
+#define FEEDID_HOT_INLINE inline __attribute__((always_inline))
+#define FEEDID_RARE __attribute__((noinline))
+#else
+#define FEEDID_HOT_INLINE inline
+#define FEEDID_RARE
+#endif
+
 namespace feedid {
 
 template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
@@ -27,6 +37,11 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (config_error_) return Status::invalid_config;
     cfg_ = cfg;
     if (!(cfg_.section_enter_m_s > T(0))) cfg_.section_enter_m_s = T(2) * cfg_.velocity_min_m_s;
+    // A velocity step of a couple of quanta is noise, not acceleration: at
+    // low speed it must not decide which intervals count as quasi-steady
+    // (that selection would correlate with the noise and bias Fs).
+    steady_noise_allowance_ = T(2) * cfg_.velocity_resolution_m_s;
+    jump_noise_allowance_ = T(4) * cfg_.velocity_resolution_m_s;
     layout_.init(cfg_.velocity_min_m_s, cfg_.velocity_max_m_s);
     const T lo = detail::stribeck_lo(cfg_), hi = detail::stribeck_hi(cfg_);
     for (int i = 0; i < Candidates; ++i)
@@ -37,44 +52,35 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
 
   /// Takes one sample. A rejected sample changes nothing but the rejection
   /// counters: it never reaches a sum, and the next good sample bridges it.
-  /// Cost: constant, a few dozen flops and one binary search; no loop over
+  /// Cost: constant, a few dozen flops and one band lookup; no loop over
   /// past data. Context: servo task or ISR (see port/ for the ISR hand-off).
   [[nodiscard]] Status push(const Sample<T>& s) {
     if (!initialized_) return Status::not_initialized;
-    const Status verdict = vet(s);
-    if (verdict != Status::ok) return reject(verdict, s);
-    ++diag_.samples_accepted;
-
-    const bool from_position = cfg_.velocity_source == VelocitySource::from_position;
-    const T dt = s.dt_s + skipped_dt_;
-    // No integral may span a gap, nor a rejected sample whose time step was
-    // itself unknown (NaN dt): the elapsed time is then not known.
-    if ((has_prev_ || has_x_prev_) && (dt > cfg_.max_gap_s || time_lost_)) {
-      ++diag_.continuity_breaks;
-      break_continuity();
-      has_prev_ = has_x_prev_ = false;
-    }
-    time_lost_ = false;
-    if (!has_prev_) {
+    T dt = s.dt_s, v = s.velocity_m_s;
+    // The usual case: measured velocity, continuing a chain, no sample
+    // rejected since the last one (fast_path_), and a sample that passes
+    // every test of vet(). Each comparison below is false for NaN, and the
+    // limits are finite, so a sample passing them is finite too: its
+    // dt + skipped_dt_ (= dt) is within max_gap_s, its dt > 0, speed and
+    // force within their limits, the velocity step within the jump limit.
+    // Any other sample takes the general path, which finds its status.
+    if (fast_path_ && dt <= cfg_.max_gap_s && dt > T(0) && port::abs(v) <= cfg_.max_speed_m_s &&
+        port::abs(s.force_N) <= cfg_.max_force_N &&
+        port::abs(v - v_prev_) <= cfg_.max_acceleration_m_s2 * dt + jump_noise_allowance_) {
+      ++diag_.samples_accepted;
+    } else {
+      bool interval = false;
+      T dt_general = T(0), v_general = T(0);
+      const Status st = push_general(s, interval, dt_general, v_general);
+      // Set on every acceptance (has_prev_ or the source may have changed);
+      // cleared by every rejection (skipped_dt_ or time_lost_ may have).
+      fast_path_ = st == Status::ok && has_prev_ && cfg_.velocity_source == VelocitySource::measured;
+      if (!interval) return st;
       skipped_dt_ = T(0);
-      if (from_position && !has_x_prev_) {  // velocity needs a second position
-        has_x_prev_ = true;
-        x_prev_ = s.position_m;
-        return Status::ok;
-      }
-      start_from(s, from_position ? (s.position_m - x_prev_) / dt : s.velocity_m_s);
-      return Status::ok;
+      dt = dt_general;
+      v = v_general;
     }
-    const T v = velocity_of(s);
-    skipped_dt_ = T(0);
-    open_section_if_moving(v);
-    accumulate_interval(dt, interval_force(s.force_N), T(0.5) * (v_prev_ + v), v - v_prev_, v);
-    accumulate_noise(s.force_N);
-    close_section_if_resting(v);
-    fold_if_due();
-    x_prev_ = s.position_m;
-    v_prev_ = v;
-    u_prev_ = s.force_N;
+    step(dt, v, s.force_N);
     return Status::ok;
   }
 
@@ -84,7 +90,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   /// Context: task, never the ISR.
   [[nodiscard]] Status solve(Method method = Method::bands) {
     if (!initialized_) return Status::not_initialized;
-    close_window();
+    close_window(v_prev_);
     if (section_open_) mark_split();
     fold(0);
     fold(1);
@@ -106,22 +112,31 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   const char* config_error() const { return config_error_; }
 
  private:
-  // Partial sums of the current fold period, one set per direction; plain
-  // sums of at most max_fold_s of samples (accurate in float).
+  // Partial sums of the current fold period of each direction, indexed
+  // [direction][band]; plain sums of at most max_fold_s of samples (accurate
+  // in float). A section of direction d starts a fold period of d, so while
+  // it is open the sums of d hold exactly its quasi-steady intervals.
   struct Pending {
-    T time[Bands], speed[Bands], speed2[Bands], force[Bands], dvel[Bands];
-    T duration;
+    T time[2][Bands], speed[2][Bands], speed2[2][Bands], force[2][Bands], dvel[2][Bands];
+    struct {
+      T duration;
+      // Paper mass equation, sum u' dv' and sum dv'^2/dt over every moving
+      // interval of this direction since a section of it last opened (not folded).
+      T ua, aa;
+    } dir[2];
   };
-  // The open section's own integrals, for the paper method only.
-  struct PaperSection {
+  // The open section's moving intervals that are not quasi-steady (hard
+  // accelerations): with the pending sums of its direction they make the
+  // section's own integrals for the paper method.
+  struct PaperExtra {
     T time[Bands], speed[Bands], speed2[Bands];
     T force;
   };
   struct Window {
     T time[Bands], speed[Bands], speed2[Bands];
-    T force, tau, v_start, v_end;
-    int dir, lo, hi, intervals;
-    bool active;
+    T force, tau, v_start;
+    int intervals;
+    int16_t dir, lo, hi;  ///< dir -1: no window open
   };
 
   /// Back to the state of a fresh object, in place: `*this = Estimator{}`
@@ -131,19 +146,20 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     zero(stats_);
     zero(pending_);
     zero(window_);
-    zero(paper_);
+    window_.dir = -1;
+    zero(paper_extra_);
     zero(diag_);
     zero(layout_);
     estimate_ = Estimate<T>{};
     cfg_ = Config<T>{};
     config_error_ = nullptr;
-    initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = false;
-    x_prev_ = v_prev_ = u_prev_ = u_prev2_ = skipped_dt_ = T(0);
+    initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = fast_path_ = false;
+    x_prev_ = v_prev_ = u_prev_ = u_prev2_ = skipped_dt_ = steady_noise_allowance_ = jump_noise_allowance_ = T(0);
     u_history_ = 0;
     section_open_ = section_from_rest_ = split_counted_ = false;
-    section_dir_ = 0;
+    section_sign_ = T(1);
     below_count_ = 0;
-    section_time_ = section_ua_ = section_aa_ = T(0);
+    section_time_ = T(0);
     noise_d2_ = stats_interval_time_ = T(0);
     noise_count_ = stats_interval_count_ = 0;
   }
@@ -176,6 +192,53 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     return nullptr;
   }
 
+  /// push() for every case (first samples, gaps, velocity from position) up
+  /// to the interval: if the sample is accepted and continues the chain, sets
+  /// `interval` and the interval's dt and the sample's velocity.
+  FEEDID_RARE Status push_general(const Sample<T>& s, bool& interval, T& dt_out, T& v_out) {
+    const Status verdict = vet(s);
+    if (verdict != Status::ok) return reject(verdict, s);
+    ++diag_.samples_accepted;
+
+    const bool from_position = cfg_.velocity_source == VelocitySource::from_position;
+    const T dt = s.dt_s + skipped_dt_;
+    // No integral may span a gap, nor a rejected sample whose time step was
+    // itself unknown (NaN dt): the elapsed time is then not known.
+    if ((has_prev_ || has_x_prev_) && (dt > cfg_.max_gap_s || time_lost_)) {
+      ++diag_.continuity_breaks;
+      break_continuity();
+      has_prev_ = has_x_prev_ = false;
+    }
+    time_lost_ = false;
+    if (!has_prev_) {
+      skipped_dt_ = T(0);
+      if (from_position && !has_x_prev_) {  // velocity needs a second position
+        has_x_prev_ = true;
+        x_prev_ = s.position_m;
+        return Status::ok;
+      }
+      start_from(s, from_position ? (s.position_m - x_prev_) / dt : s.velocity_m_s);
+      return Status::ok;
+    }
+    v_out = velocity_of(s);
+    dt_out = dt;
+    x_prev_ = s.position_m;  // read only with velocity from position
+    interval = true;
+    return Status::ok;
+  }
+
+  /// An accepted sample that continues the chain: the interval from the
+  /// previous one, then the section state.
+  FEEDID_HOT_INLINE void step(T dt, T v, T u) {
+    open_section_if_moving(v);
+    const bool u_full = u_history_ >= 2;  // u_prev2_ is known
+    accumulate_interval(dt, interval_force(u, u_full), T(0.5) * (v_prev_ + v), v - v_prev_, v);
+    accumulate_noise(u, u_full);
+    close_section_if_resting(v);
+    v_prev_ = v;
+    u_prev_ = u;
+  }
+
   T velocity_of(const Sample<T>& s) const {
     if (cfg_.velocity_source == VelocitySource::measured) return s.velocity_m_s;
     return has_x_prev_ ? (s.position_m - x_prev_) / (s.dt_s + skipped_dt_) : T(0);
@@ -183,8 +246,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
 
   Status vet(const Sample<T>& s) const {
     const bool need_x = cfg_.velocity_source == VelocitySource::from_position;
-    if (!port::is_finite(s.dt_s) || !port::is_finite(s.force_N) ||
-        (need_x ? !port::is_finite(s.position_m) : !port::is_finite(s.velocity_m_s)))
+    if (!port::all_finite(s.dt_s, s.force_N, need_x ? s.position_m : s.velocity_m_s))
       return Status::rejected_not_finite;
     if ((has_prev_ || has_x_prev_) && !(s.dt_s > T(0))) return Status::rejected_time_not_increasing;
     // After a gap (or unknown elapsed time) the sample restarts the chain:
@@ -201,13 +263,14 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (port::abs(v) > cfg_.max_speed_m_s || port::abs(s.force_N) > cfg_.max_force_N)
       return Status::rejected_out_of_range;
     if (has_prev_ && continues) {
-      const T allowed = cfg_.max_acceleration_m_s2 * dt + T(4) * cfg_.velocity_resolution_m_s;
+      const T allowed = cfg_.max_acceleration_m_s2 * dt + jump_noise_allowance_;
       if (port::abs(v - v_prev_) > allowed) return Status::rejected_velocity_jump;
     }
     return Status::ok;
   }
 
-  Status reject(Status why, const Sample<T>& s) {
+  FEEDID_RARE Status reject(Status why, const Sample<T>& s) {
+    fast_path_ = false;
     ++diag_.samples_rejected;
     switch (why) {
       case Status::rejected_not_finite: ++diag_.rejected_not_finite; break;
@@ -234,7 +297,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   }
 
   void break_continuity() {
-    close_window();
+    close_window(v_prev_);
     if (section_open_) { mark_split(); section_open_ = false; }
     fold(0);
     fold(1);
@@ -247,9 +310,9 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   // reaches section_enter, so it opens no sections.
   // A reversal passes through zero velocity, so it ends one section and
   // starts the next as rest does (the end points' inertia term is ~0).
-  void open_section_if_moving(T v) {
+  FEEDID_HOT_INLINE void open_section_if_moving(T v) {
     if (section_open_) {
-      if (T(section_dir_sign()) * v <= -cfg_.section_enter_m_s) {
+      if (section_sign_ * v <= -cfg_.section_enter_m_s) {
         close_section();
         open_section(v > T(0) ? 0 : 1, true);
       }
@@ -259,16 +322,19 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (port::abs(v) >= cfg_.section_enter_m_s) open_section(v > T(0) ? 0 : 1, rest_seen_);
   }
 
-  void open_section(int dir, bool from_rest) {
+  FEEDID_RARE void open_section(int dir, bool from_rest) {
+    // A new fold period of this direction: from here on the pending sums of
+    // dir hold only this section's quasi-steady intervals.
+    fold(dir);
     section_open_ = true;
-    section_dir_ = dir;
+    section_sign_ = direction_sign[dir];
     section_from_rest_ = from_rest;
     section_time_ = T(0);
-    section_ua_ = T(0);
-    section_aa_ = T(0);
+    pending_.dir[dir].ua = T(0);
+    pending_.dir[dir].aa = T(0);
     below_count_ = 0;
     split_counted_ = false;
-    paper_ = PaperSection{};
+    zero(paper_extra_);
   }
 
   /// The open section will not count for the paper method; counted once.
@@ -277,123 +343,134 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (!split_counted_) { ++diag_.sections_split; split_counted_ = true; }
   }
 
-  void close_section_if_resting(T v) {
+  FEEDID_HOT_INLINE void close_section_if_resting(T v) {
     if (!section_open_) return;
-    if (T(section_dir_sign()) * v < cfg_.velocity_min_m_s) {
+    if (section_sign_ * v < cfg_.velocity_min_m_s) {
       if (++below_count_ >= cfg_.rest_samples) { close_section(); rest_seen_ = true; }
     } else {
       below_count_ = 0;
     }
   }
 
-  void close_section() {
+  int section_dir() const { return section_sign_ < T(0) ? 1 : 0; }
+
+  FEEDID_RARE void close_section() {
     section_open_ = false;
-    const int d = section_dir_;
+    const int d = section_dir();
     if (section_time_ < cfg_.min_section_s) ++diag_.sections_short;
     else if (section_from_rest_) add_paper_point(d);
     fold(d);
   }
 
-  int section_dir_sign() const { return section_dir_ == 0 ? 1 : -1; }
-
   // --- per interval -------------------------------------------------------
   // Interval [t_{k-1}, t_k] by the trapezoid rule: mean force u, mean
   // velocity v, velocity change dv. Mirrored for the negative direction.
-  void accumulate_interval(T dt, T u, T v, T dv, T v_now) {
+  FEEDID_HOT_INLINE void accumulate_interval(T dt, T u, T v, T dv, T v_now) {
     stats_interval_time_ += dt;
     ++stats_interval_count_;
-    if (section_open_) section_time_ += dt;
+    if (stats_interval_time_ >= cfg_.max_fold_s) fold_scalars();  // e.g. a long rest
+    section_time_ += dt;  // read only while a section is open (reset when one opens)
     const T speed = port::abs(v);
-    if (speed < cfg_.velocity_min_m_s) { close_window(); return; }  // at rest: not the model
+    if (speed < cfg_.velocity_min_m_s) { close_window(v_prev_); return; }  // at rest: not the model
     const int d = v > T(0) ? 0 : 1;
-    const T sign = d == 0 ? T(1) : T(-1);
+    const T sign = direction_sign[d];
     const T um = sign * u, dvm = sign * dv;
     const int j = layout_.index(speed);
-    const T sdt = speed * dt;
-    // Paper method: the section's own integrals over all its moving intervals.
-    if (section_open_ && section_dir_ == d) {
-      paper_.time[j] += dt;
-      paper_.speed[j] += sdt;
-      paper_.speed2[j] += speed * sdt;
-      paper_.force += um * dt;
-      section_ua_ += um * dvm;
-      section_aa_ += dvm * dvm / dt;
-    }
+    const T sdt = speed * dt, s2dt = speed * sdt, udt = um * dt;
+    Pending& p = pending_;
+    auto& ps = p.dir[d];
+    // Paper mass equation: valid for the open section if d is its direction.
+    ps.ua += um * dvm;
+    ps.aa += dvm * dvm / dt;
     // Friction bands take quasi-steady intervals only: one that sweeps a
     // large part of its speed in a single step carries a large inertia
     // force, and any force/velocity timing error of the log leaks from it
     // into the narrow low-speed bands.
-    if (port::abs(dv) <= cfg_.max_step_speed_ratio * speed) {
-      Pending& p = pending_[d];
-      p.time[j] += dt;
-      p.speed[j] += sdt;
-      p.speed2[j] += speed * sdt;
-      p.force[j] += um * dt;
-      p.dvel[j] += dvm;
-      p.duration += dt;
+    if (port::abs(dv) <= port::max(cfg_.max_step_speed_ratio * speed, steady_noise_allowance_)) {
+      p.time[d][j] += dt;
+      p.speed[d][j] += sdt;
+      p.speed2[d][j] += s2dt;
+      p.force[d][j] += udt;
+      p.dvel[d][j] += dvm;
+      ps.duration += dt;
+      if (ps.duration >= cfg_.max_fold_s) fold_due(d);
+    } else if (section_open_ && section_sign_ == sign) {
+      // The paper method takes all of the section's moving intervals.
+      PaperExtra& x = paper_extra_;
+      x.time[j] += dt;
+      x.speed[j] += sdt;
+      x.speed2[j] += s2dt;
+      x.force += udt;
     }
     // Mass window: consecutive intervals of one direction.
-    if (window_.active && window_.dir != d) close_window();
-    if (!window_.active) {
-      window_.active = true;
-      window_.dir = d;
-      window_.v_start = sign * v_prev_;
-      window_.lo = window_.hi = j;
+    Window& w = window_;
+    if (w.dir != d) {
+      close_window(v_prev_);
+      w.dir = static_cast<int16_t>(d);
+      w.v_start = sign * v_prev_;
+      w.lo = w.hi = static_cast<int16_t>(j);
     }
-    window_.time[j] += dt;
-    window_.speed[j] += sdt;
-    window_.speed2[j] += speed * sdt;
-    window_.force += um * dt;
-    window_.tau += dt;
-    window_.v_end = sign * v_now;
-    ++window_.intervals;
-    window_.lo = j < window_.lo ? j : window_.lo;
-    window_.hi = j > window_.hi ? j : window_.hi;
-    if (window_.tau >= cfg_.mass_window_s) close_window();
+    w.time[j] += dt;
+    w.speed[j] += sdt;
+    w.speed2[j] += s2dt;
+    w.force += udt;
+    w.tau += dt;
+    ++w.intervals;
+    w.lo = static_cast<int16_t>(j < w.lo ? j : w.lo);
+    w.hi = static_cast<int16_t>(j > w.hi ? j : w.hi);
+    if (w.tau >= cfg_.mass_window_s) close_active_window(v_now);
   }
 
-  T interval_force(T u_now) const {
+  FEEDID_HOT_INLINE T interval_force(T u_now, bool u_full) const {
     switch (cfg_.force_alignment) {
       case ForceAlignment::held_force_backward_velocity:
-        return u_history_ >= 2 ? T(0.5) * (u_prev2_ + u_prev_) : u_prev_;
+        return u_full ? T(0.5) * (u_prev2_ + u_prev_) : u_prev_;
       case ForceAlignment::held_force_instant_velocity: return u_prev_;
       default: return T(0.5) * (u_prev_ + u_now);
     }
   }
 
-  void accumulate_noise(T u) {
+  FEEDID_HOT_INLINE void accumulate_noise(T u, bool u_full) {
     // Second difference of the force: a smooth force cancels, white noise of
     // variance s^2 leaves 6 s^2. Gives the noise floor without a model.
-    if (u_history_ >= 2) {
+    if (u_full) {
       const T d2 = u - T(2) * u_prev_ + u_prev2_;
       noise_d2_ += d2 * d2;
       ++noise_count_;
+    } else {
+      ++u_history_;
     }
     u_prev2_ = u_prev_;
-    if (u_history_ < 2) ++u_history_;
   }
 
-  void close_window() {
+  /// Ends the mass window, if one is open; v_last is the velocity at its end
+  /// (that of the last sample it took).
+  FEEDID_HOT_INLINE void close_window(T v_last) {
+    if (window_.dir >= 0) close_active_window(v_last);
+  }
+
+  FEEDID_RARE void close_active_window(T v_last) {
     Window& w = window_;
-    if (!w.active) return;
     if (w.intervals >= 2) {
-      const T dvw = w.v_end - w.v_start;
+      const T dvw = direction_sign[w.dir] * v_last - w.v_start;
       for (int j = w.lo; j <= w.hi; ++j) {
         BandSums<T>& b = stats_.band[w.dir][j];
         b.proj_time.add(dvw * w.time[j]);
         b.proj_speed.add(dvw * w.speed[j]);
         b.proj_speed2.add(dvw * w.speed2[j]);
+        w.time[j] = w.speed[j] = w.speed2[j] = T(0);
       }
       DirectionSums<T, Candidates>& ds = stats_.dir[w.dir];
       ds.win_dv_force.add(dvw * w.force);
       ds.win_dv2.add(dvw * dvw);
       ds.win_tau_dv2.add(w.tau * dvw * dvw);
       ++diag_.mass_windows;
+    } else {
+      for (int j = w.lo; j <= w.hi; ++j) w.time[j] = w.speed[j] = w.speed2[j] = T(0);
     }
-    for (int j = w.lo; j <= w.hi; ++j) w.time[j] = w.speed[j] = w.speed2[j] = T(0);
     w.force = w.tau = T(0);
     w.intervals = 0;
-    w.active = false;
+    w.dir = -1;
   }
 
   /// Section end (not per sample): the section's point for the paper method
@@ -401,17 +478,39 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   /// integral exp(-(v/vs_i)^2) dt for each candidate vs_i from the section's
   /// band moments: Bands x Candidates exponentials. Paper mass equation:
   /// integral u a dt = sum u dv; integral a^2 dt = sum dv^2/dt.
-  void add_paper_point(int d) {
-    const PaperSection& p = paper_;
-    T ts = T(0), vs_ = T(0);
-    const T us = p.force;
-    for (int j = 0; j < Bands; ++j) { ts += p.time[j]; vs_ += p.speed[j]; }
+  FEEDID_RARE void add_paper_point(int d) {
+    // The section's integrals: its quasi-steady intervals (the pending sums
+    // of d, whose fold period it opened) plus the others, added in place
+    // (the extras are not needed after this).
+    const Pending& p = pending_;
+    PaperExtra& x = paper_extra_;
+    T* const time = x.time;
+    T* const speed = x.speed;
+    T* const speed2 = x.speed2;
+    T ts = T(0), vs_ = T(0), us = x.force;
+    for (int j = 0; j < Bands; ++j) {
+      time[j] += p.time[d][j];
+      speed[j] += p.speed[d][j];
+      speed2[j] += p.speed2[d][j];
+      ts += time[j];
+      vs_ += speed[j];
+      us += p.force[d][j];
+      // From here on speed[] and speed2[] hold the band's squared mean speed
+      // and variance: exp_integral_moments() split so that its divisions
+      // are done once per band, not per band and candidate.
+      if (time[j] > T(0)) {
+        const T mean = speed[j] / time[j];
+        speed[j] = mean * mean;
+        speed2[j] = port::max(T(0), speed2[j] / time[j] - mean * mean);
+      }
+    }
     if (!(ts > T(0))) return;
     DirectionSums<T, Candidates>& ds = stats_.dir[d];
     for (int i = 0; i < Candidates; ++i) {
+      const T inv_vs2 = T(1) / (stats_.vs_candidate[i] * stats_.vs_candidate[i]);
       T e = T(0);
       for (int j = 0; j < Bands; ++j)
-        if (p.time[j] > T(0)) e += exp_integral_moments(p.time[j], p.speed[j], p.speed2[j], stats_.vs_candidate[i]);
+        if (time[j] > T(0)) e += exp_integral_mean_var(time[j], speed[j], speed2[j], inv_vs2);
       ds.cand_et[i].add(e * ts);
       ds.cand_ev[i].add(e * vs_);
       ds.cand_eu[i].add(e * us);
@@ -423,32 +522,33 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     ds.sec_tu.add(ts * us);
     ds.sec_vu.add(vs_ * us);
     ds.sec_uu.add(us * us);
-    ds.sec_xy.add(section_aa_ * section_ua_);
-    ds.sec_xx.add(section_aa_ * section_aa_);
-    ds.sec_yy.add(section_ua_ * section_ua_);
+    const T ua = p.dir[d].ua, aa = p.dir[d].aa;
+    ds.sec_xy.add(aa * ua);
+    ds.sec_xx.add(aa * aa);
+    ds.sec_yy.add(ua * ua);
     ++ds.sections;
     ++diag_.sections_complete[d];
   }
 
   /// Pending partial sums of direction d into the compensated totals.
   void fold(int d) {
-    Pending& p = pending_[d];
+    Pending& p = pending_;
     for (int j = 0; j < Bands; ++j) {
-      if (p.time[j] == T(0) && p.dvel[j] == T(0)) continue;
+      if (p.time[d][j] == T(0) && p.dvel[d][j] == T(0)) continue;
       BandSums<T>& b = stats_.band[d][j];
-      b.time_s.add(p.time[j]);
-      b.speed.add(p.speed[j]);
-      b.speed2.add(p.speed2[j]);
-      b.force.add(p.force[j]);
-      b.dvel.add(p.dvel[j]);
-      p.time[j] = p.speed[j] = p.speed2[j] = p.force[j] = p.dvel[j] = T(0);
+      b.time_s.add(p.time[d][j]);
+      b.speed.add(p.speed[d][j]);
+      b.speed2.add(p.speed2[d][j]);
+      b.force.add(p.force[d][j]);
+      b.dvel.add(p.dvel[d][j]);
+      p.time[d][j] = p.speed[d][j] = p.speed2[d][j] = p.force[d][j] = p.dvel[d][j] = T(0);
     }
-    p.duration = T(0);
+    p.dir[d].duration = T(0);
     fold_scalars();
     ++diag_.folds;
   }
 
-  void fold_scalars() {
+  FEEDID_RARE void fold_scalars() {
     stats_.noise_d2.add(noise_d2_);
     stats_.noise_count += noise_count_;
     stats_.total_interval_time.add(stats_interval_time_);
@@ -457,42 +557,49 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     noise_count_ = stats_interval_count_ = 0;
   }
 
-  /// Keeps every plain partial sum shorter than max_fold_s.
-  void fold_if_due() {
-    for (int d = 0; d < 2; ++d) {
-      if (pending_[d].duration < cfg_.max_fold_s) continue;
-      if (section_open_ && section_dir_ == d) mark_split();
-      fold(d);
-    }
-    if (stats_interval_time_ >= cfg_.max_fold_s) fold_scalars();  // e.g. a long rest
+  /// Keeps every plain partial sum shorter than max_fold_s: direction d's
+  /// pending sums reached it (the open section, if of that direction, is
+  /// split and no longer counts for the paper method).
+  FEEDID_RARE void fold_due(int d) {
+    if (section_open_ && section_dir() == d) mark_split();
+    fold(d);
   }
+
+  static constexpr T direction_sign[2] = {T(1), T(-1)};  ///< mirror factor of direction 0 / 1
 
   Config<T> cfg_{};
   Layout layout_{};
   Stats stats_{};
-  Pending pending_[2] = {};
+  Pending pending_{};
   Window window_{};
-  PaperSection paper_{};
+  PaperExtra paper_extra_{};
   Estimate<T> estimate_{};
   Diagnostics diag_{};
   const char* config_error_ = nullptr;
-  bool initialized_ = false;
   // Previous accepted sample.
-  bool has_prev_ = false;    ///< previous sample with a velocity
-  bool has_x_prev_ = false;  ///< previous position known (from_position)
-  bool rest_seen_ = false;   ///< axis below velocity_min since the last start
   T x_prev_ = T(0), v_prev_ = T(0), u_prev_ = T(0), u_prev2_ = T(0);
-  int u_history_ = 0;
   T skipped_dt_ = T(0);  ///< time of rejected samples since the last good one (s)
-  bool time_lost_ = false;  ///< a rejected sample had no usable dt
+  T steady_noise_allowance_ = T(0);  ///< velocity step always counted as quasi-steady (m/s)
+  T jump_noise_allowance_ = T(0);    ///< 4 x velocity_resolution: part of the velocity-jump limit (m/s)
   // Section state.
-  bool section_open_ = false, section_from_rest_ = false, split_counted_ = false;
-  int section_dir_ = 0;
-  uint16_t below_count_ = 0;
-  T section_time_ = T(0), section_ua_ = T(0), section_aa_ = T(0);
+  T section_sign_ = T(1);  ///< +1 / -1: the open section's direction is 0 / 1
+  T section_time_ = T(0);
   // Plain partial sums folded with the bands.
   T noise_d2_ = T(0), stats_interval_time_ = T(0);
   uint64_t noise_count_ = 0, stats_interval_count_ = 0;
+  uint16_t below_count_ = 0;
+  uint8_t u_history_ = 0;  ///< forces seen in this chain, up to 2
+  bool initialized_ = false;
+  bool has_prev_ = false;    ///< previous sample with a velocity
+  bool has_x_prev_ = false;  ///< previous position known (from_position)
+  bool rest_seen_ = false;   ///< axis below velocity_min since the last start
+  bool time_lost_ = false;   ///< a rejected sample had no usable dt
+  /// has_prev_, velocity measured, skipped_dt_ == 0 and !time_lost_: push() may skip vet().
+  bool fast_path_ = false;
+  bool section_open_ = false, section_from_rest_ = false, split_counted_ = false;
 };
 
 }  // namespace feedid
+
+#undef FEEDID_HOT_INLINE
+#undef FEEDID_RARE

@@ -117,12 +117,18 @@ bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int ma
   constexpr T golden = T(0.6180339887498949);
   T x1 = b - golden * (b - a), x2 = a + golden * (b - a);
   T f1 = eval(x1), f2 = eval(x2);
-  for (int i = 0; i < max_iter && (b - a) > T(sizeof(T) == 4 ? 1e-4 : 1e-7); ++i) {
+  for (int i = 0; i < max_iter && (b - a) > T(2e-3); ++i) {
     if (f1 < f2) { b = x2; x2 = x1; f2 = f1; x1 = b - golden * (b - a); f1 = eval(x1); }
     else { a = x1; x1 = x2; f1 = f2; x2 = a + golden * (b - a); f2 = eval(x2); }
   }
-  log_vs = f1 < f2 ? x1 : x2;
-  best_ssr = f1 < f2 ? f1 : f2;
+  // Finish with the vertex of a parabola through the bracket: unlike the
+  // last golden comparisons (between nearly equal costs, decided by
+  // rounding), the vertex moves continuously with the data.
+  const T h = T(0.5) * (b - a), mid = T(0.5) * (a + b);
+  const T fa = eval(a), fm = eval(mid), fb = eval(b);
+  const T curv = fa - T(2) * fm + fb;
+  log_vs = curv > T(0) ? port::clamp(mid - T(0.5) * h * (fb - fa) / curv, a, b) : mid;
+  best_ssr = eval(log_vs);
   if (cost[best] < best_ssr) { log_vs = l0 + step * T(best); best_ssr = cost[best]; }
   const T margin = T(0.02) * step;
   at_bound = (log_vs - l0) < margin + step * T(0.5) && best == 0 ? true

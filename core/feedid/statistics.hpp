@@ -31,6 +31,12 @@ template <typename T, int Bands> struct BandLayout {
   static_assert(Bands >= 8, "need at least 8 bands to fit four friction parameters");
   T edge[Bands + 1] = {};    ///< edge[j] <= |v| < edge[j+1] is band j (m/s)
   T center[Bands] = {};      ///< geometric centre (m/s): expansion point of projections
+  // Fast lookup (index()): est = ((key(|v|) - fast_base) * fast_mul + fast_add) >> 40
+  // is the band or the band above it, for every |v| >= edge[0]; fast_mul == 0
+  // if init() could not guarantee that (a velocity range of a few octaves only).
+  typename port::detail::FloatBits<T>::UInt fast_base = 0;  ///< key(edge[0])
+  uint32_t fast_mul = 0;
+  uint64_t fast_add = 0;
 
   void init(T v_min, T v_max) {
     const T ratio = port::exp(port::log(v_max / v_min) / T(Bands));
@@ -38,18 +44,67 @@ template <typename T, int Bands> struct BandLayout {
     for (int j = 1; j <= Bands; ++j) edge[j] = edge[j - 1] * ratio;
     edge[Bands] = v_max;
     for (int j = 0; j < Bands; ++j) center[j] = port::sqrt(edge[j] * edge[j + 1]);
+    init_fast(T(Bands) * T(0.6931471805599453) / port::log(v_max / v_min));
   }
 
-  /// Band of a speed |v| >= edge[0]: binary search, ~log2(Bands) compares.
-  /// Speeds above the top edge go to the top band. Context: ISR-safe.
+  /// Band of a speed |v| >= edge[0]; speeds above the top edge go to the top
+  /// band: the largest j < Bands with edge[j] <= speed. Context: ISR-safe.
   int index(T speed) const {
-    int lo = 0, hi = Bands;  // invariant: edge[lo] <= speed, answer < hi
+    if (fast_mul != 0) {
+      // The bit pattern of a positive float is, to within 0.09, 2^23 log2 of
+      // it plus a constant, and it grows with the value: est is a monotone
+      // approximation of the band coordinate, which init_fast() has checked
+      // to be the band or one above at every band edge, hence everywhere.
+      // One exact comparison decides. About 10 instructions, no loop.
+      const uint64_t est = ((key(speed) - fast_base) * uint64_t(fast_mul) + fast_add) >> 40;
+      const int j = est < uint64_t(Bands - 1) ? static_cast<int>(est) : Bands - 1;
+      return speed < edge[j] ? j - 1 : j;
+    }
+    int lo = 0, hi = Bands;  // binary search; invariant: edge[lo] <= speed, answer < hi
     while (hi - lo > 1) {
       const int mid = (lo + hi) / 2;
       if (speed >= edge[mid]) lo = mid;
       else hi = mid;
     }
     return lo;
+  }
+
+ private:
+  using Bits = port::detail::FloatBits<T>;
+  /// Top bits of the representation (sign 0, exponent, 23 mantissa bits):
+  /// non-decreasing in x >= 0 and below 2^36, so products with fast_mul < 2^24 fit.
+  static uint64_t key(T x) {
+    return static_cast<uint64_t>(port::detail::to_bits(x) >> (Bits::mantissa_bits - 23));
+  }
+  using Key = typename Bits::UInt;
+
+  /// Chooses fast_mul (bands per unit of key, scaled by 2^40) and the
+  /// smallest offset fast_add with est(edge[j]) >= j for every band j, then
+  /// checks est <= j + 1 just below edge[j+1]. est and the band are both
+  /// non-decreasing in the speed, so these checks at the edges bound
+  /// band <= est <= band + 1 everywhere. Otherwise fast_mul stays 0.
+  void init_fast(T bands_per_log2) {
+    fast_base = static_cast<Key>(key(edge[0]));
+    fast_mul = 0;
+    fast_add = 0;
+    const T mul = bands_per_log2 * T(131072);  // 2^(40 - 23)
+    if (!(mul >= T(1) && mul < T(16777216))) return;
+    const uint64_t m = static_cast<uint32_t>(mul);
+    const int64_t one = int64_t(1) << 40;
+    int64_t lo = 0, hi = int64_t(1) << 62;
+    for (int j = 0; j < Bands; ++j) {
+      const int64_t at_edge = static_cast<int64_t>((key(edge[j]) - fast_base) * m);
+      if (j * one - at_edge > lo) lo = j * one - at_edge;
+      if (j + 1 < Bands) {
+        const T below = port::detail::from_bits<T>(port::detail::to_bits(edge[j + 1]) - 1);
+        const int64_t at_below = static_cast<int64_t>((key(below) - fast_base) * m);
+        if ((j + 2) * one - 1 - at_below < hi) hi = (j + 2) * one - 1 - at_below;
+      }
+      if (j > 0 && !(edge[j] > edge[j - 1])) return;  // edges must increase
+    }
+    if (lo > hi) return;
+    fast_mul = static_cast<uint32_t>(m);
+    fast_add = static_cast<uint64_t>(lo);
   }
 };
 
@@ -93,19 +148,26 @@ template <typename T, int Bands, int Candidates> struct Statistics {
   T vs_candidate[Candidates] = {};        ///< paper method's bank (m/s), fixed at init
 };
 
+/// exp_integral_moments() from the band's time > 0, squared mean speed
+/// mean2 = (speed/time)^2, variance var = max(0, speed2/time - mean2) and
+/// inv_vs2 = 1/vs^2: the same operations, for callers that evaluate many vs
+/// on one band.
+template <typename T> T exp_integral_mean_var(T time, T mean2, T var, T inv_vs2) {
+  const T x2 = mean2 * inv_vs2;
+  const T f = port::exp(-x2);
+  // f''/2 = f (2 v^2/vs^4 - 1/vs^2)
+  const T corr = T(1) + var * inv_vs2 * (T(2) * x2 - T(1));
+  return time * f * port::max(T(0), corr);
+}
+
 /// integral exp(-(v/vs)^2) dt over a band from its moments about the band
 /// mean (second-order Taylor). Exact for the linear terms; the neglected
 /// third-order term is below 1e-3 of Fs for bands of <= 30 % relative width.
 template <typename T> T exp_integral_moments(T time, T speed, T speed2, T vs) {
   if (!(time > T(0))) return T(0);
   const T mean = speed / time;
-  const T var = port::max(T(0), speed2 / time - mean * mean);
-  const T inv_vs2 = T(1) / (vs * vs);
-  const T x2 = mean * mean * inv_vs2;
-  const T f = port::exp(-x2);
-  // f''/2 = f (2 v^2/vs^4 - 1/vs^2)
-  const T corr = T(1) + var * inv_vs2 * (T(2) * x2 - T(1));
-  return time * f * port::max(T(0), corr);
+  return exp_integral_mean_var(time, mean * mean, port::max(T(0), speed2 / time - mean * mean),
+                               T(1) / (vs * vs));
 }
 
 /// The same integral for window-projected sums, expanded about a fixed band

@@ -89,8 +89,9 @@ template <typename T> struct Config {
   /// Length of the windows of the differentiation-free mass equation (s).
   T mass_window_s = T(0.02);
   /// An interval enters the friction bands only if its velocity change is at
-  /// most this fraction of its speed (quasi-steady); all intervals enter the
-  /// mass windows. Larger admits more data from fast accelerations.
+  /// most this fraction of its speed, or at most 2x velocity_resolution
+  /// (quasi-steady); all intervals enter the mass windows. Larger admits more
+  /// data from fast accelerations.
   T max_step_speed_ratio = T(0.25);
   /// Plausibility limits; a sample beyond them is rejected and counted.
   T max_acceleration_m_s2 = T(200);

@@ -56,7 +56,19 @@ template <typename T> constexpr bool is_finite(T x) {
   // NaN fails both comparisons; +-Inf fails one.
   return x - x == x - x;
 }
+/// True if a, b and c are all finite, with one test: x - x is 0 for a finite
+/// x and NaN for +-Inf or NaN, and a sum of such terms is NaN exactly when one
+/// of them is. (Testing is_finite(a + b + c) instead would not be safe: finite
+/// fields near the top of the range can add up to Inf.)
+template <typename T> constexpr bool all_finite(T a, T b, T c) {
+  const T z = (a - a) + (b - b) + (c - c);
+  return z == z;
+}
 template <typename T> constexpr T abs(T x) { return x < T(0) ? -x : x; }
+// Floating-point |x| clears the sign bit: one instruction, no branch or
+// select. (Differs from the generic form only for -0, which gives +0.)
+constexpr float abs(float x) { return __builtin_fabsf(x); }
+constexpr double abs(double x) { return __builtin_fabs(x); }
 template <typename T> constexpr T min(T a, T b) { return b < a ? b : a; }
 template <typename T> constexpr T max(T a, T b) { return a < b ? b : a; }
 template <typename T> constexpr T clamp(T x, T lo, T hi) { return x < lo ? lo : (hi < x ? hi : x); }
