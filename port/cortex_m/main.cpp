@@ -27,7 +27,7 @@
 #include "feedid/feedid.hpp"
 #include "feedid_port/spsc_queue.hpp"
 #include "semihosting.hpp"
-#include "trace_data.h"  // generated at build time by gen_trace.cpp
+#include "trace_data.h"  // generated at build time by host_sim/tools/firmware_trace_gen.cpp
 
 namespace fw = feedid::fw;
 namespace board = feedid::fw::board;

@@ -1,5 +1,5 @@
 // Layout of the trace the firmware replays from flash and of the reference
-// results it is compared with. The generator (gen_trace.cpp, host) writes
+// results it is compared with. The generator (host_sim/tools/firmware_trace_gen.cpp, host) writes
 // <build>/generated/trace_data.h in this layout; the firmware (main.cpp)
 // includes it. Freestanding: plain aggregates of float and integers.
 #pragma once
