@@ -360,19 +360,28 @@ const char* lm_status_text(Eigen::LevenbergMarquardtSpace::Status st) {
   }
 }
 
+/// The moving samples as regression rows; false (with out's status set)
+/// when either direction has too few to identify anything.
+bool rows_for(const Trace& trace, const BaselineOptions& opt, const char* method,
+              Clock::time_point t0, BaselineResult& out, RegressionRows& r) {
+  out.method = method;
+  r = regression_rows(trace, opt);
+  out.rows = r.v.size();
+  if (out.rows < 20 || r.n_pos < 5 || out.rows - r.n_pos < 5) {
+    out.status = "too few moving samples in one direction";
+    out.seconds = since(t0);
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 BaselineResult batch_lm(const Trace& trace, const BaselineOptions& opt) {
   const auto t0 = Clock::now();
   BaselineResult out;
-  out.method = "batch_lm";
-  const RegressionRows r = regression_rows(trace, opt);
-  out.rows = r.v.size();
-  if (out.rows < 20 || r.n_pos < 5 || out.rows - r.n_pos < 5) {
-    out.status = "too few moving samples in one direction";
-    out.seconds = since(t0);
-    return out;
-  }
+  RegressionRows r;
+  if (!rows_for(trace, opt, "batch_lm", t0, out, r)) return out;
   out.start = opt.lm_naive_start ? naive_start(r) : linear_start(r);
   const X x0 = to_x(out.start);
   Eigen::VectorXd x(9);
@@ -429,14 +438,8 @@ BaselineResult batch_lm(const Trace& trace, const BaselineOptions& opt) {
 BaselineResult genetic_algorithm(const Trace& trace, const BaselineOptions& opt) {
   const auto t0 = Clock::now();
   BaselineResult out;
-  out.method = "ga";
-  const RegressionRows r = regression_rows(trace, opt);
-  out.rows = r.v.size();
-  if (out.rows < 20 || r.n_pos < 5 || out.rows - r.n_pos < 5) {
-    out.status = "too few moving samples in one direction";
-    out.seconds = since(t0);
-    return out;
-  }
+  RegressionRows r;
+  if (!rows_for(trace, opt, "ga", t0, out, r)) return out;
   // Search box around the linear start (a practitioner's "order of magnitude"
   // box): m, sigma in [0.5, 2] x start; Fc, Fs in [0, 2 |Fc start| + 1 N];
   // ln vs over the core's Stribeck search range [v_min/2, v_max/4].
