@@ -22,16 +22,24 @@ const CoreLoop& loop() {
 
 template <typename T> using Axis = feedid::Estimator<T, 32, 16>;
 
+/// An initialised axis for the loop's configuration, or null (the
+/// benchmark then reports why).
+template <typename T> std::unique_ptr<Axis<T>> make_axis(const CoreLoop& l, benchmark::State& state) {
+  auto axis = std::make_unique<Axis<T>>();
+  if (axis->init(feedid::host::config_as<T>(l.config)) != feedid::Status::ok) {
+    state.SkipWithError("init failed");
+    return nullptr;
+  }
+  return axis;
+}
+
 // One push per iteration, cycling through the loop. s_per_sample is the mean
 // over the iterations; state_bytes is sizeof the estimator (all it keeps).
 template <typename T> void BM_Push(benchmark::State& state) {
   const CoreLoop& l = loop();
   const auto samples = feedid::host::core_samples<T>(l.signals, l.length);
-  auto axis = std::make_unique<Axis<T>>();
-  if (axis->init(feedid::host::config_as<T>(l.config)) != feedid::Status::ok) {
-    state.SkipWithError("init failed");
-    return;
-  }
+  auto axis = make_axis<T>(l, state);
+  if (!axis) return;
   std::size_t i = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(axis->push(samples[i]));
@@ -48,11 +56,8 @@ template <typename T> void BM_Push(benchmark::State& state) {
 template <typename T> void BM_Solve(benchmark::State& state) {
   const CoreLoop& l = loop();
   const auto samples = feedid::host::core_samples<T>(l.signals, l.length);
-  auto axis = std::make_unique<Axis<T>>();
-  if (axis->init(feedid::host::config_as<T>(l.config)) != feedid::Status::ok) {
-    state.SkipWithError("init failed");
-    return;
-  }
+  auto axis = make_axis<T>(l, state);
+  if (!axis) return;
   for (const auto& s : samples) (void)axis->push(s);
   for (auto _ : state) benchmark::DoNotOptimize(axis->solve());
   if (axis->solve() != feedid::Status::ok) state.SkipWithError("solve did not succeed");
