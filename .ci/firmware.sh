@@ -60,9 +60,10 @@ bash port/cortex_m/check_symbols.sh "${elfs[@]}" || rc=$?
 verdict "symbol check (arm-none-eabi-nm: no malloc/_sbrk/free/new/delete/__cxa_throw/__cxa_allocate_exception)" $rc
 
 # The servo ISR as compiled: straight-line code, no call, no interrupt masking.
+# grep -q reads from a here-string, not a pipe: an early exit must not SIGPIPE a writer.
 isr=$(arm-none-eabi-objdump -d "$build/feedid_m4.elf" | awk '/<SysTick_Handler>:/,/^$/')
 isr_insns=$(printf '%s\n' "$isr" | grep -E '^ +[0-9a-f]+:' | grep -cv '\.word' || true)
-if [ "$isr_insns" -gt 0 ] && ! printf '%s\n' "$isr" | grep -qE $'\t(cpsid|bl|blx)\b'; then
+if [ "$isr_insns" -gt 0 ] && ! grep -qE $'\t(cpsid|bl|blx)\b' <<<"$isr"; then
   verdict "servo ISR (SysTick_Handler): $isr_insns instructions, no call, no cpsid (never locks)" 0
 else
   printf '%s\n' "$isr"
@@ -110,8 +111,10 @@ core_flash=$(( $(section_sum "${elfs[1]}" .isr_vector .text .ARM.exidx .data) - 
 core_ram=$(( $(section_sum "${elfs[1]}" .data .bss) - $(section_sum "${elfs[2]}" .data .bss) ))
 echo "core (Estimator<float,32,16>: init, push, solve bands+paper): flash $core_flash B, static RAM $core_ram B"
 echo "largest stack frames of the core (-fstack-usage, bytes):"
+# awk reads all of sort's output and prints the first five itself: a `head`
+# here closes the pipe early and, under pipefail, sort's SIGPIPE fails CI.
 sort -t$'\t' -k2 -n -r "$build"/port/cortex_m/CMakeFiles/feedid_core_m4.dir/core_only.cpp.su 2>/dev/null |
-  head -5 | awk -F'\t' '{f = $1; sub(/^[^:]*:[0-9]+:[0-9]+:/, "", f); sub(/ \[with.*/, "", f); printf "  %6d  %s\n", $2, f}'
+  awk -F'\t' 'NR <= 5 {f = $1; sub(/^[^:]*:[0-9]+:[0-9]+:/, "", f); sub(/ \[with.*/, "", f); printf "  %6d  %s\n", $2, f}' || true
 grep -E '^sizeof|^  push|^  solve|^  hand-off|^stack' "$build/qemu-icount.log" || true
 
 finish
