@@ -66,18 +66,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-/// Force for the interval ending at sample k with the core's pairing rule
-/// (ForceAlignment): which force moved the velocity from v_{k-1} to v_k.
-double interval_force(const std::vector<double>& u, feedid::ForceAlignment al, std::size_t k) {
-  switch (al) {
-    case feedid::ForceAlignment::held_force_backward_velocity:
-      return k >= 2 ? 0.5 * (u[k - 2] + u[k - 1]) : u[k - 1];
-    case feedid::ForceAlignment::held_force_instant_velocity: return u[k - 1];
-    case feedid::ForceAlignment::trapezoid: return 0.5 * (u[k - 1] + u[k]);
-  }
-  return u[k - 1];
-}
-
 /// Signals and the core's velocity range for a trace (shared by all baselines).
 struct Prepared {
   Signals s;
@@ -114,6 +102,7 @@ RegressionRows rows_from(const Prepared& p, const BaselineOptions& opt) {
     uf = s.u;
   }
   std::vector<double> nv, na, nu;  // negative rows, appended after the positive ones
+  const feedid::ForcePairing<double> pairing = s.pairing();
   for (std::size_t k = 1; k < n; ++k) {
     const double dt = s.t[k] - s.t[k - 1];
     if (!(dt > 0.0) || dt > p.max_gap) continue;
@@ -121,7 +110,7 @@ RegressionRows rows_from(const Prepared& p, const BaselineOptions& opt) {
     const double vm = 0.5 * (v0 + v1);
     if (std::fabs(vm) < p.v_min || v0 * v1 <= 0.0) continue;
     const double a = (v1 - v0) / dt;
-    const double u = interval_force(uf, s.alignment, k);
+    const double u = paired_force(uf, pairing, k);
     if (vm > 0) { r.v.push_back(vm); r.a.push_back(a); r.u.push_back(u); }
     else { nv.push_back(vm); na.push_back(a); nu.push_back(u); }
   }
@@ -587,6 +576,7 @@ BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions
   // Candidates are compared on a-priori errors after a warm-up (the first
   // 10 % of the samples), when every filter has left its P0 transient.
   const std::size_t warmup = n / 10;
+  const feedid::ForcePairing<double> pairing = s.pairing();
   const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
   for (std::size_t k = 1; k < n; ++k) {
     const double dt = s.t[k] - s.t[k - 1];
@@ -594,7 +584,7 @@ BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions
     const double vm = 0.5 * (s.v[k - 1] + s.v[k]);
     if (std::fabs(vm) < p.v_min || s.v[k - 1] * s.v[k] <= 0.0) continue;
     const double a = (s.v[k] - s.v[k - 1]) / dt;
-    const double u = interval_force(s.u, s.alignment, k);
+    const double u = paired_force(s.u, pairing, k);
     const bool count = k >= warmup;
     for (auto& filt : f) {
       if (count) { filt.err[0] *= lambda; filt.err[1] *= lambda; }

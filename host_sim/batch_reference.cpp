@@ -146,6 +146,8 @@ std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<d
   std::vector<Interval> out;
   out.reserve(pts.size());
   std::size_t chain_begin = 0;
+  ForcePairing<double> pairing;
+  (void)pairing.init(c.force_lag_samples);
   for (std::size_t k = 0; k < pts.size(); ++k) {
     if (pts[k].position_only) continue;
     if (pts[k].chain_start) { chain_begin = k; continue; }
@@ -153,13 +155,7 @@ std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<d
     iv.end = k;
     iv.dt = pts[k].dt;
     const std::size_t in_chain = k - chain_begin;  // >= 1
-    switch (c.force_alignment) {
-      case ForceAlignment::held_force_backward_velocity:
-        iv.u = in_chain >= 2 ? 0.5 * (pts[k - 2].u + pts[k - 1].u) : pts[k - 1].u;
-        break;
-      case ForceAlignment::held_force_instant_velocity: iv.u = pts[k - 1].u; break;
-      case ForceAlignment::trapezoid: iv.u = 0.5 * (pts[k - 1].u + pts[k].u); break;
-    }
+    iv.u = pairing.interval_force([&](int age) { return pts[k - std::min<std::size_t>(age, in_chain)].u; });
     iv.v_start = pts[k - 1].v;
     iv.v_end = pts[k].v;
     iv.v = 0.5 * (iv.v_start + iv.v_end);

@@ -353,9 +353,10 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
     if (fold % 2 == 0) id_trace.samples.push_back({sig.t[k], sig.x[k], sig.v[k], sig.u[k]});
   }
   IdentifyOptions idopt = opt.identify;
-  idopt.alignment = sig.alignment == feedid::ForceAlignment::held_force_backward_velocity ? "held-backward"
-                    : sig.alignment == feedid::ForceAlignment::held_force_instant_velocity ? "held-instant"
-                                                                                           : "trapezoid";
+  // The folds are already aligned (velocity delayed if the lag was positive):
+  // what is left of the lag goes to the core as stated.
+  idopt.force_lag_s = sig.force_lag_samples / sig.sample_rate_hz;
+  idopt.velocity_lag_s = 0.0;
   out.base = identify(id_trace, idopt);
   if (!out.base.error.empty()) {
     out.error = out.base.error;

@@ -146,6 +146,9 @@ void validate(const SimConfig& c) {
   require_non_negative(s.force_process_noise_N, "sensors.force_process_noise_N", "N");
 
   if (c.plant_substeps < 1) reject("plant_substeps", "count", ">= 1", c.plant_substeps);
+  if (c.logging.velocity_average_samples < 1)
+    reject("logging.velocity_average_samples", "count", ">= 1", c.logging.velocity_average_samples);
+  require_positive(c.logging.velocity_time_constant_s, "logging.velocity_time_constant_s", "s");
 
   validate_effects(c);
 
@@ -555,6 +558,77 @@ double stribeck_friction(const DriveParams& p, double v_m_s) {
   return 0.0;
 }
 
+namespace {
+/// The drive's log of force and velocity (LoggingParams), one sample at a time.
+class Logger {
+ public:
+  Logger(const LoggingParams& p, double dt)
+      : p_(p), alpha_(1.0 - std::exp(-dt / p.velocity_time_constant_s)),
+        window_(static_cast<std::size_t>(std::max(1, p.velocity_average_samples)), 0.0) {}
+
+  double force(double u_held) {
+    const double prev = has_u_ ? u_prev_ : u_held;
+    has_u_ = true;
+    u_prev_ = u_held;
+    switch (p_.force) {
+      case ForceLog::held: return u_held;
+      case ForceLog::instant: return 0.5 * (prev + u_held);
+      case ForceLog::averaged: return prev;
+    }
+    return u_held;
+  }
+
+  double velocity(double v_backward) {
+    switch (p_.velocity) {
+      case VelocityLog::backward_difference: return v_backward;
+      case VelocityLog::moving_average: {
+        sum_ += v_backward - window_[next_];
+        window_[next_] = v_backward;
+        next_ = (next_ + 1) % window_.size();
+        return sum_ / static_cast<double>(window_.size());
+      }
+      case VelocityLog::low_pass: return lp_ += alpha_ * (v_backward - lp_);
+    }
+    return v_backward;
+  }
+
+ private:
+  LoggingParams p_;
+  double alpha_;
+  std::vector<double> window_;
+  std::size_t next_ = 0;
+  double sum_ = 0.0, lp_ = 0.0, u_prev_ = 0.0;
+  bool has_u_ = false;
+};
+}  // namespace
+
+const char* force_log_name(ForceLog f) {
+  switch (f) {
+    case ForceLog::held: return "held";
+    case ForceLog::instant: return "instant";
+    case ForceLog::averaged: return "averaged";
+  }
+  return "?";
+}
+const char* velocity_log_name(VelocityLog v) {
+  switch (v) {
+    case VelocityLog::backward_difference: return "backward";
+    case VelocityLog::moving_average: return "average";
+    case VelocityLog::low_pass: return "lowpass";
+  }
+  return "?";
+}
+ForceLog parse_force_log(const std::string& s) {
+  for (ForceLog f : {ForceLog::held, ForceLog::instant, ForceLog::averaged})
+    if (s == force_log_name(f)) return f;
+  throw std::invalid_argument("--force-log must be held, instant or averaged, not '" + s + "'");
+}
+VelocityLog parse_velocity_log(const std::string& s) {
+  for (VelocityLog v : {VelocityLog::backward_difference, VelocityLog::moving_average, VelocityLog::low_pass})
+    if (s == velocity_log_name(v)) return v;
+  throw std::invalid_argument("--velocity-log must be backward, average or lowpass, not '" + s + "'");
+}
+
 Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress) {
   validate(cfg);
 
@@ -595,6 +669,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   const double wander_b = fx.wander_force_N * std::sqrt(std::max(0.0, 1.0 - wander_a * wander_a));
   double wander = fx.wander_force_N > 0.0 ? fx.wander_force_N * wander_normal(wander_rng) : 0.0;
 
+  Logger logger(cfg.logging, dt);
   Trace trace;
   trace.source = "simulator";
   trace.has_position = true;
@@ -649,7 +724,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
                                           : u_applied[i0];
       }
     }
-    trace.samples.push_back(TraceSample{t, x_meas, v_meas, u_rec + w_meas});
+    trace.samples.push_back(TraceSample{t, x_meas, logger.velocity(v_meas), logger.force(u_rec) + w_meas});
 
     // Plant over [t_k, t_k + dt) with u held.
     if (k + 1 < n_samples) {

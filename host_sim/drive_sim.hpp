@@ -158,6 +158,32 @@ struct Effects {
   double wander_time_constant_s = 2.0;  ///< correlation time (s), > 0
 };
 
+/// How the drive writes its log (NOTES.md, "Logging conventions"). The plant
+/// and the controller do not change; only the recorded force and velocity do.
+/// The controller itself always uses the backward difference of position.
+enum class ForceLog {
+  held,      ///< u_k: the command held over [t_k, t_k+1] (a setpoint log)
+  instant,   ///< the force at t_k itself: (u_{k-1} + u_k)/2 for a held command
+  averaged,  ///< the mean over [t_{k-1}, t_k]: u_{k-1} (a filtered current)
+};
+enum class VelocityLog {
+  backward_difference,  ///< (x_k - x_{k-1})/dt: half a period late
+  moving_average,       ///< mean of the last `velocity_average_samples` backward differences
+  low_pass,             ///< first-order low-pass (time constant below) of the backward difference
+};
+struct LoggingParams {
+  ForceLog force = ForceLog::held;
+  VelocityLog velocity = VelocityLog::backward_difference;
+  int velocity_average_samples = 4;           ///< k of the moving average (>= 1)
+  double velocity_time_constant_s = 1.0e-3;   ///< tau of the low-pass (s, > 0)
+};
+const char* force_log_name(ForceLog f);
+const char* velocity_log_name(VelocityLog v);
+/// Parses the names above ("held", "instant", "averaged"; "backward",
+/// "average", "lowpass"); throws std::invalid_argument naming the option.
+ForceLog parse_force_log(const std::string& s);
+VelocityLog parse_velocity_log(const std::string& s);
+
 /// Catalogue names (diagnose's effect_kinds()) of the effects switched on, in
 /// catalogue order, followed by "disturbance" / "wander" for the two outside
 /// the catalogue. Empty when none is on.
@@ -172,6 +198,7 @@ struct SimConfig {
   int plant_substeps = 20;  ///< integration steps per servo period
   ExtraForce extra_force{}; ///< optional, see above
   Effects effects{};        ///< sim-to-real effects, all off by default
+  LoggingParams logging{};  ///< how force and velocity are recorded
 };
 
 /// Simulate and return the recorded trace (t, x, v, u) at the servo rate.

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
+#include "alignment.hpp"
 #include "filters.hpp"
 
 namespace feedid::host {
@@ -46,54 +49,69 @@ double position_quantum(const std::vector<double>& x) {
   return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
 }
 
-feedid::ForceAlignment parse_alignment(const std::string& s, bool measured_velocity) {
-  if (s == "auto")
-    return measured_velocity ? feedid::ForceAlignment::held_force_backward_velocity
-                             : feedid::ForceAlignment::held_force_instant_velocity;
-  if (s == "held-backward") return feedid::ForceAlignment::held_force_backward_velocity;
-  if (s == "held-instant") return feedid::ForceAlignment::held_force_instant_velocity;
-  if (s == "trapezoid") return feedid::ForceAlignment::trapezoid;
-  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + s + "'");
+/// The lag a named --alignment states (sample periods); NaN for "auto".
+double named_lag(const std::string& name) {
+  if (name == "auto") return std::numeric_limits<double>::quiet_NaN();
+  if (name == "held-backward") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_backward_velocity);
+  if (name == "held-instant") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
+  if (name == "trapezoid") return feedid::force_lag_of<double>(feedid::ForceAlignment::trapezoid);
+  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'");
 }
 
-const char* alignment_name(feedid::ForceAlignment a) {
-  switch (a) {
-    case feedid::ForceAlignment::held_force_backward_velocity: return "held-backward";
-    case feedid::ForceAlignment::held_force_instant_velocity: return "held-instant";
-    case feedid::ForceAlignment::trapezoid: return "trapezoid";
+/// A logged velocity that lags position by more than this (periods) went
+/// through a filter beyond the position difference (0.5).
+constexpr double kFilteredVelocityLag = 0.75;
+
+/// Replaces a filtered velocity column by the backward difference of
+/// position, when there is one: the difference carries no filter rounding
+/// near reversals. Returns the velocity's lag behind the motion (periods).
+double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  if (!measured) return 0.0;  // zero-phase derivative of position
+  const double lag = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : estimate_velocity_lag(s);
+  if (!std::isfinite(lag)) return lag;  // no position: the velocity's own lag is unknown
+  s.velocity_lag_s = lag * dt;
+  if (!(lag > kFilteredVelocityLag) || !s.has_position) return lag;
+  for (std::size_t k = s.v.size(); k-- > 1;) {
+    const double h = s.t[k] - s.t[k - 1];
+    s.v[k] = h > 0 ? (s.x[k] - s.x[k - 1]) / h : 0.0;
   }
-  return "?";
+  if (s.v.size() > 1) s.v[0] = s.v[1];
+  std::ostringstream o;
+  o << "measured column lags position by " << std::setprecision(2) << lag
+    << " periods (a drive filter): replaced by position differences";
+  s.velocity_origin = o.str();
+  return 0.5;
 }
 
-/// RMS over blocks of the mean force residual (1/tau) [integral u - m dv - integral F],
-/// blocks of moving samples only (no derivative: differentiation noise would
-/// otherwise dominate the figure).
-double block_residual_rms(const Signals& s, const DriveParams& p, double v_min, double block_s) {
-  double sum2 = 0.0;
-  std::size_t blocks = 0;
-  double tau = 0.0, acc = 0.0, v_start = 0.0;
-  int dir = 0;
-  auto flush = [&](double v_end) {
-    if (tau >= 0.5 * block_s) {
-      const double r = (acc - p.mass_kg * (v_end - v_start)) / tau;
-      sum2 += r * r;
-      ++blocks;
+/// Finds (or takes from the options) the force lag and applies it.
+void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  double lag = named_lag(opt.alignment), se = 0.0;
+  s.force_lag_origin = "convention";
+  if (std::isfinite(opt.force_lag_s)) {
+    lag = opt.force_lag_s / dt;
+    s.force_lag_origin = "option";
+  } else if (!std::isfinite(lag)) {
+    const LagEstimate e = estimate_force_lag(s, auto_config(s, opt));
+    if (e.ok) {
+      lag = e.lag_samples;
+      se = e.se_samples;
+      s.force_lag_origin = "estimated";
+    } else {
+      lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.5);  // a held command, the commonest log
+      s.force_lag_origin = "assumed held force (too little motion to estimate the lag)";
     }
-    tau = acc = 0.0;
-    dir = 0;
-  };
-  for (std::size_t k = 1; k < s.t.size(); ++k) {
-    const double dt = s.t[k] - s.t[k - 1];
-    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
-    const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
-    if (d == 0 || (dir != 0 && d != dir)) { flush(s.v[k - 1]); if (d == 0) continue; }
-    if (dir == 0) { dir = d; v_start = s.v[k - 1]; }
-    acc += (interval_force(s, k) - stribeck_friction(p, vm)) * dt;
-    tau += dt;
-    if (tau >= block_s) flush(s.v[k]);
   }
-  return blocks > 0 ? std::sqrt(sum2 / static_cast<double>(blocks)) : 0.0;
+  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
+    throw std::invalid_argument("force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]");
+  apply_force_lag(s, lag);
+  s.force_lag_s = lag * dt;
+  s.force_lag_se_s = se * dt;
+  s.force_convention = std::isfinite(velocity_lag) ? nearest_force_convention(lag, velocity_lag)
+                                                   : "unknown (no position column to time the velocity by)";
 }
+
 
 nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
   const bool fr = d.friction_identified();
@@ -110,15 +128,43 @@ nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
 
 }  // namespace
 
-double interval_force(const Signals& s, std::size_t k) {
-  switch (s.alignment) {
-    case feedid::ForceAlignment::held_force_backward_velocity:
-      return k >= 2 ? 0.5 * (s.u[k - 2] + s.u[k - 1]) : s.u[k - 1];
-    case feedid::ForceAlignment::held_force_instant_velocity: return s.u[k - 1];
-    case feedid::ForceAlignment::trapezoid: return 0.5 * (s.u[k - 1] + s.u[k]);
-  }
-  return s.u[k - 1];
+double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
+                    std::size_t first) {
+  return p.interval_force([&](int age) {
+    const std::size_t back = std::min<std::size_t>(static_cast<std::size_t>(age), k - first);
+    return u[k - back];
+  });
 }
+
+double interval_force(const Signals& s, std::size_t k) { return paired_force(s.u, s.pairing(), k); }
+
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockResidual out;
+  const feedid::ForcePairing<double> pairing = s.pairing();
+  double tau = 0.0, acc = 0.0, v_start = 0.0;
+  int dir = 0;
+  auto flush = [&](double v_end) {
+    if (tau >= 0.5 * block_s) {
+      const double r = (acc - p.mass_kg * (v_end - v_start)) / tau;
+      out.sum_squares += r * r;
+      ++out.blocks;
+    }
+    tau = acc = 0.0;
+    dir = 0;
+  };
+  for (std::size_t k = 1; k < s.t.size(); ++k) {
+    const double dt = s.t[k] - s.t[k - 1];
+    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
+    const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
+    if (d == 0 || (dir != 0 && d != dir)) { flush(s.v[k - 1]); if (d == 0) continue; }
+    if (dir == 0) { dir = d; v_start = s.v[k - 1]; }
+    acc += (paired_force(s.u, pairing, k) - stribeck_friction(p, vm)) * dt;
+    tau += dt;
+    if (tau >= block_s) flush(s.v[k]);
+  }
+  return out;
+}
+
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals s;
@@ -132,6 +178,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   }
   const double dt = median_step(s.t);
   s.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
+  s.has_position = trace.has_position;
   s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
   if (trace.has_velocity) {
     s.velocity_origin = "measured";
@@ -143,7 +190,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     o << "derived: zero-phase 4th-order Butterworth " << fc << " Hz on position, central differences";
     s.velocity_origin = o.str();
   }
-  s.alignment = parse_alignment(opt.alignment, trace.has_velocity);
+  align_force(s, opt, settle_velocity(s, opt, trace.has_velocity));
   return s;
 }
 
@@ -180,7 +227,7 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   c.max_gap_s = std::max(10.0 * dt, 1e-3);
   c.mass_window_s = std::max(0.02, 20.0 * dt);
   c.min_section_s = std::max(0.02, 10.0 * dt);
-  c.force_alignment = s.alignment;
+  c.force_lag_samples = s.force_lag_samples;
   return c;
 }
 
@@ -231,28 +278,19 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   const Signals& s = r.signals;
   r.duration_s = s.t.back() - s.t.front();
   r.config = auto_config(s, opt);
-  auto core = std::make_unique<Core>();
-  if (core->init(r.config) != feedid::Status::ok) {
-    r.status = feedid::Status::invalid_config;
-    r.error = std::string("invalid configuration: ") + core->config_error();
+  CoreRun run = run_core(s, r.config, opt);
+  if (run.status == feedid::Status::invalid_config) {
+    r.status = run.status;
+    r.error = std::string("invalid configuration: ") + run.core->config_error();
     return r;
   }
-  const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
-  for (std::size_t k = 0; k < n; ++k) {
-    feedid::Sample<double> smp;
-    smp.dt_s = k == 0 ? 0.0 : s.t[k] - s.t[k - 1];
-    smp.position_m = s.x[k];
-    smp.velocity_m_s = s.v[k];
-    smp.force_N = s.u[k];
-    const feedid::Status st = core->push(smp);
-    if (st != feedid::Status::ok && r.first_rejections.size() < 10) r.first_rejections.push_back({k, st});
-    if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
-  }
-  r.status = core->solve(opt.method);
-  r.estimate = core->estimate();
-  r.diagnostics = core->diagnostics();
+  r.status = run.status;
+  r.estimate = run.estimate;
+  r.diagnostics = run.diagnostics;
+  r.first_rejections = run.first_rejections;
   if (opt.progress) opt.progress(1.0);
 
+  const Core* core = run.core.get();
   const auto& st = core->statistics();
   for (int d = 0; d < 2; ++d) {
     for (int j = 0; j < Core::bands; ++j) {
@@ -272,9 +310,34 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.error = o.str();
     return r;
   }
-  r.residual_rms_N = block_residual_rms(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+  r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
   return r;
 }
+
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt) {
+  CoreRun run;
+  run.core = std::make_unique<Core>();
+  Core& core = *run.core;
+  run.status = core.init(cfg);
+  if (run.status != feedid::Status::ok) return run;
+  const std::size_t n = s.t.size();
+  const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  for (std::size_t k = 0; k < n; ++k) {
+    feedid::Sample<double> smp;
+    smp.dt_s = k == 0 ? 0.0 : s.t[k] - s.t[k - 1];
+    smp.position_m = s.x[k];
+    smp.velocity_m_s = s.v[k];
+    smp.force_N = s.u[k];
+    const feedid::Status st = core.push(smp);
+    if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
+    if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
+  }
+  run.status = core.solve(opt.method);
+  run.estimate = core.estimate();
+  run.diagnostics = core.diagnostics();
+  return run;
+}
+
 
 nlohmann::json model_json(const DriveParams& p) {
   auto dir = [](const DirectionFriction& d) {
@@ -332,7 +395,11 @@ nlohmann::json to_json(const IdentifyResult& r) {
                  {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks}};
   const auto& c = r.config;
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
-                {"velocity", r.signals.velocity_origin}, {"force_alignment", alignment_name(r.signals.alignment)},
+                {"velocity", r.signals.velocity_origin},
+                {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
+                {"force_lag_origin", r.signals.force_lag_origin}, {"force_convention", r.signals.force_convention},
+                {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
+                {"velocity_delay_samples", r.signals.velocity_delay_samples},
                 {"position_quantum_m", r.signals.position_quantum_m}};
   j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
                  {"velocity_resolution_m_s", c.velocity_resolution_m_s},

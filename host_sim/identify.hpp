@@ -2,7 +2,9 @@
 // it is missing), choose the core's configuration from the data, stream the
 // samples through the double-precision core, solve, and report. Host only.
 #pragma once
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,9 +24,15 @@ struct IdentifyOptions {
   /// Cut-off (Hz) of the zero-phase Butterworth applied to position before
   /// central differences, when the trace has no velocity column.
   double velocity_filter_hz = 100.0;
-  /// Force/velocity pairing; "auto": held_force_backward_velocity for a
-  /// measured velocity column, held_force_instant_velocity for a derived one.
+  /// Force/velocity pairing: "auto" estimates the lag from the data
+  /// (alignment.hpp); a named convention (held-backward, held-instant,
+  /// trapezoid) or force_lag_s states it.
   std::string alignment = "auto";
+  /// How far the logged force lags the logged velocity (s); NaN: from `alignment`.
+  double force_lag_s = std::numeric_limits<double>::quiet_NaN();
+  /// How far the logged velocity lags the motion (s), e.g. a drive's filter;
+  /// NaN: estimated against position when there is a position column.
+  double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();
   /// Overrides of the automatic choices (0 = from the data).
   double velocity_min_m_s = 0.0;
   double velocity_max_m_s = 0.0;
@@ -36,7 +44,21 @@ struct IdentifyOptions {
 struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
-  feedid::ForceAlignment alignment{};
+  /// Lag of the force behind the velocity as the core pairs them (sample
+  /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
+  double force_lag_samples = -1.0;
+  int velocity_delay_samples = 0;     ///< whole samples v and x were delayed by (a positive lag)
+  double force_lag_s = 0.0;           ///< force lag behind the logged velocity (s)
+  double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
+  std::string force_lag_origin;       ///< "estimated", "option" or "convention"
+  std::string force_convention;       ///< nearest named convention of the force log
+  double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
+  feedid::ForcePairing<double> pairing() const {
+    feedid::ForcePairing<double> p;
+    (void)p.init(force_lag_samples);
+    return p;
+  }
+  bool has_position = false;          ///< x is a logged position (not zeros)
   double sample_rate_hz = 0.0;        ///< from the median time step
   double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
 };
@@ -91,18 +113,43 @@ template <typename To, typename From> feedid::Config<To> config_as(const feedid:
   o.stribeck_max_m_s = To(c.stribeck_max_m_s);
   o.max_vs_iterations = c.max_vs_iterations;
   o.velocity_source = c.velocity_source;
-  o.force_alignment = c.force_alignment;
+  o.force_lag_samples = To(c.force_lag_samples);
   return o;
 }
 
-/// Force for the interval ending at sample k, with the core's pairing rule
-/// (Config::force_alignment); k >= 1.
+/// Force for the interval ending at sample k of a force column, by the
+/// core's pairing rule (force_pairing.hpp); taps before `first` (the start
+/// of the chain) take u[first]. k > first.
+double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
+                    std::size_t first = 0);
+/// The same for a trace's signals, with their lag.
 double interval_force(const Signals& s, std::size_t k);
 
 /// The core configuration the data calls for (docs/reference.md explains each choice).
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt);
 
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
+
+/// What one pass of the core over prepared signals gives.
+struct CoreRun {
+  feedid::Status status = feedid::Status::not_initialized;
+  feedid::Estimate<double> estimate{};
+  feedid::Diagnostics diagnostics{};
+  std::vector<Rejection> first_rejections;  ///< at most 10
+  std::unique_ptr<Core> core;               ///< the solved core (statistics for plots)
+};
+/// Streams the signals through a new core with `cfg` (its force lag as given) and solves.
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt);
+
+/// Mean force residual (1/tau) [integral (u - F) dt - m dv] over blocks of
+/// moving samples of about block_s (no derivative: differentiation noise
+/// would otherwise dominate).
+struct BlockResidual {
+  double sum_squares = 0.0;  ///< N^2
+  std::size_t blocks = 0;
+  double rms() const { return blocks > 0 ? std::sqrt(sum_squares / static_cast<double>(blocks)) : 0.0; }
+};
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s);
 
 /// The identified model as simulator parameters (same equations, one place).
 DriveParams to_drive_params(const feedid::Estimate<double>& e);

@@ -44,6 +44,15 @@ void add_sim_options(CLI::App* c, SimConfig& s) {
   c->add_option("--process-noise", s.sensors.force_process_noise_N, "std of disturbance force on the plant (N)")->capture_default_str();
   c->add_option("--velocity-bandwidth", s.controller.velocity_bandwidth_hz, "velocity loop bandwidth (Hz)")->capture_default_str();
   c->add_option("--seed", s.seed, "random seed")->capture_default_str();
+  LoggingParams& lg = s.logging;
+  c->add_option_function<std::string>("--force-log", [&lg](const std::string& v) { lg.force = parse_force_log(v); },
+                                      "force logged as held (command over the next period, default), instant (at the tick) or averaged (over the last period)")
+      ->check(CLI::IsMember({"held", "instant", "averaged"}));
+  c->add_option_function<std::string>("--velocity-log", [&lg](const std::string& v) { lg.velocity = parse_velocity_log(v); },
+                                      "velocity logged as backward (position difference, default), average (moving average) or lowpass (first order)")
+      ->check(CLI::IsMember({"backward", "average", "lowpass"}));
+  c->add_option("--velocity-log-samples", lg.velocity_average_samples, "samples of the logged moving average")->capture_default_str();
+  c->add_option("--velocity-log-tau", lg.velocity_time_constant_s, "time constant of the logged low-pass (s)")->capture_default_str();
 }
 
 void add_identify_options(CLI::App* c, CsvColumns& cols, IdentifyOptions& o, std::string& method) {

@@ -256,7 +256,7 @@ TEST(DegeneratePlant, MotionOnlyInPositiveDirection) {
   const double rate = 1000.0;
   const host::Trace tr = positive_only_trace(d, rate, 60.0, 0.5, 7);
   Config<double> cfg = test::default_config<double>(1e-8, rate);
-  cfg.force_alignment = ForceAlignment::trapezoid;
+  cfg.force_lag_samples = force_lag_of<double>(ForceAlignment::trapezoid);
   // WHEN streamed and solved
   const Streamed r = run_stream(tr, cfg);
   ASSERT_EQ(r.status, Status::ok);

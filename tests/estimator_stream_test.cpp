@@ -469,8 +469,12 @@ const BadConfig kBadConfigs[] = {
     {"vs_iterations_too_many", "max_vs_iterations", [](Config<double>& c) { c.max_vs_iterations = 201; }},
     {"velocity_source_unknown", "velocity_source",
      [](Config<double>& c) { c.velocity_source = static_cast<VelocitySource>(7); }},
-    {"force_alignment_unknown", "force_alignment",
-     [](Config<double>& c) { c.force_alignment = static_cast<ForceAlignment>(3); }},
+    {"force_lag_positive", "force_lag_samples",
+     [](Config<double>& c) { c.force_lag_samples = 0.5; }},
+    {"force_lag_beyond_history", "force_lag_samples",
+     [](Config<double>& c) { c.force_lag_samples = -5.5; }},
+    {"force_lag_nan", "force_lag_samples",
+     [](Config<double>& c) { c.force_lag_samples = std::numeric_limits<double>::quiet_NaN(); }},
 };
 
 void PrintTo(const BadConfig& b, std::ostream* os) { *os << b.name; }

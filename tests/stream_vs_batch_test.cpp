@@ -319,11 +319,11 @@ TEST(StreamVsBatch, ShortFoldsTrapezoidAndInstantPairing) {
   cfg.max_fold_s = 0.3;
   cfg.rest_samples = 5;
   cfg.min_section_s = 0.1;
-  cfg.force_alignment = feedid::ForceAlignment::trapezoid;
+  cfg.force_lag_samples = feedid::force_lag_of<double>(feedid::ForceAlignment::trapezoid);
   const StreamResult st = check_case(samples, cfg);
   EXPECT_GT(st.diag.sections_split, 5u);
 
-  cfg.force_alignment = feedid::ForceAlignment::held_force_instant_velocity;
+  cfg.force_lag_samples = feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
   cfg.max_fold_s = 1.0;
   cfg.mass_window_s = 0.05;
   check_case(samples, cfg);
@@ -338,11 +338,20 @@ TEST(StreamVsBatch, DirectReversals) {
   EXPECT_GT(st.diag.sections_complete[0] + st.diag.sections_complete[1], 10u);
 }
 
+// A filtered velocity makes the force lead it by a fractional number of
+// periods: the three-tap pairing reaches four samples back.
+TEST(StreamVsBatch, FractionalForceLead) {
+  const auto samples = to_samples(simulated(2000.0, 1e-8, 30.0, 3, 0.1));
+  Config<double> cfg = config_for(1e-8, 2000.0);
+  cfg.force_lag_samples = -2.3;
+  check_case(samples, cfg);
+}
+
 TEST(StreamVsBatch, VelocityFromPositionWithRejections) {
   const auto samples = faulty_1khz();
   Config<double> cfg = config_for(1e-7, 1000.0);
   cfg.velocity_source = feedid::VelocitySource::from_position;
-  cfg.force_alignment = feedid::ForceAlignment::held_force_instant_velocity;
+  cfg.force_lag_samples = feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
   check_case(samples, cfg);
 }
 

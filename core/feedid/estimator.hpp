@@ -37,11 +37,12 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (config_error_) return Status::invalid_config;
     cfg_ = cfg;
     if (!(cfg_.section_enter_m_s > T(0))) cfg_.section_enter_m_s = T(2) * cfg_.velocity_min_m_s;
-    // A velocity step of a couple of quanta is noise, not acceleration: at
-    // low speed it must not decide which intervals count as quasi-steady
-    // (that selection would correlate with the noise and bias Fs).
-    steady_noise_allowance_ = T(2) * cfg_.velocity_resolution_m_s;
+    // A velocity step of a few quanta is noise, not acceleration: it never
+    // makes a velocity jump, and (half of it) at low speed it must not decide
+    // which intervals count as quasi-steady (that selection would correlate
+    // with the noise and bias Fs).
     jump_noise_allowance_ = T(4) * cfg_.velocity_resolution_m_s;
+    (void)pairing_.init(cfg_.force_lag_samples);  // range checked by check()
     layout_.init(cfg_.velocity_min_m_s, cfg_.velocity_max_m_s);
     const T lo = detail::stribeck_lo(cfg_), hi = detail::stribeck_hi(cfg_);
     for (int i = 0; i < Candidates; ++i)
@@ -154,8 +155,10 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     cfg_ = Config<T>{};
     config_error_ = nullptr;
     initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = fast_path_ = false;
-    x_prev_ = v_prev_ = u_prev_ = u_prev2_ = skipped_dt_ = steady_noise_allowance_ = jump_noise_allowance_ = T(0);
-    u_history_ = 0;
+    x_prev_ = v_prev_ = skipped_dt_ = jump_noise_allowance_ = T(0);
+    zero(u_ring_);
+    u_head_ = u_history_ = 0;
+    pairing_ = ForcePairing<T>{};
     section_open_ = section_from_rest_ = split_counted_ = false;
     section_sign_ = T(1);
     below_count_ = 0;
@@ -188,7 +191,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (c.max_vs_iterations < 1 || c.max_vs_iterations > 200) return "max_vs_iterations must be 1..200";
     if (c.velocity_source != VelocitySource::measured && c.velocity_source != VelocitySource::from_position)
       return "velocity_source is not a known value";
-    if (static_cast<int>(c.force_alignment) > 2) return "force_alignment is not a known value";
+    if (!ForcePairing<T>{}.init(c.force_lag_samples)) return "force_lag_samples must be in [-5, 0]";
     return nullptr;
   }
 
@@ -231,12 +234,11 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   /// previous one, then the section state.
   FEEDID_HOT_INLINE void step(T dt, T v, T u) {
     open_section_if_moving(v);
-    const bool u_full = u_history_ >= 2;  // u_prev2_ is known
-    accumulate_interval(dt, interval_force(u, u_full), T(0.5) * (v_prev_ + v), v - v_prev_, v);
-    accumulate_noise(u, u_full);
+    remember_force(u);
+    accumulate_interval(dt, paired_force(), T(0.5) * (v_prev_ + v), v - v_prev_, v);
+    accumulate_noise();
     close_section_if_resting(v);
     v_prev_ = v;
-    u_prev_ = u;
   }
 
   T velocity_of(const Sample<T>& s) const {
@@ -288,8 +290,8 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     has_prev_ = has_x_prev_ = true;
     x_prev_ = s.position_m;
     v_prev_ = v;
-    u_prev_ = s.force_N;
-    u_history_ = 1;
+    u_history_ = 0;
+    remember_force(s.force_N);
     section_open_ = false;
     below_count_ = 0;
     // A section opened before the axis was seen at rest did not start at rest.
@@ -386,7 +388,8 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     // large part of its speed in a single step carries a large inertia
     // force, and any force/velocity timing error of the log leaks from it
     // into the narrow low-speed bands.
-    if (port::abs(dv) <= port::max(cfg_.max_step_speed_ratio * speed, steady_noise_allowance_)) {
+    // (A step of two velocity quanta, half the jump allowance, is always quasi-steady.)
+    if (port::abs(dv) <= port::max(cfg_.max_step_speed_ratio * speed, T(0.5) * jump_noise_allowance_)) {
       p.time[d][j] += dt;
       p.speed[d][j] += sdt;
       p.speed2[d][j] += s2dt;
@@ -421,26 +424,35 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (w.tau >= cfg_.mass_window_s) close_active_window(v_now);
   }
 
-  FEEDID_HOT_INLINE T interval_force(T u_now, bool u_full) const {
-    switch (cfg_.force_alignment) {
-      case ForceAlignment::held_force_backward_velocity:
-        return u_full ? T(0.5) * (u_prev2_ + u_prev_) : u_prev_;
-      case ForceAlignment::held_force_instant_velocity: return u_prev_;
-      default: return T(0.5) * (u_prev_ + u_now);
-    }
+  // --- force history: the pairing rule (force_pairing.hpp) ------------------
+  FEEDID_HOT_INLINE void remember_force(T u) {
+    u_head_ = static_cast<uint8_t>((u_head_ + 1) & (ForcePairing<T>::history - 1));
+    u_ring_[u_head_] = u;
+    if (u_history_ < ForcePairing<T>::history) ++u_history_;
+  }
+  /// Logged force `age` samples back (0: the newest).
+  FEEDID_HOT_INLINE T force_at(int age) const {
+    return u_ring_[(u_head_ - age) & (ForcePairing<T>::history - 1)];
+  }
+  FEEDID_HOT_INLINE T paired_force() const {
+    if (u_history_ > pairing_.oldest_age())
+      return pairing_.interval_force([this](int age) { return force_at(age); });
+    return paired_force_chain_start();
+  }
+  /// The first samples of a chain: taps older than its start take its first force.
+  FEEDID_RARE T paired_force_chain_start() const {
+    const int oldest = u_history_ - 1;
+    return pairing_.interval_force([this, oldest](int age) { return force_at(age < oldest ? age : oldest); });
   }
 
-  FEEDID_HOT_INLINE void accumulate_noise(T u, bool u_full) {
+  FEEDID_HOT_INLINE void accumulate_noise() {
     // Second difference of the force: a smooth force cancels, white noise of
     // variance s^2 leaves 6 s^2. Gives the noise floor without a model.
-    if (u_full) {
-      const T d2 = u - T(2) * u_prev_ + u_prev2_;
+    if (u_history_ >= 3) {
+      const T d2 = force_at(0) - T(2) * force_at(1) + force_at(2);
       noise_d2_ += d2 * d2;
       ++noise_count_;
-    } else {
-      ++u_history_;
     }
-    u_prev2_ = u_prev_;
   }
 
   /// Ends the mass window, if one is open; v_last is the velocity at its end
@@ -577,9 +589,10 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   Diagnostics diag_{};
   const char* config_error_ = nullptr;
   // Previous accepted sample.
-  T x_prev_ = T(0), v_prev_ = T(0), u_prev_ = T(0), u_prev2_ = T(0);
+  T x_prev_ = T(0), v_prev_ = T(0);
+  T u_ring_[ForcePairing<T>::history] = {};  ///< logged forces of this chain, newest at u_head_ (N)
+  ForcePairing<T> pairing_{};
   T skipped_dt_ = T(0);  ///< time of rejected samples since the last good one (s)
-  T steady_noise_allowance_ = T(0);  ///< velocity step always counted as quasi-steady (m/s)
   T jump_noise_allowance_ = T(0);    ///< 4 x velocity_resolution: part of the velocity-jump limit (m/s)
   // Section state.
   T section_sign_ = T(1);  ///< +1 / -1: the open section's direction is 0 / 1
@@ -588,7 +601,8 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   T noise_d2_ = T(0), stats_interval_time_ = T(0);
   uint64_t noise_count_ = 0, stats_interval_count_ = 0;
   uint16_t below_count_ = 0;
-  uint8_t u_history_ = 0;  ///< forces seen in this chain, up to 2
+  uint8_t u_head_ = 0;
+  uint8_t u_history_ = 0;  ///< forces of this chain in u_ring_, up to its size
   bool initialized_ = false;
   bool has_prev_ = false;    ///< previous sample with a velocity
   bool has_x_prev_ = false;  ///< previous position known (from_position)

@@ -7,6 +7,8 @@
 
 #include <stdint.h>
 
+#include "feedid/force_pairing.hpp"
+
 namespace feedid {
 
 /// Every call returns one of these. docs/reference.md lists the remedies.
@@ -53,20 +55,6 @@ enum class VelocitySource : uint8_t {
   from_position = 1,  ///< backward difference of Sample::position_m
 };
 
-/// Which force goes with the velocity change v_k - v_{k-1} of an interval.
-/// The inertia identity m*dv = integral (u - F) dt holds only if force and
-/// velocity describe the same stretch of time; drives differ in what they log.
-enum class ForceAlignment : uint8_t {
-  /// u_k is held from t_k to t_{k+1} and v_k = (x_k - x_{k-1})/dt (the usual
-  /// drive log): the interval's force is (u_{k-2} + u_{k-1})/2.
-  held_force_backward_velocity = 0,
-  /// u_k held from t_k, v_k the velocity at t_k (e.g. a zero-phase filter):
-  /// the interval's force is u_{k-1}.
-  held_force_instant_velocity = 1,
-  /// Both are instantaneous samples at t_k: trapezoid (u_{k-1} + u_k)/2.
-  trapezoid = 2,
-};
-
 template <typename T> struct Config {
   /// Lowest band edge (m/s). Below it the axis counts as at rest: stiction is
   /// not described by F(v), so those samples never enter the friction sums.
@@ -106,7 +94,12 @@ template <typename T> struct Config {
   /// Bound on the golden-section steps per direction and outer iteration.
   uint16_t max_vs_iterations = 40;
   VelocitySource velocity_source = VelocitySource::measured;
-  ForceAlignment force_alignment = ForceAlignment::held_force_backward_velocity;
+  /// How many sample periods the logged force lags the logged velocity, in
+  /// [-5, 0] (force_pairing.hpp; negative: it leads). -1 is a held command
+  /// against a backward-difference velocity; each period of a velocity
+  /// filter's delay subtracts one. Measure it once with the host tool
+  /// (`feedid identify` reports input.force_lag_s) and set it here.
+  T force_lag_samples = force_lag_of<T>(ForceAlignment::held_force_backward_velocity);
 };
 
 /// One sample as the servo loop has it. Time enters as the step since the

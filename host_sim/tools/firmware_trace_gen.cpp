@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
   std::fprintf(f, "  c.stribeck_max_m_s = %s;\n", hex(cf.stribeck_max_m_s).c_str());
   std::fprintf(f, "  c.max_vs_iterations = %u;\n", unsigned(cf.max_vs_iterations));
   std::fprintf(f, "  c.velocity_source = static_cast<feedid::VelocitySource>(%d);\n", int(cf.velocity_source));
-  std::fprintf(f, "  c.force_alignment = static_cast<feedid::ForceAlignment>(%d);\n", int(cf.force_alignment));
+  std::fprintf(f, "  c.force_lag_samples = %.9gf;\n", cf.force_lag_samples);
   std::fprintf(f, "  return c;\n}\n\n");
   std::fprintf(f, "/// Host Estimator<double, 32, 16> on these samples,\n"
                  "/// solved right after sample solve_request_after ...\n");
