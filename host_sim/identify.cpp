@@ -9,6 +9,7 @@
 
 #include "alignment.hpp"
 #include "filters.hpp"
+#include "uncertainty.hpp"
 
 namespace feedid::host {
 namespace {
@@ -311,20 +312,57 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     return r;
   }
   r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
+  if (opt.honest_standard_errors && r.status == feedid::Status::ok) {
+    const Uncertainty u = widen_standard_errors(r, opt);
+    r.jackknife_chunks = u.chunks_used;
+    r.se_model = u.model_se;
+    r.se_jackknife = u.jackknife_se;
+    r.se_timing = u.timing_se;
+  }
+  r.mass_quantisation_factor = remove_quantisation_attenuation(s, r.config, *core, r.estimate);
   return r;
 }
 
-CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt) {
+double remove_quantisation_attenuation(const Signals& s, const feedid::Config<double>& cfg, const Core& core,
+                                       feedid::Estimate<double>& e) {
+  // Only a velocity that is the backward difference of a quantised position
+  // has this known noise: e_k = (q_k - q_{k-1})/dt, var = Q^2/(6 dt^2), and
+  // the change over a window, e_end - e_start, twice that.
+  // A velocity column on a grid of Q f is such a difference too, position column or not.
+  const bool replaced = s.velocity_origin.find("replaced by position") != std::string::npos;
+  const bool measured = s.velocity_origin == "measured";
+  if (!(replaced || measured) || !(s.sample_rate_hz > 0) || !e.mass_identified()) return 1.0;
+  const double on_grid = measured ? position_quantum(s.v) : 0.0;
+  const double q_v = on_grid > 0 ? on_grid : (replaced || std::fabs(s.velocity_lag_s * s.sample_rate_hz - 0.5) < 0.25)
+                                                 ? s.position_quantum_m * s.sample_rate_hz
+                                                 : 0.0;  // velocity quantum (m/s)
+  if (!(q_v > 0)) return 1.0;
+  const double noise_var = q_v * q_v / 3.0;
+  double dv2 = 0.0;
+  for (int d = 0; d < 2; ++d) dv2 += core.statistics().dir[d].win_dv2.get();
+  const double noise = static_cast<double>(core.diagnostics().mass_windows) * noise_var;
+  (void)cfg;
+  if (!(dv2 > 4.0 * noise)) return 1.0;  // too little signal for a first-order correction
+  const double factor = dv2 / (dv2 - noise);
+  // First order only (the noise of the friction projection is left): the
+  // correction's own size is carried in the standard error.
+  e.mass_se_kg = std::hypot(e.mass_se_kg * factor, e.mass_kg * (factor - 1.0));
+  e.mass_kg *= factor;
+  return factor;
+}
+
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
+                 std::size_t begin, std::size_t end) {
   CoreRun run;
   run.core = std::make_unique<Core>();
   Core& core = *run.core;
   run.status = core.init(cfg);
   if (run.status != feedid::Status::ok) return run;
-  const std::size_t n = s.t.size();
+  const std::size_t n = std::min(end, s.t.size());
   const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = begin; k < n; ++k) {
     feedid::Sample<double> smp;
-    smp.dt_s = k == 0 ? 0.0 : s.t[k] - s.t[k - 1];
+    smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
     smp.position_m = s.x[k];
     smp.velocity_m_s = s.v[k];
     smp.force_N = s.u[k];
@@ -414,6 +452,10 @@ nlohmann::json to_json(const IdentifyResult& r) {
   }
   curve["columns"] = {"speed_m_s", "friction_N", "time_s"};
   j["friction_curve"] = curve;
+  j["mass_quantisation_factor"] = r.mass_quantisation_factor;
+  j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
+                           {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
+                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing}};
   j["units"] = {{"m", "kg"}, {"sigma", "N s/m"}, {"fc", "N"}, {"fs", "N"}, {"vs", "m/s"}};
   return j;
 }

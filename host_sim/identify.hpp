@@ -2,6 +2,7 @@
 // it is missing), choose the core's configuration from the data, stream the
 // samples through the double-precision core, solve, and report. Host only.
 #pragma once
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -37,6 +38,9 @@ struct IdentifyOptions {
   double velocity_min_m_s = 0.0;
   double velocity_max_m_s = 0.0;
   double velocity_resolution_m_s = 0.0;
+  /// Widen the core's standard errors by the jackknife and the lag's
+  /// uncertainty (uncertainty.hpp): two more passes over the data.
+  bool honest_standard_errors = true;
   std::function<void(double)> progress;  ///< fraction done, optional
 };
 
@@ -84,6 +88,11 @@ struct IdentifyResult {
   Signals signals;
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::vector<FrictionPoint> friction_curve[2];  ///< [pos, neg]
+  /// Mass multiplied by this to remove the attenuation by velocity
+  /// quantisation noise at the ends of the mass windows (1: none applied).
+  double mass_quantisation_factor = 1.0;
+  int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
+  std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
   double residual_rms_N = 0.0;   ///< RMS of the force residual over residual_block_s blocks
   double residual_block_s = 0.01;
   double duration_s = 0.0;
@@ -130,6 +139,14 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
 
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
 
+/// Errors in variables: quantisation noise in the velocity change dv'_w of
+/// each mass window adds n_w var(noise) to sum dv'^2 and biases m low by
+/// that share. With a backward-difference velocity of a position quantised
+/// to Q the noise variance is known, 2 (Q f)^2 / 6, and the bias is removed
+/// (m and its se scaled). Returns the factor applied (1 when not applicable).
+double remove_quantisation_attenuation(const Signals& s, const feedid::Config<double>& cfg, const Core& core,
+                                       feedid::Estimate<double>& e);
+
 /// What one pass of the core over prepared signals gives.
 struct CoreRun {
   feedid::Status status = feedid::Status::not_initialized;
@@ -138,8 +155,10 @@ struct CoreRun {
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::unique_ptr<Core> core;               ///< the solved core (statistics for plots)
 };
-/// Streams the signals through a new core with `cfg` (its force lag as given) and solves.
-CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt);
+/// Streams samples [begin, end) of the signals through a new core with `cfg`
+/// (its force lag as given) and solves.
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
+                 std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1));
 
 /// Mean force residual (1/tau) [integral (u - F) dt - m dv] over blocks of
 /// moving samples of about block_s (no derivative: differentiation noise

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "bench.hpp"
+#include "coverage.hpp"
 #include "csv_trace.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
@@ -64,6 +65,10 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, IdentifyOptions& o, std
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
   c->add_option("--alignment", o.alignment,
                 "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md)")->capture_default_str();
+  c->add_option("--force-lag-s", o.force_lag_s,
+                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data");
+  c->add_option("--velocity-lag-s", o.velocity_lag_s,
+                "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position");
   c->add_option("--velocity-filter", o.velocity_filter_hz, "cut-off of the position filter when velocity is derived (Hz)")->capture_default_str();
   c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s); 0 = from the data")->capture_default_str();
   c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s); 0 = from the data")->capture_default_str();
@@ -163,6 +168,16 @@ int main(int argc, char** argv) {
   auto* c_blind = app.add_subcommand("blind-bench", "diagnose many simulated traces whose effect is withheld, and score the verdicts");
   add_blind_bench_options(c_blind, blind);
 
+  CoverageOptions cov;
+  auto* c_cov = app.add_subcommand("coverage", "Monte Carlo over drives, force logs and velocity filters: do estimate +- 1.96 se hold the truth 95 % of the time? RMSE against batch LM (docs/coverage.md)");
+  c_cov->add_option("--seeds", cov.seeds, "traces per drive and force convention")->capture_default_str();
+  c_cov->add_option("--first-seed", cov.first_seed, "seed of the first trace")->capture_default_str();
+  c_cov->add_option("--duration", cov.duration_s, "length of each trace (s)")->capture_default_str();
+  c_cov->add_option("--lm-every", cov.lm_every, "run batch LM on every n-th seed (0 = never)")->capture_default_str();
+  c_cov->add_option("--threads", cov.threads, "worker threads")->capture_default_str();
+  c_cov->add_option("--json", cov.json_path, "write every trace's errors and standard errors as JSON");
+  c_cov->add_option("--markdown", cov.markdown_path, "write the tables as Markdown");
+
   BenchOptions bo;
   auto* c_bench = app.add_subcommand("bench", "streaming core against batch LM, a genetic algorithm and RLS on the same traces (docs/benchmarks.md)");
   c_bench->add_option("--json", bo.json_path, "write the results as JSON");
@@ -253,6 +268,11 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*c_bench) return run_bench(bo);
+    if (*c_cov) {
+      Progress p("coverage");
+      cov.progress = std::ref(p);
+      return run_coverage(cov);
+    }
     if (*c_blind) {
       Progress p("blind-bench");
       if (blind.quiet) blind.progress = std::ref(p);

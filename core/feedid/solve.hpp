@@ -18,6 +18,17 @@ template <typename T, int Bands> struct FrictionPoints {
   T total_time = T(0);
 };
 
+/// The rules that turn a standard error into "not identifiable"; the host
+/// applies the same ones after it widens a standard error (jackknife).
+template <typename T> uint32_t stribeck_uncertainty_flags(const DirectionEstimate<T>& e) {
+  const bool uncertain = !(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
+                         e.stribeck_velocity_se > T(0.25) * e.stribeck_velocity_m_s;
+  return uncertain ? static_cast<uint32_t>(flag_stribeck_uncertain) : 0u;
+}
+template <typename T> uint32_t mass_uncertainty_flags(T mass, T mass_se) {
+  return mass_se > T(0.1) * port::abs(mass) ? static_cast<uint32_t>(flag_no_acceleration) : 0u;
+}
+
 /// Bands with less time than this (s) carry too few samples to count as a point.
 template <typename T> constexpr T min_band_time_s() { return T(2e-3); }
 
@@ -244,9 +255,7 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
   if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
   if (at_bound) e.flags |= flag_stribeck_at_search_bound;
-  if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
-      e.stribeck_velocity_se > T(0.25) * vs)
-    e.flags |= flag_stribeck_uncertain;
+  e.flags |= stribeck_uncertainty_flags(e);
   e.flags |= stribeck_coverage_flags(s, d, vs);
   if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
   return out;
@@ -330,7 +339,7 @@ Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
   } else {
     out.mass_se_kg = port::sqrt(var_time * tau_dv2) / dv2;
     // Inertia visible only if the velocity change explains far more than noise.
-    if (out.mass_se_kg > T(0.1) * port::abs(mass)) out.mass_flags |= flag_no_acceleration;
+    out.mass_flags |= mass_uncertainty_flags(mass, out.mass_se_kg);
     if (!(mass > T(0))) out.mass_flags |= flag_not_physical;
   }
   if (!fit[0].usable && !fit[1].usable) return Status::insufficient_data;
@@ -358,7 +367,7 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     out.mass_kg = xy / xx;
     const T res = port::max(T(0), yy - out.mass_kg * xy);
     out.mass_se_kg = port::sqrt(res / T(nsec - 1) / xx);
-    if (out.mass_se_kg > T(0.1) * port::abs(out.mass_kg)) out.mass_flags |= flag_no_acceleration;
+    out.mass_flags |= mass_uncertainty_flags(out.mass_kg, out.mass_se_kg);
     if (!(out.mass_kg > T(0))) out.mass_flags |= flag_not_physical;
   } else {
     out.mass_flags |= flag_no_acceleration;
@@ -424,9 +433,7 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     e.stribeck_velocity_se = curvature > T(0) ? vs * port::sqrt(T(2) * s2 / curvature) : vs * T(1e3);
     const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
     if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
-    if (!(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
-        e.stribeck_velocity_se > T(0.25) * vs)
-      e.flags |= flag_stribeck_uncertain;
+    e.flags |= stribeck_uncertainty_flags(e);
     e.flags |= stribeck_coverage_flags(s, d, vs);
     if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
     // R^2 of section means: 1 - SSR / total sum of squares about the mean force.

@@ -148,6 +148,45 @@ template <typename T, int Bands, int Candidates> struct Statistics {
   T vs_candidate[Candidates] = {};        ///< paper method's bank (m/s), fixed at init
 };
 
+/// Adds the sums of `from` into `into` (same configuration: the candidate
+/// bank of `into` is kept). Statistics are plain sums, so the statistics of
+/// two stretches of data are their sum: the host forms delete-one-chunk
+/// jackknife sets this way; a controller may pool axes or sessions.
+template <typename T> void add_sum(Sum<T>& into, const Sum<T>& from) {
+  into.add(from.value);
+  into.add(from.carry);
+}
+template <typename T, int Bands, int C>
+void add_statistics(Statistics<T, Bands, C>& into, const Statistics<T, Bands, C>& from) {
+  for (int d = 0; d < 2; ++d) {
+    for (int j = 0; j < Bands; ++j) {
+      BandSums<T>& a = into.band[d][j];
+      const BandSums<T>& b = from.band[d][j];
+      Sum<T>* const to[] = {&a.time_s, &a.speed, &a.speed2, &a.force, &a.dvel, &a.proj_time, &a.proj_speed, &a.proj_speed2};
+      const Sum<T>* const fr[] = {&b.time_s, &b.speed, &b.speed2, &b.force, &b.dvel, &b.proj_time, &b.proj_speed, &b.proj_speed2};
+      for (int k = 0; k < 8; ++k) add_sum(*to[k], *fr[k]);
+    }
+    DirectionSums<T, C>& a = into.dir[d];
+    const DirectionSums<T, C>& b = from.dir[d];
+    Sum<T>* const to[] = {&a.win_dv_force, &a.win_dv2, &a.win_tau_dv2, &a.sec_xy, &a.sec_xx, &a.sec_yy,
+                          &a.sec_tt, &a.sec_tv, &a.sec_vv, &a.sec_tu, &a.sec_vu, &a.sec_uu};
+    const Sum<T>* const fr[] = {&b.win_dv_force, &b.win_dv2, &b.win_tau_dv2, &b.sec_xy, &b.sec_xx, &b.sec_yy,
+                                &b.sec_tt, &b.sec_tv, &b.sec_vv, &b.sec_tu, &b.sec_vu, &b.sec_uu};
+    for (int k = 0; k < 12; ++k) add_sum(*to[k], *fr[k]);
+    for (int i = 0; i < C; ++i) {
+      add_sum(a.cand_et[i], b.cand_et[i]);
+      add_sum(a.cand_ev[i], b.cand_ev[i]);
+      add_sum(a.cand_eu[i], b.cand_eu[i]);
+      add_sum(a.cand_ee[i], b.cand_ee[i]);
+    }
+    a.sections += b.sections;
+  }
+  add_sum(into.noise_d2, from.noise_d2);
+  into.noise_count += from.noise_count;
+  add_sum(into.total_interval_time, from.total_interval_time);
+  into.interval_count += from.interval_count;
+}
+
 /// exp_integral_moments() from the band's time > 0, squared mean speed
 /// mean2 = (speed/time)^2, variance var = max(0, speed2/time - mean2) and
 /// inv_vs2 = 1/vs^2: the same operations, for callers that evaluate many vs

@@ -1,0 +1,124 @@
+#include "uncertainty.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace feedid::host {
+namespace {
+
+using Stats = Core::Stats;
+
+/// Pointers to the nine standard errors of an estimate.
+std::array<double*, 9> se_fields(feedid::Estimate<double>& e) {
+  return {&e.mass_se_kg, &e.pos.viscous_se, &e.pos.coulomb_se, &e.pos.breakaway_se, &e.pos.stribeck_velocity_se,
+          &e.neg.viscous_se, &e.neg.coulomb_se, &e.neg.breakaway_se, &e.neg.stribeck_velocity_se};
+}
+
+feedid::Status solve_stats(const Stats& s, const Core& layout_of, feedid::Method method, feedid::Estimate<double>& e) {
+  e = feedid::Estimate<double>{};
+  e.method = method;
+  return method == feedid::Method::paper ? feedid::detail::solve_paper(s, layout_of.config(), e)
+                                         : feedid::detail::solve_bands(s, layout_of.layout(), layout_of.config(), e);
+}
+
+/// Delete-one-chunk jackknife: sqrt((K-1)/K sum (theta_-i - mean)^2).
+int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method, std::array<double, 9>& se) {
+  const std::size_t n = s.t.size();
+  const int k = kJackknifeChunks;
+  std::vector<std::unique_ptr<Core>> cores;
+  IdentifyOptions quiet;
+  quiet.method = method;
+  for (int c = 0; c < k; ++c) {
+    CoreRun run = run_core(s, cfg, quiet, n * c / k, n * (c + 1) / k);
+    if (run.status == feedid::Status::invalid_config) return 0;
+    cores.push_back(std::move(run.core));
+  }
+  std::vector<std::array<double, 9>> theta;
+  auto pooled = std::make_unique<Stats>();
+  for (int leave = 0; leave < k; ++leave) {
+    *pooled = Stats{};
+    for (int c = 0; c < k; ++c)
+      if (c != leave) feedid::add_statistics(*pooled, cores[static_cast<std::size_t>(c)]->statistics());
+    feedid::Estimate<double> e;
+    if (solve_stats(*pooled, *cores[0], method, e) != feedid::Status::ok) continue;
+    theta.push_back(parameters(e));
+  }
+  const int used = static_cast<int>(theta.size());
+  if (used < k / 2) return 0;
+  for (int i = 0; i < 9; ++i) {
+    double mean = 0.0, ss = 0.0;
+    for (const auto& t : theta) mean += t[i];
+    mean /= used;
+    for (const auto& t : theta) ss += (t[i] - mean) * (t[i] - mean);
+    se[i] = std::sqrt(static_cast<double>(used - 1) / used * ss);
+  }
+  return used;
+}
+
+/// Sensitivity of the parameters to the lag (one more identification, half
+/// a period away, on the side the pairing rule can reach) times its uncertainty.
+std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                                const std::array<double, 9>& theta, double lag_uncertainty) {
+  std::array<double, 9> out{};
+  if (!(lag_uncertainty > 0)) return out;
+  constexpr double step = 0.5;  // periods: well above rounding, within the lag search's parabola
+  const double lag = s.force_lag_samples >= -feedid::ForcePairing<double>::max_lead + step ? s.force_lag_samples - step
+                                                                                          : s.force_lag_samples + step;
+  feedid::Config<double> c = cfg;
+  c.force_lag_samples = lag;
+  Signals shifted = s;
+  shifted.force_lag_samples = lag;
+  IdentifyOptions quiet;
+  quiet.method = method;
+  const CoreRun run = run_core(shifted, c, quiet);
+  if (run.status != feedid::Status::ok) return out;
+  const auto at = parameters(run.estimate);
+  for (int i = 0; i < 9; ++i) out[i] = std::fabs(at[i] - theta[i]) / step * lag_uncertainty;
+  return out;
+}
+
+}  // namespace
+
+std::array<double, 9> standard_errors(const feedid::Estimate<double>& e) {
+  feedid::Estimate<double> c = e;
+  std::array<double, 9> out{};
+  const auto f = se_fields(c);
+  for (int i = 0; i < 9; ++i) out[i] = *f[i];
+  return out;
+}
+
+std::array<double, 9> parameters(const feedid::Estimate<double>& e) {
+  return {e.mass_kg, e.pos.viscous_Ns_m, e.pos.coulomb_N, e.pos.breakaway_N, e.pos.stribeck_velocity_m_s,
+          e.neg.viscous_Ns_m, e.neg.coulomb_N, e.neg.breakaway_N, e.neg.stribeck_velocity_m_s};
+}
+
+Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt) {
+  Uncertainty u;
+  u.model_se = standard_errors(r.estimate);
+  const Signals& s = r.signals;
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se);
+  const bool estimated = s.force_lag_origin == "estimated";
+  const double lag_se = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
+  u.timing_se = timing_se(s, r.config, opt.method, parameters(r.estimate), lag_se);
+  feedid::Estimate<double>& e = r.estimate;
+  const auto f = se_fields(e);
+  const std::array<bool, 9> resolved = {e.mass_identified(),
+                                        e.pos.friction_identified(), e.pos.friction_identified(),
+                                        e.pos.stribeck_identified(), e.pos.stribeck_identified(),
+                                        e.neg.friction_identified(), e.neg.friction_identified(),
+                                        e.neg.stribeck_identified(), e.neg.stribeck_identified()};
+  for (int i = 0; i < 9; ++i) {
+    const double widened = std::hypot(u.chunks_used > 0 ? u.jackknife_se[i] : u.model_se[i], u.timing_se[i]);
+    // What the core could not resolve keeps its own (huge) standard error.
+    *f[i] = resolved[i] ? widened : std::max(widened, u.model_se[i]);
+  }
+  for (auto* d : {&e.pos, &e.neg}) {
+    if (d->flags & feedid::flag_stribeck_uncertain) continue;
+    d->flags |= feedid::detail::stribeck_uncertainty_flags(*d);
+  }
+  if (e.mass_identified()) e.mass_flags |= feedid::detail::mass_uncertainty_flags(e.mass_kg, e.mass_se_kg);
+  return u;
+}
+
+}  // namespace feedid::host
