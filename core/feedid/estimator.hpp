@@ -235,8 +235,14 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   FEEDID_HOT_INLINE void step(T dt, T v, T u) {
     open_section_if_moving(v);
     remember_force(u);
-    accumulate_interval(dt, paired_force(), T(0.5) * (v_prev_ + v), v - v_prev_, v);
-    accumulate_noise();
+    T paired;
+    if (u_history_ == ForcePairing<T>::history) {  // every tap and the noise difference at hand
+      paired = pairing_.interval_force([this](int age) { return force_at(age); });
+      accumulate_noise();
+    } else {
+      paired = chain_start_force_and_noise();
+    }
+    accumulate_interval(dt, paired, T(0.5) * (v_prev_ + v), v - v_prev_, v);
     close_section_if_resting(v);
     v_prev_ = v;
   }
@@ -290,7 +296,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     has_prev_ = has_x_prev_ = true;
     x_prev_ = s.position_m;
     v_prev_ = v;
-    u_history_ = 0;
+    u_history_ = 1;
     remember_force(s.force_N);
     section_open_ = false;
     below_count_ = 0;
@@ -428,19 +434,16 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   FEEDID_HOT_INLINE void remember_force(T u) {
     u_head_ = static_cast<uint8_t>((u_head_ + 1) & (ForcePairing<T>::history - 1));
     u_ring_[u_head_] = u;
-    if (u_history_ < ForcePairing<T>::history) ++u_history_;
   }
   /// Logged force `age` samples back (0: the newest).
   FEEDID_HOT_INLINE T force_at(int age) const {
     return u_ring_[(u_head_ - age) & (ForcePairing<T>::history - 1)];
   }
-  FEEDID_HOT_INLINE T paired_force() const {
-    if (u_history_ > pairing_.oldest_age())
-      return pairing_.interval_force([this](int age) { return force_at(age); });
-    return paired_force_chain_start();
-  }
-  /// The first samples of a chain: taps older than its start take its first force.
-  FEEDID_RARE T paired_force_chain_start() const {
+  /// The first samples of a chain (until the history is full): taps older
+  /// than its start take its first force; the noise needs three forces.
+  FEEDID_RARE T chain_start_force_and_noise() {
+    ++u_history_;
+    if (u_history_ >= 3) accumulate_noise();
     const int oldest = u_history_ - 1;
     return pairing_.interval_force([this, oldest](int age) { return force_at(age < oldest ? age : oldest); });
   }
@@ -448,11 +451,9 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   FEEDID_HOT_INLINE void accumulate_noise() {
     // Second difference of the force: a smooth force cancels, white noise of
     // variance s^2 leaves 6 s^2. Gives the noise floor without a model.
-    if (u_history_ >= 3) {
-      const T d2 = force_at(0) - T(2) * force_at(1) + force_at(2);
-      noise_d2_ += d2 * d2;
-      ++noise_count_;
-    }
+    const T d2 = force_at(0) - T(2) * force_at(1) + force_at(2);
+    noise_d2_ += d2 * d2;
+    ++noise_count_;
   }
 
   /// Ends the mass window, if one is open; v_last is the velocity at its end
