@@ -126,10 +126,13 @@ double estimate_velocity_lag(const Signals& s) {
 
 void apply_force_lag(Signals& s, double lag_samples) {
   const int delay = whole_delay_for(lag_samples);
-  if (delay > 0) {
-    const Signals original = s;
-    delay_motion(original, delay, s);
+  // Newest first, so every sample reads its source before it is overwritten.
+  const auto d = static_cast<std::size_t>(delay);
+  for (std::size_t k = s.v.size(); delay > 0 && k-- > 0;) {
+    s.v[k] = s.v[k >= d ? k - d : 0];
+    s.x[k] = s.x[k >= d ? k - d : 0];
   }
+  s.velocity_delay_samples = delay;
   s.force_lag_samples = lag_samples - delay;
 }
 

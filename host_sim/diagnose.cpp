@@ -356,7 +356,7 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   // The folds are already aligned (velocity delayed if the lag was positive):
   // what is left of the lag goes to the core as stated.
   idopt.force_lag_s = sig.force_lag_samples / sig.sample_rate_hz;
-  idopt.velocity_lag_s = 0.0;
+  idopt.velocity_lag_s = sig.velocity_is_difference ? 0.5 / sig.sample_rate_hz : sig.velocity_lag_s;
   out.base = identify(id_trace, idopt);
   if (!out.base.error.empty()) {
     out.error = out.base.error;

@@ -72,6 +72,7 @@ double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
   const double lag = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : estimate_velocity_lag(s);
   if (!std::isfinite(lag)) return lag;  // no position: the velocity's own lag is unknown
   s.velocity_lag_s = lag * dt;
+  s.velocity_is_difference = std::fabs(lag - 0.5) < 0.25;
   if (!(lag > kFilteredVelocityLag) || !s.has_position) return lag;
   for (std::size_t k = s.v.size(); k-- > 1;) {
     const double h = s.t[k] - s.t[k - 1];
@@ -82,6 +83,7 @@ double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
   o << "measured column lags position by " << std::setprecision(2) << lag
     << " periods (a drive filter): replaced by position differences";
   s.velocity_origin = o.str();
+  s.velocity_is_difference = true;
   return 0.5;
 }
 
@@ -89,19 +91,19 @@ double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   double lag = named_lag(opt.alignment), se = 0.0;
-  s.force_lag_origin = "convention";
+  s.force_lag_origin = Signals::LagOrigin::convention;
   if (std::isfinite(opt.force_lag_s)) {
     lag = opt.force_lag_s / dt;
-    s.force_lag_origin = "option";
+    s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
     const LagEstimate e = estimate_force_lag(s, auto_config(s, opt));
     if (e.ok) {
       lag = e.lag_samples;
       se = e.se_samples;
-      s.force_lag_origin = "estimated";
+      s.force_lag_origin = Signals::LagOrigin::estimated;
     } else {
       lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.5);  // a held command, the commonest log
-      s.force_lag_origin = "assumed held force (too little motion to estimate the lag)";
+      s.force_lag_origin = Signals::LagOrigin::assumed;
     }
   }
   if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
@@ -319,29 +321,36 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.se_jackknife = u.jackknife_se;
     r.se_timing = u.timing_se;
   }
-  r.mass_quantisation_factor = remove_quantisation_attenuation(s, r.config, *core, r.estimate);
+  r.mass_quantisation_factor = remove_quantisation_attenuation(s, *core, r.estimate);
   return r;
 }
 
-double remove_quantisation_attenuation(const Signals& s, const feedid::Config<double>& cfg, const Core& core,
-                                       feedid::Estimate<double>& e) {
+const char* lag_origin_name(Signals::LagOrigin o) {
+  switch (o) {
+    case Signals::LagOrigin::estimated: return "estimated";
+    case Signals::LagOrigin::option: return "option";
+    case Signals::LagOrigin::convention: return "convention";
+    case Signals::LagOrigin::assumed: return "assumed held force (too little motion to estimate the lag)";
+  }
+  return "?";
+}
+
+double remove_quantisation_attenuation(const Signals& s, const Core& core, feedid::Estimate<double>& e) {
   // Only a velocity that is the backward difference of a quantised position
   // has this known noise: e_k = (q_k - q_{k-1})/dt, var = Q^2/(6 dt^2), and
   // the change over a window, e_end - e_start, twice that.
   // A velocity column on a grid of Q f is such a difference too, position column or not.
-  const bool replaced = s.velocity_origin.find("replaced by position") != std::string::npos;
-  const bool measured = s.velocity_origin == "measured";
-  if (!(replaced || measured) || !(s.sample_rate_hz > 0) || !e.mass_identified()) return 1.0;
+  const bool measured = s.velocity_origin == "measured";  // a column as logged (position or not)
+  if (!(measured || s.velocity_is_difference) || !(s.sample_rate_hz > 0) || !e.mass_identified()) return 1.0;
   const double on_grid = measured ? position_quantum(s.v) : 0.0;
-  const double q_v = on_grid > 0 ? on_grid : (replaced || std::fabs(s.velocity_lag_s * s.sample_rate_hz - 0.5) < 0.25)
-                                                 ? s.position_quantum_m * s.sample_rate_hz
-                                                 : 0.0;  // velocity quantum (m/s)
+  const double q_v = on_grid > 0 ? on_grid
+                     : s.velocity_is_difference ? s.position_quantum_m * s.sample_rate_hz
+                                                : 0.0;  // velocity quantum (m/s)
   if (!(q_v > 0)) return 1.0;
   const double noise_var = q_v * q_v / 3.0;
   double dv2 = 0.0;
   for (int d = 0; d < 2; ++d) dv2 += core.statistics().dir[d].win_dv2.get();
   const double noise = static_cast<double>(core.diagnostics().mass_windows) * noise_var;
-  (void)cfg;
   if (!(dv2 > 4.0 * noise)) return 1.0;  // too little signal for a first-order correction
   const double factor = dv2 / (dv2 - noise);
   // First order only (the noise of the friction projection is left): the
@@ -435,7 +444,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
                 {"velocity", r.signals.velocity_origin},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
-                {"force_lag_origin", r.signals.force_lag_origin}, {"force_convention", r.signals.force_convention},
+                {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
                 {"position_quantum_m", r.signals.position_quantum_m}};

@@ -54,9 +54,13 @@ struct Signals {
   int velocity_delay_samples = 0;     ///< whole samples v and x were delayed by (a positive lag)
   double force_lag_s = 0.0;           ///< force lag behind the logged velocity (s)
   double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
-  std::string force_lag_origin;       ///< "estimated", "option" or "convention"
+  /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
+  enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log
   double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
+  /// v is the backward difference of the (quantised) position: a measured
+  /// column half a period late, or a filtered column replaced by it.
+  bool velocity_is_difference = false;
   feedid::ForcePairing<double> pairing() const {
     feedid::ForcePairing<double> p;
     (void)p.init(force_lag_samples);
@@ -144,8 +148,9 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
 /// that share. With a backward-difference velocity of a position quantised
 /// to Q the noise variance is known, 2 (Q f)^2 / 6, and the bias is removed
 /// (m and its se scaled). Returns the factor applied (1 when not applicable).
-double remove_quantisation_attenuation(const Signals& s, const feedid::Config<double>& cfg, const Core& core,
-                                       feedid::Estimate<double>& e);
+double remove_quantisation_attenuation(const Signals& s, const Core& core, feedid::Estimate<double>& e);
+/// "estimated", "option", "convention" or the reason a held force was assumed.
+const char* lag_origin_name(Signals::LagOrigin o);
 
 /// What one pass of the core over prepared signals gives.
 struct CoreRun {

@@ -80,11 +80,8 @@ std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& 
 }  // namespace
 
 std::array<double, 9> standard_errors(const feedid::Estimate<double>& e) {
-  feedid::Estimate<double> c = e;
-  std::array<double, 9> out{};
-  const auto f = se_fields(c);
-  for (int i = 0; i < 9; ++i) out[i] = *f[i];
-  return out;
+  return {e.mass_se_kg, e.pos.viscous_se, e.pos.coulomb_se, e.pos.breakaway_se, e.pos.stribeck_velocity_se,
+          e.neg.viscous_se, e.neg.coulomb_se, e.neg.breakaway_se, e.neg.stribeck_velocity_se};
 }
 
 std::array<double, 9> parameters(const feedid::Estimate<double>& e) {
@@ -98,7 +95,7 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
   const Signals& s = r.signals;
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se);
-  const bool estimated = s.force_lag_origin == "estimated";
+  const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated;
   const double lag_se = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
   u.timing_se = timing_se(s, r.config, opt.method, parameters(r.estimate), lag_se);
   feedid::Estimate<double>& e = r.estimate;

@@ -69,7 +69,7 @@ TEST_P(ConventionsMatrix, RecoversParametersWithoutBeingToldTheConvention) {
     EXPECT_LT(rel_err(de.stribeck_velocity_m_s, t.stribeck_velocity_m_s), 0.03);
   }
   // The log's own convention is named, from the data alone.
-  EXPECT_EQ(r.signals.force_lag_origin, "estimated");
+  EXPECT_EQ(r.signals.force_lag_origin, host::Signals::LagOrigin::estimated);
   EXPECT_EQ(r.signals.force_convention, host::force_log_name(c.force));
 }
 
@@ -110,7 +110,7 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   opt.force_lag_s = -0.75 / 2000.0;
   const host::IdentifyResult r = host::identify(host::simulate(cfg), opt);
   ASSERT_TRUE(r.error.empty()) << r.error;
-  EXPECT_EQ(r.signals.force_lag_origin, "option");
+  EXPECT_EQ(r.signals.force_lag_origin, host::Signals::LagOrigin::option);
   EXPECT_NEAR(r.config.force_lag_samples, -0.75, 1e-9);
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }

@@ -60,7 +60,6 @@ template <typename T> struct ForcePairing {
     w_oldest = T(0.5) * f;
     return true;
   }
-  int oldest_age() const { return newest_age + 2; }
 
   /// The interval force from a function age -> logged force (age 0 is the
   /// sample that ends the interval).
