@@ -60,8 +60,11 @@ double named_lag(const std::string& name) {
 }
 
 /// A logged velocity that lags position by more than this (periods) went
-/// through a filter beyond the position difference (0.5).
-constexpr double kFilteredVelocityLag = 0.75;
+/// through a filter beyond the position difference (0.5). The lag estimate
+/// is good to about 0.02 period; even a low-pass with 0.15 period of lag
+/// smears quantised velocity enough to wreck Fs (+3000 % on a 100 nm, 4 kHz
+/// drive), so any filter at all hands over to the position difference.
+constexpr double kFilteredVelocityLag = 0.6;
 
 /// Replaces a filtered velocity column by the backward difference of
 /// position, when there is one: the difference carries no filter rounding
@@ -141,33 +144,114 @@ double paired_force(const std::vector<double>& u, const feedid::ForcePairing<dou
 
 double interval_force(const Signals& s, std::size_t k) { return paired_force(s.u, s.pairing(), k); }
 
-BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
-  BlockResidual out;
-  const feedid::ForcePairing<double> pairing = s.pairing();
-  double tau = 0.0, acc = 0.0, v_start = 0.0;
+namespace {
+/// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.
+struct BlockSums {
   int dir = 0;
-  auto flush = [&](double v_end) {
-    if (tau >= 0.5 * block_s) {
-      const double r = (acc - p.mass_kg * (v_end - v_start)) / tau;
-      out.sum_squares += r * r;
-      ++out.blocks;
+  double tau = 0.0;         ///< s
+  double impulse = 0.0;     ///< integral of u - F(v) (N s)
+  double phi_impulse = 0.0; ///< same, weighted by phi
+  double dv = 0.0;          ///< velocity change (m/s)
+  double phi_dv = 0.0;      ///< same, weighted by phi
+};
+
+/// The one block rule: blocks of block_s within a direction (above v_min),
+/// and observations from adjacent pairs under a triangular weight w rising
+/// over the first block and falling over the second. visit(impulse, dv,
+/// area, t_end) gets the weighted integrals of u - F(v) (N s) and of dv
+/// (m/s) and the weight's area (s). Under w the velocity change sums by
+/// parts to the difference of the two blocks' mean velocities, so no raw
+/// velocity sample carries it: with raw block-end samples, m times the
+/// velocity's noise (a quantum of 0.8 mm/s at 8 kHz and 100 nm) dominated
+/// the residual, a lag search on it preferred whatever lag attenuated the
+/// mass, and a mass fitted on the blocks was attenuated. Smoothing the end
+/// samples instead biased m by +0.1 % per half-millisecond of mean at the
+/// motion's corners; the triangle is exact. (docs/diagnosis.md uses the
+/// same observation.)
+template <typename Visit>
+void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, Visit visit) {
+  const feedid::ForcePairing<double> pairing = s.pairing();
+  BlockSums prev, cur;
+  double t_start = 0.0, moment_impulse = 0.0, moment_dv = 0.0;
+  auto close = [&](std::size_t k_end, bool adjacent_next) {
+    if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
+      cur.phi_impulse = moment_impulse / cur.tau;
+      cur.phi_dv = moment_dv / cur.tau;
+      if (prev.dir == cur.dir)
+        visit(prev.phi_impulse + cur.impulse - cur.phi_impulse, prev.phi_dv + cur.dv - cur.phi_dv,
+              0.5 * (prev.tau + cur.tau), s.t[k_end]);
+      prev = adjacent_next ? cur : BlockSums{};
+    } else {
+      prev = BlockSums{};
     }
-    tau = acc = 0.0;
-    dir = 0;
+    cur = BlockSums{};
+    moment_impulse = moment_dv = 0.0;
   };
   for (std::size_t k = 1; k < s.t.size(); ++k) {
     const double dt = s.t[k] - s.t[k - 1];
     const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
     const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
-    if (d == 0 || (dir != 0 && d != dir)) { flush(s.v[k - 1]); if (d == 0) continue; }
-    if (dir == 0) { dir = d; v_start = s.v[k - 1]; }
-    acc += (paired_force(s.u, pairing, k) - stribeck_friction(p, vm)) * dt;
-    tau += dt;
-    if (tau >= block_s) flush(s.v[k]);
+    if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
+    if (d == 0) continue;
+    if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
+    const double g = (paired_force(s.u, pairing, k) - stribeck_friction(p, vm)) * dt;
+    const double dv = s.v[k] - s.v[k - 1];
+    const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
+    cur.impulse += g;
+    cur.dv += dv;
+    moment_impulse += age * g;
+    moment_dv += age * dv;
+    cur.tau += dt;
+    if (cur.tau >= block_s) close(k, true);
   }
+}
+}  // namespace
+
+int chunk_of(const Signals& s, double t) {
+  const double t0 = s.t.empty() ? 0.0 : s.t.front(), span = s.t.empty() ? 0.0 : s.t.back() - t0;
+  if (!(span > 0)) return 0;
+  return static_cast<int>(std::clamp(std::floor((t - t0) / span * kJackknifeChunks), 0.0, kJackknifeChunks - 1.0));
+}
+
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockResidual out;
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double tau, double t_end) {
+    const double r = (impulse - p.mass_kg * dv) / tau;
+    out.sum_squares += r * r;
+    out.chunk_sum_squares[static_cast<std::size_t>(chunk_of(s, t_end))] += r * r;
+    ++out.blocks;
+  });
   return out;
 }
 
+BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockMass out;
+  constexpr int chunks = kJackknifeChunks;
+  if (s.t.size() < 2) return out;
+  // Sums per contiguous stretch of time, for the delete-one jackknife.
+  std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double, double t_end) {
+    const auto c = static_cast<std::size_t>(chunk_of(s, t_end));
+    num[c] += impulse * dv;
+    den[c] += dv * dv;
+  });
+  double n_all = 0.0, d_all = 0.0;
+  for (int c = 0; c < chunks; ++c) { n_all += num[c]; d_all += den[c]; }
+  if (!(d_all > 0.0)) return out;
+  out.mass_kg = n_all / d_all;
+  std::vector<double> leave_out;
+  for (int c = 0; c < chunks; ++c)
+    if (d_all - den[c] > 0.0) leave_out.push_back((n_all - num[c]) / (d_all - den[c]));
+  if (leave_out.size() < 2) return out;
+  double mean = 0.0, ss = 0.0;
+  for (double m : leave_out) mean += m;
+  mean /= static_cast<double>(leave_out.size());
+  for (double m : leave_out) ss += (m - mean) * (m - mean);
+  const double g = static_cast<double>(leave_out.size());
+  out.mass_se_kg = std::sqrt((g - 1.0) / g * ss);
+  out.ok = std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
+  return out;
+}
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals s;
@@ -321,7 +405,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.se_jackknife = u.jackknife_se;
     r.se_timing = u.timing_se;
   }
-  r.mass_quantisation_factor = remove_quantisation_attenuation(s, *core, r.estimate);
+  refit_mass_on_blocks(r);
   return r;
 }
 
@@ -335,29 +419,17 @@ const char* lag_origin_name(Signals::LagOrigin o) {
   return "?";
 }
 
-double remove_quantisation_attenuation(const Signals& s, const Core& core, feedid::Estimate<double>& e) {
-  // Only a velocity that is the backward difference of a quantised position
-  // has this known noise: e_k = (q_k - q_{k-1})/dt, var = Q^2/(6 dt^2), and
-  // the change over a window, e_end - e_start, twice that.
-  // A velocity column on a grid of Q f is such a difference too, position column or not.
-  const bool measured = s.velocity_origin == "measured";  // a column as logged (position or not)
-  if (!(measured || s.velocity_is_difference) || !(s.sample_rate_hz > 0) || !e.mass_identified()) return 1.0;
-  const double on_grid = measured ? position_quantum(s.v) : 0.0;
-  const double q_v = on_grid > 0 ? on_grid
-                     : s.velocity_is_difference ? s.position_quantum_m * s.sample_rate_hz
-                                                : 0.0;  // velocity quantum (m/s)
-  if (!(q_v > 0)) return 1.0;
-  const double noise_var = q_v * q_v / 3.0;
-  double dv2 = 0.0;
-  for (int d = 0; d < 2; ++d) dv2 += core.statistics().dir[d].win_dv2.get();
-  const double noise = static_cast<double>(core.diagnostics().mass_windows) * noise_var;
-  if (!(dv2 > 4.0 * noise)) return 1.0;  // too little signal for a first-order correction
-  const double factor = dv2 / (dv2 - noise);
-  // First order only (the noise of the friction projection is left): the
-  // correction's own size is carried in the standard error.
-  e.mass_se_kg = std::hypot(e.mass_se_kg * factor, e.mass_kg * (factor - 1.0));
-  e.mass_kg *= factor;
-  return factor;
+void refit_mass_on_blocks(IdentifyResult& r) {
+  r.mass_from_windows_kg = r.estimate.mass_kg;
+  if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
+  const BlockMass b = block_mass(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s,
+                                 r.residual_block_s);
+  if (!b.ok) return;
+  r.estimate.mass_kg = b.mass_kg;
+  // The block jackknife replaces the windows' one; the timing term stays.
+  r.se_jackknife[0] = b.mass_se_kg;
+  r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0]);
+  r.estimate.mass_flags |= feedid::detail::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
 }
 
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
@@ -461,7 +533,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   }
   curve["columns"] = {"speed_m_s", "friction_N", "time_s"};
   j["friction_curve"] = curve;
-  j["mass_quantisation_factor"] = r.mass_quantisation_factor;
+  j["mass_from_windows_kg"] = r.mass_from_windows_kg;
   j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
                            {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
                            {"jackknife", r.se_jackknife}, {"timing", r.se_timing}};

@@ -17,8 +17,6 @@
 
 namespace feedid::host {
 
-/// Contiguous chunks of the jackknife.
-constexpr int kJackknifeChunks = 10;
 /// Accuracy of an estimated lag (sample periods): the largest error of the
 /// lag search on simulated logs of each convention (docs/coverage.md).
 constexpr double kLagAccuracy = 0.1;

@@ -115,6 +115,46 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }
 
+// GIVEN velocity logged through a k-sample moving average or a first-order
+// low-pass, THEN its lag behind the motion is found against the position
+// column (a moving average: 0.5 + (k - 1)/2 periods; a discrete low-pass
+// y += a (v - y): 0.5 + (1 - a)/a), and any filter hands over to the
+// position difference.
+TEST(VelocityLag, FilterDelayFoundAgainstPosition) {
+  for (const int k : {2, 4}) {
+    host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::moving_average, 100.0, 4000.0, 1e-7}, 4, 10.0);
+    cfg.logging.velocity_average_samples = k;
+    const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_NEAR(r.signals.velocity_lag_s * 4000.0, 0.5 + 0.5 * (k - 1), 0.05) << k << " samples";
+    EXPECT_TRUE(r.signals.velocity_is_difference);
+  }
+  for (const double tau_periods : {0.5, 1.5}) {
+    host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::low_pass, 100.0, 4000.0, 1e-7}, 4, 10.0);
+    cfg.logging.velocity_time_constant_s = tau_periods / 4000.0;
+    const double a = 1.0 - std::exp(-1.0 / tau_periods);
+    const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_NEAR(r.signals.velocity_lag_s * 4000.0, 0.5 + (1.0 - a) / a, 0.05) << tau_periods << " periods";
+    EXPECT_TRUE(r.signals.velocity_is_difference);
+  }
+}
+
+// GIVEN a fast, coarse log (8 kHz, 100 nm: a velocity quantum of 0.8 mm/s,
+// six times the velocity change per sample at 1 m/s^2), THEN the mass from
+// the triangle-weighted block pairs is within 0.3 % where the core's raw
+// window ends lose more than that to the quantisation noise, and its
+// standard error covers the error.
+TEST(QuantisedVelocity, MassAtHighRateIsNotAttenuated) {
+  const host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 8000.0, 1e-7}, 2, 30.0);
+  const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(r.estimate.mass_identified());
+  EXPECT_LT(r.mass_from_windows_kg, 0.997 * cfg.drive.mass_kg) << "the attenuation this guards against is gone";
+  EXPECT_LT(rel_err(r.estimate.mass_kg, cfg.drive.mass_kg), 0.003) << r.estimate.mass_kg;
+  EXPECT_LE(std::fabs(r.estimate.mass_kg - cfg.drive.mass_kg), 2.5 * r.estimate.mass_se_kg);
+}
+
 // GIVEN 24 drives logged under random conventions (with and without a
 // position column), THEN estimate +- 1.96 se holds the truth for at least
 // 85 % of the identified m, sigma and Fc, and the RMS of error/se is below
