@@ -105,7 +105,15 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   e.lag_samples = best.lag;
   // Parabola through the best point and its neighbours half a period away.
   const double h = 0.5;
-  if (best.lag - h < kForceLagMin - 1e-9 || best.lag + h > kForceLagMax + 1e-9) return e;
+  if (best.lag - h < kForceLagMin - 1e-9 || best.lag + h > kForceLagMax + 1e-9) {
+    // At the end of the range: the lag is at least that far out. The edge
+    // is still a better pairing than assuming a held command, and the
+    // diagnosis names what lies beyond the conventions a delay.
+    e.se_samples = h;
+    e.at_bound = true;
+    e.ok = true;
+    return e;
+  }
   const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);
   const double curv = (lo.ssr - 2.0 * best.c.ssr + hi.ssr) / (2.0 * h * h);  // SSR = a (lag - l0)^2 + c
   const double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);

@@ -24,7 +24,7 @@ inline const std::vector<std::string>& effect_kinds() {
 struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
   double block_s = 0.005;         ///< residual block length (s): force residual is averaged per block
-  int folds = 40;                 ///< trace cut in this many time blocks; odd ones are held out
+  int folds = 40;                 ///< at most this many time folds (each spans two motion cycles); odd ones are held out
   double significance_t = 3.0;    ///< t statistic a candidate's held-out improvement must exceed
   double min_closed_fraction = 0.5;  ///< share of the excess gap a named effect must close
   double unexplained_ratio = 1.4;    ///< held-out RMS / noise floor above which a gap is real
@@ -69,6 +69,9 @@ struct DiagnoseResult {
   DriveParams augmented_model{};
   bool has_augmented_model = false;
   std::size_t blocks_identification = 0, blocks_heldout = 0;
+  double force_lag_s = 0.0;               ///< lag the base model pairs force with (s)
+  double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
+  int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)
   // Series for the report (held-out blocks): centre time, position, velocity, residual before/after.
   std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;
   std::vector<bool> block_heldout;

@@ -90,6 +90,17 @@ double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
   return 0.5;
 }
 
+/// The lag nearest `lag` whose force delay (lag + the velocity's own lag,
+/// a position difference's half period when unknown) a logging convention
+/// explains; what is cut off is kept in s.lag_beyond_conventions.
+double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
+  const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.5;
+  const double limit = 0.5 + kLagAccuracy;  // held -1/2 .. averaged +1/2
+  const double kept = std::clamp(lag + v_lag, -limit, limit) - v_lag;
+  s.lag_beyond_conventions = lag - kept;
+  return kept;
+}
+
 /// Finds (or takes from the options) the force lag and applies it.
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
@@ -104,6 +115,7 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
       lag = e.lag_samples;
       se = e.se_samples;
       s.force_lag_origin = Signals::LagOrigin::estimated;
+      if (opt.lag_within_conventions) lag = keep_within_conventions(s, lag, velocity_lag);
     } else {
       lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.5);  // a held command, the commonest log
       s.force_lag_origin = Signals::LagOrigin::assumed;

@@ -34,6 +34,12 @@ struct IdentifyOptions {
   /// How far the logged velocity lags the motion (s), e.g. a drive's filter;
   /// NaN: estimated against position when there is a position column.
   double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();
+  /// Keep an estimated lag to what logging conventions explain: the force's
+  /// own delay (its lag plus the velocity's) between a held command (-1/2
+  /// period) and a period mean (+1/2), plus kLagAccuracy. The diagnosis sets
+  /// it, so that a physical delay beyond the conventions stays in the
+  /// residual for its `delay` candidate instead of vanishing into the lag.
+  bool lag_within_conventions = false;
   /// Overrides of the automatic choices (0 = from the data).
   double velocity_min_m_s = 0.0;
   double velocity_max_m_s = 0.0;
@@ -57,6 +63,9 @@ struct Signals {
   /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log
+  /// Part of the estimated lag beyond the conventions, left out when
+  /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
+  double lag_beyond_conventions = 0.0;
   double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
   /// v is the backward difference of the (quantised) position: a measured
   /// column half a period late, or a filtered column replaced by it.
