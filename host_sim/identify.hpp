@@ -106,7 +106,7 @@ struct IdentifyResult {
   double mass_from_windows_kg = 0.0;
   int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
   std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
-  double residual_rms_N = 0.0;   ///< RMS of the force residual over residual_block_s blocks
+  double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks
   double residual_block_s = 0.01;
   double duration_s = 0.0;
 };

@@ -38,12 +38,7 @@ host::SimConfig logged_drive(const LogCase& c, std::uint64_t seed, double durati
   spec.encoder_m = c.encoder_m;
   spec.seed = seed;
   spec.duration_s = duration_s;
-  host::SimConfig cfg = sim_config(spec);
-  cfg.logging.force = c.force;
-  cfg.logging.velocity = c.velocity;
-  cfg.logging.velocity_average_samples = 3;
-  cfg.logging.velocity_time_constant_s = 1.0 / c.rate_hz;
-  return cfg;
+  return logged_config(spec, c.force, c.velocity);
 }
 
 double rel_err(double est, double truth) { return std::fabs(est / truth - 1.0); }

@@ -28,12 +28,7 @@ host::SimConfig logged(const DiagCase& c, std::uint64_t seed) {
   spec.encoder_m = 5e-8;
   spec.seed = seed;
   spec.duration_s = c.duration_s;
-  host::SimConfig cfg = sim_config(spec);
-  cfg.logging.force = c.force;
-  cfg.logging.velocity = c.velocity;
-  cfg.logging.velocity_average_samples = 3;
-  cfg.logging.velocity_time_constant_s = 1.0 / spec.rate_hz;
-  return cfg;
+  return logged_config(spec, c.force, c.velocity);
 }
 
 class NoFalseAlarm : public ::testing::TestWithParam<DiagCase> {};

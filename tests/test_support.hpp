@@ -36,6 +36,17 @@ inline host::SimConfig sim_config(const SimSpec& s) {
   return c;
 }
 
+/// The same, logged with a force convention and a velocity filter (a
+/// 3-sample mean, or a low-pass of one period).
+inline host::SimConfig logged_config(const SimSpec& s, host::ForceLog force, host::VelocityLog velocity) {
+  host::SimConfig c = sim_config(s);
+  c.logging.force = force;
+  c.logging.velocity = velocity;
+  c.logging.velocity_average_samples = 3;
+  c.logging.velocity_time_constant_s = 1.0 / s.rate_hz;
+  return c;
+}
+
 inline host::Trace simulate(const SimSpec& s) { return host::simulate(sim_config(s)); }
 
 /// The core configuration used throughout the tests for an encoder of
