@@ -68,13 +68,7 @@ double jackknife_vertex_se(double l, double h, const LagCost& lo, const LagCost&
     const double x = vertex(l, h, lo.ssr - lo.chunk_ssr[i], mid.ssr - mid.chunk_ssr[i], hi.ssr - hi.chunk_ssr[i]);
     if (std::isfinite(x)) v.push_back(x);
   }
-  if (v.size() < 2) return std::numeric_limits<double>::quiet_NaN();
-  double mean = 0.0, ss = 0.0;
-  for (double x : v) mean += x;
-  mean /= static_cast<double>(v.size());
-  for (double x : v) ss += (x - mean) * (x - mean);
-  const double g = static_cast<double>(v.size());
-  return std::sqrt((g - 1.0) / g * ss);
+  return jackknife_se(v);
 }
 
 }  // namespace
@@ -110,7 +104,6 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
     // is still a better pairing than assuming a held command, and the
     // diagnosis names what lies beyond the conventions a delay.
     e.se_samples = h;
-    e.at_bound = true;
     e.ok = true;
     return e;
   }

@@ -20,7 +20,6 @@ struct LagEstimate {
   double se_samples = 0.0;   ///< its standard error (periods)
   int evaluations = 0;       ///< identifications run for the search
   bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
-  bool at_bound = false;     ///< the best lag is an end of the searched range
 };
 
 /// The lag that minimises the residual of the identified model over short

@@ -985,8 +985,9 @@ nlohmann::json to_json(const DiagnoseResult& r) {
   j["base_model"] = to_json(r.base);
   j["timing"] = {{"force_lag_s", r.force_lag_s},
                  {"lag_beyond_conventions_s", r.lag_beyond_conventions_s},
+                 {"convention_force_delay_limit_periods", convention_force_delay_limit()},
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
-                          "within +-0.6 sample periods); the rest is left to the delay candidate"}};
+                          "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},
                 {"folds", r.folds}, {"blocks_identification", r.blocks_identification},
                 {"blocks_heldout", r.blocks_heldout}};

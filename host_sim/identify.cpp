@@ -95,7 +95,7 @@ double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
 /// explains; what is cut off is kept in s.lag_beyond_conventions.
 double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
   const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.5;
-  const double limit = 0.5 + kLagAccuracy;  // held -1/2 .. averaged +1/2
+  const double limit = convention_force_delay_limit();
   const double kept = std::clamp(lag + v_lag, -limit, limit) - v_lag;
   s.lag_beyond_conventions = lag - kept;
   return kept;
@@ -225,6 +225,18 @@ int chunk_of(const Signals& s, double t) {
   return static_cast<int>(std::clamp(std::floor((t - t0) / span * kJackknifeChunks), 0.0, kJackknifeChunks - 1.0));
 }
 
+double jackknife_se(const std::vector<double>& leave_one_out) {
+  if (leave_one_out.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  const double g = static_cast<double>(leave_one_out.size());
+  double mean = 0.0, ss = 0.0;
+  for (double x : leave_one_out) mean += x;
+  mean /= g;
+  for (double x : leave_one_out) ss += (x - mean) * (x - mean);
+  return std::sqrt((g - 1.0) / g * ss);
+}
+
+double convention_force_delay_limit() { return 0.5 + kLagAccuracy; }
+
 BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
   BlockResidual out;
   for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double tau, double t_end) {
@@ -254,14 +266,8 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
   std::vector<double> leave_out;
   for (int c = 0; c < chunks; ++c)
     if (d_all - den[c] > 0.0) leave_out.push_back((n_all - num[c]) / (d_all - den[c]));
-  if (leave_out.size() < 2) return out;
-  double mean = 0.0, ss = 0.0;
-  for (double m : leave_out) mean += m;
-  mean /= static_cast<double>(leave_out.size());
-  for (double m : leave_out) ss += (m - mean) * (m - mean);
-  const double g = static_cast<double>(leave_out.size());
-  out.mass_se_kg = std::sqrt((g - 1.0) / g * ss);
-  out.ok = std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
+  out.mass_se_kg = jackknife_se(leave_out);
+  out.ok = std::isfinite(out.mass_se_kg) && std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
   return out;
 }
 

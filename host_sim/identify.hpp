@@ -153,9 +153,9 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
 
 /// Replaces the core's mass (from its acceleration windows, whose raw
-/// end velocities carry quantisation noise that attenuates m: -1.7 % at
-/// 8 kHz and 100 nm) by the mass fitted on smoothed 10 ms blocks, with the
-/// block jackknife and the timing term as its standard error. Friction is
+/// end velocities carry quantisation noise that attenuates m: -0.7 % at
+/// 8 kHz and 100 nm) by block_mass() on triangle-weighted pairs of 10 ms
+/// blocks, with its jackknife and the timing term as its standard error. Friction is
 /// held at the core's. Host only: the firmware keeps the windows' mass.
 void refit_mass_on_blocks(IdentifyResult& r);
 /// "estimated", "option", "convention" or the reason a held force was assumed.
@@ -174,9 +174,6 @@ struct CoreRun {
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
                  std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1));
 
-/// Mean force residual (1/tau) [integral (u - F) dt - m dv] over blocks of
-/// moving samples of about block_s (no derivative: differentiation noise
-/// would otherwise dominate).
 /// Contiguous stretches of time of every delete-one jackknife (parameters,
 /// the block mass, the force lag).
 constexpr int kJackknifeChunks = 10;
@@ -184,6 +181,18 @@ constexpr int kJackknifeChunks = 10;
 /// The jackknife chunk (0 .. kJackknifeChunks-1) that time t falls in.
 int chunk_of(const Signals& s, double t);
 
+/// Standard error from delete-one estimates theta_-i:
+/// sqrt((g-1)/g sum (theta_-i - mean)^2); NaN for fewer than two.
+double jackknife_se(const std::vector<double>& leave_one_out);
+
+/// The largest force delay (lag behind velocity plus the velocity's own
+/// lag, periods) a logging convention explains: a period mean's +1/2 plus
+/// the lag search's accuracy (held commands sit at -1/2, symmetric).
+double convention_force_delay_limit();
+
+/// Mean force residual [integral w (u - F) dt - m integral w dv] / integral w
+/// over pairs of adjacent blocks of about block_s under a triangular weight
+/// w (no derivative, no raw velocity sample; identify.cpp, for_each_block).
 struct BlockResidual {
   double sum_squares = 0.0;  ///< N^2
   std::size_t blocks = 0;

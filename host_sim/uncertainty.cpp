@@ -45,12 +45,10 @@ int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Metho
   }
   const int used = static_cast<int>(theta.size());
   if (used < k / 2) return 0;
+  std::vector<double> column(theta.size());
   for (int i = 0; i < 9; ++i) {
-    double mean = 0.0, ss = 0.0;
-    for (const auto& t : theta) mean += t[i];
-    mean /= used;
-    for (const auto& t : theta) ss += (t[i] - mean) * (t[i] - mean);
-    se[i] = std::sqrt(static_cast<double>(used - 1) / used * ss);
+    for (std::size_t j = 0; j < theta.size(); ++j) column[j] = theta[j][static_cast<std::size_t>(i)];
+    se[static_cast<std::size_t>(i)] = jackknife_se(column);
   }
   return used;
 }
