@@ -31,6 +31,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "csv_trace.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
@@ -261,6 +262,7 @@ struct Verdict {
   std::string error;
   nlohmann::json parameters = nlohmann::json::object();
   double rms_base_N = kNaN, rms_augmented_N = kNaN, noise_floor_N = kNaN, closed_fraction = kNaN;
+  double max_z = kNaN;  ///< largest z of a plausible candidate at the first step (calibration)
 };
 
 Verdict diagnose_blind(const Trace& trace) {
@@ -274,6 +276,16 @@ Verdict diagnose_blind(const Trace& trace) {
     }
     v.effect = r.effect;
     if (r.effect_parameters.is_object()) v.parameters = r.effect_parameters;
+    // An offset is reported as ambiguous with Coulomb friction that differs
+    // by direction (the data cannot separate them): that report names it.
+    for (const auto& a : r.ambiguities)
+      if (r.effect == "none" && a.contains("offset_N")) {
+        v.effect = "offset";
+        v.parameters = {{"force_N", a["offset_N"]}};
+      }
+    v.max_z = -std::numeric_limits<double>::infinity();
+    for (const auto& c : r.candidates)
+      if (!c.indistinguishable && c.note.rfind("not physical", 0) != 0) v.max_z = std::max(v.max_z, c.z_statistic);
     v.rms_base_N = r.rms_base_N;
     v.rms_augmented_N = r.rms_augmented_N;
     v.noise_floor_N = r.noise_floor_N;
@@ -609,7 +621,8 @@ nlohmann::json to_json(const std::vector<CaseRecord>& recs, const Scores& s, con
                             {"rms_base_N", finite_or_null(r.verdict.rms_base_N)},
                             {"rms_augmented_N", finite_or_null(r.verdict.rms_augmented_N)},
                             {"noise_floor_N", finite_or_null(r.verdict.noise_floor_N)},
-                            {"closed_fraction", finite_or_null(r.verdict.closed_fraction)}};
+                            {"closed_fraction", finite_or_null(r.verdict.closed_fraction)},
+                            {"max_z", finite_or_null(r.verdict.max_z)}};
     if (!r.verdict.error.empty()) named["error"] = r.verdict.error;
     cs.push_back({{"case", i + 1},
                   {"truth", {{"effect", r.truth.label}, {"parameters", r.truth.effect}, {"effect_rms_N", r.truth.effect_rms_N}}},
@@ -701,6 +714,26 @@ nlohmann::json effects_json(const Effects& e, const DriveParams& d) {
   return j;
 }
 
+/// One case's trace as CSV and its answer key as JSON, to look at a verdict.
+int write_case(const BlindOptions& opt, const std::vector<std::string>& schedule) {
+  if (opt.write_case > opt.cases || opt.case_path.empty()) {
+    std::fprintf(stderr, "--write-case needs a case number in 1..%d and --case-csv\n", opt.cases);
+    return 2;
+  }
+  const int i = opt.write_case - 1;
+  const BlindCase bc = make_case(opt.seed, i, schedule[static_cast<std::size_t>(i)]);
+  std::string error;
+  if (!write_trace_csv(opt.case_path, bc.trace, error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 2;
+  }
+  std::ofstream key(opt.case_path + ".truth.json");
+  key << nlohmann::json{{"effect", bc.truth.label}, {"parameters", bc.truth.effect}, {"setup", bc.truth.setup}}.dump(2) << "\n";
+  std::printf("wrote case %d (%s) to %s and its truth to %s.truth.json\n", opt.write_case, bc.truth.label.c_str(),
+              opt.case_path.c_str(), opt.case_path.c_str());
+  return key ? 0 : 2;
+}
+
 int run_blind_bench(const BlindOptions& opt) {
   if (opt.cases < 1) {
     std::fprintf(stderr, "error: --cases (count) must be >= 1, got %d\n", opt.cases);
@@ -711,6 +744,8 @@ int run_blind_bench(const BlindOptions& opt) {
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
   const int threads = std::max(1, std::min(opt.cases, opt.threads > 0 ? opt.threads : static_cast<int>(std::min(hw, 8u))));
   const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed);
+
+  if (opt.write_case > 0) return write_case(opt, schedule);
 
   std::printf("blind benchmark: %d cases, seed %llu, %d threads\n", opt.cases,
               static_cast<unsigned long long>(opt.seed), threads);

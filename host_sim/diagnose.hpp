@@ -25,11 +25,17 @@ struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
   double block_s = 0.005;         ///< residual block length (s): force residual is averaged per block
   int folds = 40;                 ///< at most this many time folds (each spans two motion cycles); odd ones are held out
-  double significance_t = 3.0;    ///< t statistic a candidate's held-out improvement must exceed
-  double min_closed_fraction = 0.5;  ///< share of the excess gap a named effect must close
+  /// Held-out improvement over its noise-only spread (improvement_z in
+  /// diagnose.cpp) a candidate must exceed; calibrated in docs/diagnosis.md.
+  double significance_z = 5.0;
+  double min_closed_fraction = 0.5;  ///< share of the excess gap the named effects together must close
+  /// Share of the gap's excess energy left at a step that an effect added
+  /// there must explain (forward selection, docs/diagnosis.md).
+  double min_step_energy_share = 0.4;
   double unexplained_ratio = 1.4;    ///< held-out RMS / noise floor above which a gap is real
-  /// With no gap left, a Coulomb asymmetry |Fc+ - Fc-|/2 above this share of
-  /// the mean Coulomb force is named an offset (indistinguishable while moving).
+  int max_effects = 3;               ///< forward selection stops after this many
+  /// A Coulomb asymmetry |Fc+ - Fc-|/2 above this share of the mean Coulomb
+  /// force is reported as ambiguous with an offset (indistinguishable while moving).
   double offset_asymmetry_ratio = 0.1;
   std::function<void(double)> progress;
 };
@@ -39,10 +45,20 @@ struct Candidate {
   nlohmann::json parameters;      ///< fitted on the identification part, SI names
   double heldout_rms_N = 0.0;     ///< held-out RMS with this effect added
   double closed_fraction = 0.0;   ///< of the excess gap over the noise floor
-  double t_statistic = 0.0;       ///< of the held-out improvement (grouped blocks)
+  double z_statistic = 0.0;       ///< held-out improvement over its noise-only spread
+  double energy_share = 0.0;      ///< of the excess gap energy this effect explains
   bool significant = false;
   bool indistinguishable = false; ///< its term is (almost) a combination of the base model's terms here
   std::string note;
+};
+
+/// One effect named by forward selection, with the gap after adding it.
+struct NamedEffect {
+  std::string kind;
+  nlohmann::json parameters;      ///< from the joint fit with every named effect
+  double heldout_rms_N = 0.0;     ///< held-out RMS with this and the effects before it
+  double closed_fraction = 0.0;   ///< of the base model's excess gap, cumulative
+  double z_statistic = 0.0;       ///< at the step it was added
 };
 
 struct WhereEntry {
@@ -56,15 +72,21 @@ struct WhereEntry {
 struct DiagnoseResult {
   std::string error;
   IdentifyResult base;            ///< the core's identification on the identification part
-  std::string effect;             ///< none, unexplained, or one of effect_kinds()
+  std::string effect;             ///< none, unexplained, or the first of effects
   nlohmann::json effect_parameters;
+  std::vector<NamedEffect> effects;  ///< forward selection, in the order added
+  bool gap_remains = false;       ///< a significant gap is left after the named effects (unexplained)
   double rms_base_N = 0.0;        ///< held-out RMS force residual of the base model
-  double rms_augmented_N = 0.0;   ///< held-out RMS with the chosen effect (= base when none)
+  double rms_augmented_N = 0.0;   ///< held-out RMS with every named effect (= base when none)
   double noise_floor_N = 0.0;     ///< RMS a perfect model would leave (white block noise)
-  double closed_fraction = 0.0;
-  std::vector<WhereEntry> where;
-  std::vector<Candidate> candidates;  ///< ranked, best first
-  /// The base model refitted jointly with the chosen effect on the
+  double closed_fraction = 0.0;   ///< of the excess gap, by every named effect
+  std::vector<WhereEntry> where;  ///< of the base model's held-out residual
+  std::vector<WhereEntry> where_left;  ///< of what the named effects leave (when a gap remains)
+  std::vector<Candidate> candidates;  ///< first step, ranked, best first
+  /// Effects the data cannot tell from the base model's own terms, e.g. an
+  /// offset from Coulomb friction that differs by direction.
+  nlohmann::json ambiguities = nlohmann::json::array();
+  /// The base model refitted jointly with the named effects on the
   /// identification folds (valid when has_augmented_model).
   DriveParams augmented_model{};
   bool has_augmented_model = false;
@@ -72,7 +94,7 @@ struct DiagnoseResult {
   double force_lag_s = 0.0;               ///< lag the base model pairs force with (s)
   double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
   int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)
-  // Series for the report (held-out blocks): centre time, position, velocity, residual before/after.
+  // Series for the report (observations): centre time, position, velocity, residual before/after.
   std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;
   std::vector<bool> block_heldout;
 };

@@ -106,10 +106,10 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
     md << buf;
   }
   md << "\n## Candidates\n\nEach fitted with the base model on the identification folds, judged on the held-out folds.\n\n";
-  md << "| effect | held-out RMS (N) | closes | t | verdict | parameters |\n|---|---|---|---|---|---|\n";
+  md << "| effect | held-out RMS (N) | closes | z | verdict | parameters |\n|---|---|---|---|---|---|\n";
   for (const auto& c : r.candidates) {
     std::snprintf(buf, sizeof buf, "| %s | %.4g | %.0f %% | %.1f | %s | ", c.kind.c_str(), c.heldout_rms_N,
-                  100 * c.closed_fraction, c.t_statistic,
+                  100 * c.closed_fraction, c.z_statistic,
                   c.indistinguishable ? "indistinguishable from base" : c.significant ? "significant" : "not significant");
     md << buf << "`" << c.parameters.dump() << "` |\n";
   }

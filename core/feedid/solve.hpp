@@ -101,13 +101,17 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
   return port::is_finite(ssr);
 }
 
+/// Points of the coarse log(vs) grid of the Stribeck search (host tools
+/// that search vs use the same grid).
+constexpr int kStribeckGridPoints = 24;
+
 /// Stribeck velocity search on log(vs): a coarse grid (robust to the local
 /// minima of a flat cost) then golden-section refinement in the best grid
 /// cell, at most max_iter steps. Returns the best log(vs) and its cost.
 template <typename T, int Bands>
 bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int max_iter,
                      T& log_vs, T& best_ssr, bool& at_bound) {
-  constexpr int grid = 24;
+  constexpr int grid = kStribeckGridPoints;
   const T l0 = port::log(vs_lo), l1 = port::log(vs_hi);
   const T step = (l1 - l0) / T(grid - 1);
   Vector<T, 3> th;

@@ -1,0 +1,119 @@
+#include "diagnose_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace feedid::host::diag {
+
+ColumnBank::ColumnBank(Vec y, std::vector<char> id) : y_(std::move(y)), id_(std::move(id)) {
+  mask_ = Vec::Zero(y_.size());
+  for (Eigen::Index i = 0; i < y_.size(); ++i) mask_(i) = id_[static_cast<std::size_t>(i)] ? 1.0 : 0.0;
+  yty_ = id_dot(y_, y_);
+}
+
+double ColumnBank::id_dot(const Vec& a, const Vec& b) const { return (a.array() * b.array() * mask_.array()).sum(); }
+
+int ColumnBank::add(Vec column) {
+  cols_.push_back(std::move(column));
+  xty_.push_back(id_dot(cols_.back(), y_));
+  gram_.emplace_back(cols_.size(), std::numeric_limits<double>::quiet_NaN());
+  return static_cast<int>(cols_.size()) - 1;
+}
+
+double ColumnBank::gram(int i, int j) const {
+  if (i < j) std::swap(i, j);
+  double& g = gram_[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+  if (std::isnan(g)) g = id_dot(column(i), column(j));
+  return g;
+}
+
+ColumnBank::Extra ColumnBank::extra(Mat cols, const std::vector<int>& with) const {
+  Extra e;
+  e.with = with;
+  e.cross.resize(static_cast<Eigen::Index>(with.size()), cols.cols());
+  e.gram.resize(cols.cols(), cols.cols());
+  e.xty.resize(cols.cols());
+  const Mat masked = cols.array().colwise() * mask_.array();
+  for (Eigen::Index c = 0; c < cols.cols(); ++c) {
+    for (std::size_t w = 0; w < with.size(); ++w) e.cross(static_cast<Eigen::Index>(w), c) = masked.col(c).dot(column(with[w]));
+    for (Eigen::Index d = 0; d < cols.cols(); ++d) e.gram(c, d) = masked.col(c).dot(cols.col(d));
+    e.xty(c) = masked.col(c).dot(y_);
+  }
+  e.cols = std::move(cols);
+  return e;
+}
+
+LinearFit ColumnBank::fit(const std::vector<int>& cols, const Extra* extra) const {
+  const Eigen::Index p = static_cast<Eigen::Index>(cols.size()), q = extra ? extra->cols.cols() : 0;
+  Mat g(p + q, p + q);
+  Vec gy(p + q);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    gy(i) = xty_[static_cast<std::size_t>(cols[static_cast<std::size_t>(i)])];
+    for (Eigen::Index j = 0; j <= i; ++j) g(i, j) = g(j, i) = gram(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
+  }
+  if (q > 0) {
+    for (Eigen::Index i = 0; i < p; ++i) {
+      const auto it = std::find(extra->with.begin(), extra->with.end(), cols[static_cast<std::size_t>(i)]);
+      const auto w = static_cast<Eigen::Index>(it - extra->with.begin());
+      g.block(i, p, 1, q) = extra->cross.row(w);
+      g.block(p, i, q, 1) = extra->cross.row(w).transpose();
+    }
+    g.block(p, p, q, q) = extra->gram;
+    gy.tail(q) = extra->xty;
+  }
+  return solve_normal_equations(g, gy, yty_);
+}
+
+Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const {
+  Vec r = y_;
+  for (std::size_t i = 0; i < cols.size(); ++i) r -= theta(static_cast<Eigen::Index>(i)) * column(cols[i]);
+  if (extra && extra->cols.cols() > 0) r -= extra->cols * theta.tail(extra->cols.cols());
+  return r;
+}
+
+double ColumnBank::max_collinearity(const std::vector<int>& cols, const Extra& extra) const {
+  double worst = 0.0;
+  for (Eigen::Index c = 0; c < extra.cols.cols(); ++c) {
+    // Regress extra column c on the bank columns: its own normal equations.
+    const Eigen::Index p = static_cast<Eigen::Index>(cols.size());
+    Mat g(p, p);
+    Vec gy(p);
+    for (Eigen::Index i = 0; i < p; ++i) {
+      const auto it = std::find(extra.with.begin(), extra.with.end(), cols[static_cast<std::size_t>(i)]);
+      gy(i) = extra.cross(static_cast<Eigen::Index>(it - extra.with.begin()), c);
+      for (Eigen::Index j = 0; j <= i; ++j) g(i, j) = g(j, i) = gram(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
+    }
+    const double cc = extra.gram(c, c);
+    const LinearFit f = solve_normal_equations(g, gy, cc);
+    if (cc > 0 && f.ok) worst = std::max(worst, 1.0 - std::max(f.ssr_id, 0.0) / cc);
+  }
+  return worst;
+}
+
+LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty) {
+  LinearFit f;
+  const Eigen::Index n = g.rows();
+  if (n == 0) {
+    f.theta = Vec();
+    f.ssr_id = yty;
+    f.ok = true;
+    return f;
+  }
+  Vec scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) scale(i) = g(i, i) > 0 ? 1.0 / std::sqrt(g(i, i)) : 0.0;
+  const Mat gs = scale.asDiagonal() * g * scale.asDiagonal();
+  const Vec bs = scale.cwiseProduct(gy);
+  Eigen::SelfAdjointEigenSolver<Mat> eig(gs);
+  if (eig.info() != Eigen::Success) return f;
+  const Vec& lambda = eig.eigenvalues();
+  const double cut = 1e-10 * std::max(lambda.maxCoeff(), 0.0);
+  Vec proj = eig.eigenvectors().transpose() * bs;
+  for (Eigen::Index i = 0; i < n; ++i) proj(i) = lambda(i) > cut ? proj(i) / lambda(i) : 0.0;
+  f.theta = scale.cwiseProduct(eig.eigenvectors() * proj);
+  f.ssr_id = yty - 2.0 * f.theta.dot(gy) + f.theta.dot(g * f.theta);
+  f.ok = f.theta.allFinite() && std::isfinite(f.ssr_id);
+  return f;
+}
+
+}  // namespace feedid::host::diag

@@ -1,0 +1,64 @@
+// Least squares over the diagnosis's observations by cross products: the
+// bank keeps every column's products with the others on the identification
+// observations (computed on first use), so a fit on any subset of columns
+// is a solve of its size, not a pass over the data. Host only.
+#pragma once
+#include <vector>
+
+#include "diagnose_blocks.hpp"
+
+namespace feedid::host::diag {
+
+struct LinearFit {
+  Vec theta;            ///< coefficients, in the order the columns were given
+  double ssr_id = 0.0;  ///< sum of squared residuals on the identification observations (N^2)
+  bool ok = false;
+};
+
+class ColumnBank {
+ public:
+  /// y: the observed mean force; id: 1 for identification observations.
+  ColumnBank(Vec y, std::vector<char> id);
+  int add(Vec column);
+  const Vec& column(int i) const { return cols_[static_cast<std::size_t>(i)]; }
+  const Vec& y() const { return y_; }
+  const std::vector<char>& id() const { return id_; }
+
+  /// Columns not in the bank (a candidate on its grid), with their products
+  /// with the bank columns `with`, which a fit may then combine them with.
+  struct Extra {
+    Mat cols;
+    std::vector<int> with;
+    Mat cross;  ///< with.size() x cols.cols()
+    Mat gram;   ///< cols' own products
+    Vec xty;
+  };
+  Extra extra(Mat cols, const std::vector<int>& with) const;
+
+  /// Fit y on bank columns `cols` (then extra's, if given; cols must be in extra->with).
+  LinearFit fit(const std::vector<int>& cols, const Extra* extra = nullptr) const;
+  /// y minus the fitted columns, on every observation.
+  Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
+  /// R^2 of each extra column regressed on bank columns `cols` (uncentred:
+  /// the model has no intercept of its own); near 1: no new information.
+  double max_collinearity(const std::vector<int>& cols, const Extra& extra) const;
+
+ private:
+  double id_dot(const Vec& a, const Vec& b) const;
+  double gram(int i, int j) const;
+
+  Vec y_, mask_;
+  std::vector<char> id_;
+  double yty_ = 0.0;
+  std::vector<Vec> cols_;
+  std::vector<double> xty_;
+  mutable std::vector<std::vector<double>> gram_;  ///< lower triangle, NaN until used
+};
+
+/// Least squares from normal equations G theta = g, in correlation form (unit
+/// diagonal) with eigenvalues below 1e-10 of the largest treated as zero:
+/// exactly collinear columns (an offset beside Coulomb terms of both signs)
+/// share their coefficient instead of blowing it up.
+LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty);
+
+}  // namespace feedid::host::diag
