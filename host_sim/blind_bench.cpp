@@ -49,12 +49,14 @@ const std::vector<std::string>& labels() {
     std::vector<std::string> v{"none"};
     for (const std::string& k : effect_kinds()) v.push_back(k);
     v.push_back("unexplained");
+    v.push_back("pair");  // two catalogue effects at once
     return v;
   }();
   return l;
 }
 
 bool catalogued(const std::string& label) {
+  if (label == "pair") return true;
   const auto& k = effect_kinds();
   return std::find(k.begin(), k.end(), label) != k.end();
 }
@@ -82,13 +84,13 @@ class Rng {
 
 /// Label of every case: the labels in a freshly shuffled order for each run of
 /// 10 cases, so the counts are equal (within one) and the order is random.
-std::vector<std::string> label_schedule(int cases, std::uint64_t seed) {
+std::vector<std::string> label_schedule(int cases, std::uint64_t seed, const std::vector<std::string>& deal) {
   Rng rng(splitmix64(seed ^ 0x5DEECE66Dull));
   std::vector<std::string> out;
   std::vector<std::string> deck;
   while (static_cast<int>(out.size()) < cases) {
     if (deck.empty()) {
-      deck = labels();
+      deck = deal;
       std::shuffle(deck.begin(), deck.end(), rng.engine());
     }
     out.push_back(deck.back());
@@ -105,7 +107,8 @@ std::vector<std::string> label_schedule(int cases, std::uint64_t seed) {
 /// What the scorer knows and diagnose() never sees.
 struct Truth {
   std::string label;
-  nlohmann::json effect = nlohmann::json::object();  ///< true parameters, diagnosis names (SI)
+  std::vector<std::string> pair;  ///< the two effects of a "pair" case, sorted
+  nlohmann::json effect = nlohmann::json::object();  ///< true parameters, diagnosis names (SI); per effect for a pair
   nlohmann::json setup = nlohmann::json::object();   ///< drive, rate, noise, motion (for the report)
   double effect_rms_N = 0.0;  ///< RMS change of the recorded force the effect causes while moving (N)
 };
@@ -120,6 +123,69 @@ struct BlindCase {
 double effective_travel(const MotionParams& m) {
   const double V = m.fastest_speed_m_s, A = m.acceleration_m_s2;
   return std::min(m.max_travel_m, V * V / A + V * m.cruise_time_s);
+}
+
+/// What the effect strengths are scaled to.
+struct EffectScale {
+  double travel, dt, sigma, fc, v_fast, duration;
+};
+
+/// Sets one effect's parameters in c.effects; returns its truth in the
+/// diagnosis's names. Delays start at 1.5 periods: up to about one period
+/// (0.6 beyond a held command's -1/2) a lag is what logging conventions
+/// explain, and the diagnosis does not name it (docs/diagnosis.md, "Timing").
+nlohmann::json draw_effect(const std::string& label, Rng& rng, const EffectScale& s, SimConfig& c) {
+  Effects& e = c.effects;
+  double top_speed_force = 0.0;
+  if (label == "offset") {
+    const double sign = rng.sign();  // draws in a fixed order (operand order is unspecified)
+    e.offset_N = sign * rng.uniform(3.0, 20.0);
+  } else if (label == "position_ripple") {
+    e.ripple_amplitude_N = rng.uniform(2.0, 10.0);
+    e.ripple_period_m = rng.log_uniform(2e-3, std::min(20e-3, s.travel / 5.0));
+    e.ripple_phase_rad = rng.uniform(0.0, 2.0 * kPi);
+  } else if (label == "position_friction") {
+    e.position_friction_N = rng.uniform(5.0, 20.0);
+    const double width = rng.uniform(0.2, 0.4) * s.travel;
+    e.position_friction_x_min_m = rng.uniform(0.05 * s.travel, 0.95 * s.travel - width);
+    e.position_friction_x_max_m = e.position_friction_x_min_m + width;
+  } else if (label == "thermal_drift") {
+    e.drift_fraction = rng.uniform(0.2, 0.6);
+    e.drift_time_constant_s = rng.uniform(10.0, std::min(40.0, s.duration / 2.0));
+  } else if (label == "quadratic_viscous") {
+    // c2 v_fast^2 = r sigma v_fast, r in U(0.1, 0.25), and at least 8 N.
+    top_speed_force = std::max(rng.uniform(0.1, 0.25) * s.sigma * s.v_fast, 8.0);
+    e.quadratic_c2_Ns2_m2 = top_speed_force / (s.v_fast * s.v_fast);
+  } else if (label == "presliding_hysteresis") {
+    e.presliding_force_N = rng.uniform(0.3, 0.8) * s.fc;
+    e.presliding_distance_m = rng.log_uniform(5e-6, 50e-6);
+  } else if (label == "compliance") {
+    e.compliance_frequency_hz = rng.uniform(15.0, 60.0);
+    e.compliance_mass_fraction = rng.uniform(0.2, 0.5);
+    e.compliance_damping_ratio = rng.uniform(0.03, 0.08);
+  } else if (label == "delay") {
+    e.delay_s = rng.uniform(1.5, 5.0) * s.dt;
+  } else if (label == "unexplained") {
+    e.disturbance_amplitude_N = rng.uniform(3.0, 15.0);
+    e.disturbance_frequency_hz = rng.log_uniform(0.7, 7.0);
+    e.disturbance_phase_rad = rng.uniform(0.0, 2.0 * kPi);
+  }
+  const nlohmann::json on = effects_json(e, c.drive);
+  nlohmann::json truth = on.at(label == "unexplained" ? std::string("disturbance") : label);
+  if (label == "quadratic_viscous") truth["force_at_top_speed_N"] = top_speed_force;
+  if (label == "delay") truth["delay_samples"] = e.delay_s / s.dt;
+  return truth;
+}
+
+/// How the drive logs: force held, instant or averaged over the period;
+/// velocity as a backward difference, a moving average of 2-5 of them, or
+/// a first-order low-pass of 0.5-2 periods (NOTES.md, "Logging conventions").
+void draw_logging(Rng& rng, LoggingParams& l, double dt) {
+  const int f = rng.integer(0, 2), v = rng.integer(0, 2);
+  l.force = f == 0 ? ForceLog::held : (f == 1 ? ForceLog::instant : ForceLog::averaged);
+  l.velocity = v == 0 ? VelocityLog::backward_difference : (v == 1 ? VelocityLog::moving_average : VelocityLog::low_pass);
+  l.velocity_average_samples = rng.integer(2, 5);
+  l.velocity_time_constant_s = rng.uniform(0.5, 2.0) * dt;
 }
 
 BlindCase make_case(std::uint64_t seed, int index, const std::string& label) {
@@ -166,49 +232,22 @@ BlindCase make_case(std::uint64_t seed, int index, const std::string& label) {
 
   Truth t;
   t.label = label;
-  Effects& e = c.effects;
-  double top_speed_force = 0.0;
-  if (label == "offset") {
-    const double sign = rng.sign();  // draws in a fixed order (operand order is unspecified)
-    e.offset_N = sign * rng.uniform(3.0, 20.0);
-  } else if (label == "position_ripple") {
-    e.ripple_amplitude_N = rng.uniform(2.0, 10.0);
-    e.ripple_period_m = rng.log_uniform(2e-3, std::min(20e-3, travel / 5.0));
-    e.ripple_phase_rad = rng.uniform(0.0, 2.0 * kPi);
-  } else if (label == "position_friction") {
-    e.position_friction_N = rng.uniform(5.0, 20.0);
-    const double width = rng.uniform(0.2, 0.4) * travel;
-    e.position_friction_x_min_m = rng.uniform(0.05 * travel, 0.95 * travel - width);
-    e.position_friction_x_max_m = e.position_friction_x_min_m + width;
-  } else if (label == "thermal_drift") {
-    e.drift_fraction = rng.uniform(0.2, 0.6);
-    e.drift_time_constant_s = rng.uniform(10.0, std::min(40.0, m.duration_s / 2.0));
-  } else if (label == "quadratic_viscous") {
-    // c2 v_fast^2 = r sigma v_fast, r in U(0.1, 0.25), and at least 8 N.
-    top_speed_force = std::max(rng.uniform(0.1, 0.25) * sigma * v_fast, 8.0);
-    e.quadratic_c2_Ns2_m2 = top_speed_force / (v_fast * v_fast);
-  } else if (label == "presliding_hysteresis") {
-    e.presliding_force_N = rng.uniform(0.3, 0.8) * fc;
-    e.presliding_distance_m = rng.log_uniform(5e-6, 50e-6);
-  } else if (label == "compliance") {
-    e.compliance_frequency_hz = rng.uniform(15.0, 60.0);
-    e.compliance_mass_fraction = rng.uniform(0.2, 0.5);
-    e.compliance_damping_ratio = rng.uniform(0.03, 0.08);
-  } else if (label == "delay") {
-    e.delay_s = rng.uniform(1.0, 5.0) * dt;
-  } else if (label == "unexplained") {
-    e.disturbance_amplitude_N = rng.uniform(3.0, 15.0);
-    e.disturbance_frequency_hz = rng.log_uniform(0.7, 7.0);
-    e.disturbance_phase_rad = rng.uniform(0.0, 2.0 * kPi);
-  }
-  const nlohmann::json on = effects_json(e, d);
-  if (label == "unexplained") {
-    t.effect = on.at("disturbance");
+  const EffectScale scale{travel, dt, sigma, fc, v_fast, m.duration_s};
+  if (label == "pair") {
+    // Two different effects the diagnosis can see while the axis moves.
+    std::vector<std::string> pool;
+    for (const std::string& k : effect_kinds())
+      if (k != "offset") pool.push_back(k);
+    const std::size_t a = static_cast<std::size_t>(rng.integer(0, static_cast<int>(pool.size()) - 1));
+    std::size_t b = static_cast<std::size_t>(rng.integer(0, static_cast<int>(pool.size()) - 2));
+    if (b >= a) ++b;
+    t.pair = {pool[a], pool[b]};
+    std::sort(t.pair.begin(), t.pair.end());
+    for (const auto& k : t.pair) t.effect[k] = draw_effect(k, rng, scale, c);
   } else if (label != "none") {
-    t.effect = on.at(label);
+    t.effect = draw_effect(label, rng, scale, c);
   }
-  if (label == "quadratic_viscous") t.effect["force_at_top_speed_N"] = top_speed_force;
-  if (label == "delay") t.effect["delay_samples"] = e.delay_s / dt;
+  draw_logging(rng, c.logging, dt);
 
   t.setup = {{"drive", model_json(d)},
              {"rate_hz", c.controller.servo_rate_hz},
@@ -224,7 +263,11 @@ BlindCase make_case(std::uint64_t seed, int index, const std::string& label) {
              {"cruise_time_s", m.cruise_time_s},
              {"dwell_s", m.dwell_s},
              {"max_travel_m", m.max_travel_m},
-             {"sim_seed", c.seed}};
+             {"sim_seed", c.seed},
+             {"force_log", force_log_name(c.logging.force)},
+             {"velocity_log", velocity_log_name(c.logging.velocity)},
+             {"velocity_log_samples", c.logging.velocity_average_samples},
+             {"velocity_log_tau_s", c.logging.velocity_time_constant_s}};
 
   BlindCase out;
   out.trace = simulate(c);
@@ -263,6 +306,7 @@ struct Verdict {
   nlohmann::json parameters = nlohmann::json::object();
   double rms_base_N = kNaN, rms_augmented_N = kNaN, noise_floor_N = kNaN, closed_fraction = kNaN;
   double max_z = kNaN;  ///< largest z of a plausible candidate at the first step (calibration)
+  std::vector<std::string> named;  ///< every effect forward selection named, in order (not unexplained)
 };
 
 Verdict diagnose_blind(const Trace& trace) {
@@ -283,6 +327,7 @@ Verdict diagnose_blind(const Trace& trace) {
         v.effect = "offset";
         v.parameters = {{"force_N", a["offset_N"]}};
       }
+    for (const auto& e : r.effects) v.named.push_back(e.kind);
     v.max_z = -std::numeric_limits<double>::infinity();
     for (const auto& c : r.candidates)
       if (!c.indistinguishable && c.note.rfind("not physical", 0) != 0) v.max_z = std::max(v.max_z, c.z_statistic);
@@ -305,6 +350,28 @@ Verdict diagnose_blind(const Trace& trace) {
 // ---------------------------------------------------------------------------
 // 3. Scoring (reads the answer key).
 // ---------------------------------------------------------------------------
+
+/// The confusion matrix's column: two or more effects named count as "pair".
+std::string verdict_column(const Verdict& v) { return v.named.size() >= 2 ? std::string("pair") : v.effect; }
+
+/// Right: the true label, and no effect named that is not there (a pair:
+/// both of its effects and no third).
+bool named_right(const Truth& t, const Verdict& v) {
+  if (t.label == "pair") {
+    std::vector<std::string> named = v.named;
+    std::sort(named.begin(), named.end());
+    return named == t.pair;
+  }
+  return verdict_column(v) == t.label;
+}
+
+/// The verdict for the per-case line: named effects joined by "+".
+std::string verdict_text(const Verdict& v) {
+  if (v.named.size() < 2) return v.effect;
+  std::string s;
+  for (const auto& k : v.named) s += (s.empty() ? "" : "+") + k;
+  return s;
+}
 
 struct CaseRecord {
   Truth truth;
@@ -449,10 +516,10 @@ Scores score(const std::vector<CaseRecord>& recs) {
   s.per_effect.resize(L);
   for (std::size_t i = 0; i < L; ++i) s.per_effect[i].label = l[i];
   for (const CaseRecord& r : recs) {
-    const std::size_t ti = index_of(r.truth.label), ni = index_of(r.verdict.effect);
+    const std::size_t ti = index_of(r.truth.label), ni = index_of(verdict_column(r.verdict));
     ++s.confusion[ti][ni];
     ++s.total;
-    const bool right = ti == ni;
+    const bool right = named_right(r.truth, r.verdict);
     if (right) ++s.correct;
     Scores::PerEffect& pe = s.per_effect[ti];
     ++pe.cases;
@@ -466,8 +533,8 @@ Scores score(const std::vector<CaseRecord>& recs) {
       const double c = r.verdict.effect == "error" ? 0.0 : r.verdict.closed_fraction;
       closed_cat.push_back(c);
       closed_by[ti].push_back(c);
-      if (right) {
-        closed_right.push_back(c);
+      if (right) closed_right.push_back(c);
+      if (right && r.truth.label != "pair") {
         const ParamError e = parameter_error(r.truth.label, r.truth.effect, r.verdict.parameters);
         key[ti].push_back(e.key);
         second[ti].push_back(e.second);
@@ -622,10 +689,11 @@ nlohmann::json to_json(const std::vector<CaseRecord>& recs, const Scores& s, con
                             {"rms_augmented_N", finite_or_null(r.verdict.rms_augmented_N)},
                             {"noise_floor_N", finite_or_null(r.verdict.noise_floor_N)},
                             {"closed_fraction", finite_or_null(r.verdict.closed_fraction)},
-                            {"max_z", finite_or_null(r.verdict.max_z)}};
+                            {"max_z", finite_or_null(r.verdict.max_z)},
+                            {"effects", r.verdict.named}};
     if (!r.verdict.error.empty()) named["error"] = r.verdict.error;
     cs.push_back({{"case", i + 1},
-                  {"truth", {{"effect", r.truth.label}, {"parameters", r.truth.effect}, {"effect_rms_N", r.truth.effect_rms_N}}},
+                  {"truth", {{"effect", r.truth.label}, {"pair", r.truth.pair}, {"parameters", r.truth.effect}, {"effect_rms_N", r.truth.effect_rms_N}}},
                   {"setup", r.truth.setup},
                   {"named", named},
                   {"samples", r.samples},
@@ -743,7 +811,19 @@ int run_blind_bench(const BlindOptions& opt) {
       "feedid blind-bench --cases " + std::to_string(opt.cases) + " --seed " + std::to_string(opt.seed);
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
   const int threads = std::max(1, std::min(opt.cases, opt.threads > 0 ? opt.threads : static_cast<int>(std::min(hw, 8u))));
-  const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed);
+  std::vector<std::string> deal = labels();
+  if (!opt.labels.empty()) {
+    deal.clear();
+    std::stringstream list(opt.labels);
+    for (std::string l; std::getline(list, l, ',');) {
+      if (std::find(labels().begin(), labels().end(), l) == labels().end()) {
+        std::fprintf(stderr, "--labels: unknown label '%s'\n", l.c_str());
+        return 2;
+      }
+      deal.push_back(l);
+    }
+  }
+  const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed, deal);
 
   if (opt.write_case > 0) return write_case(opt, schedule);
 
@@ -793,8 +873,10 @@ int run_blind_bench(const BlindOptions& opt) {
       if (!opt.quiet) {
         const Verdict& v = verdicts[i_sz];
         const Truth& t = answer_key[i_sz];  // scorer-side print, after the diagnosis
-        std::printf("%3d/%-3d %-22s %7.3g %-22s %3s %9s %9s %9s %7s %7.1f\n", i + 1, opt.cases, t.label.c_str(),
-                    t.effect_rms_N, v.effect.c_str(), v.effect == t.label ? "ok" : "NO", fmt("%.3g", v.rms_base_N).c_str(),
+        std::string truth = t.label;
+        if (t.label == "pair") truth = t.pair[0] + "+" + t.pair[1];
+        std::printf("%3d/%-3d %-22s %7.3g %-22s %3s %9s %9s %9s %7s %7.1f\n", i + 1, opt.cases, truth.c_str(),
+                    t.effect_rms_N, verdict_text(v).c_str(), named_right(t, v) ? "ok" : "NO", fmt("%.3g", v.rms_base_N).c_str(),
                     fmt("%.3g", v.rms_augmented_N).c_str(), fmt("%.3g", v.noise_floor_N).c_str(),
                     catalogued(t.label) ? pct(v.closed_fraction, 0).c_str() : "-", gen_s + diag_s);
         if (!v.error.empty()) std::printf("        error: %s\n", v.error.c_str());

@@ -416,8 +416,9 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
     if (step > 0 && gap.ratio() < opt.unexplained_ratio) break;
     const double from = step == 0 ? 0.2 : 0.8, to = step == 0 ? 0.8 : 0.95;
     const std::vector<Evaluation> evals = evaluate_all(st, current, used, gap, opt, from, to);
-    if (step == 0)
-      for (const auto& e : evals) out.candidates.push_back(e.c);
+    out.steps.emplace_back();
+    for (const auto& e : evals) out.steps.back().push_back(e.c);
+    if (step == 0) out.candidates = out.steps.back();
     if (gap.ratio() < opt.unexplained_ratio || evals.empty() || !evals.front().eligible) break;
     const Evaluation& best = evals.front();
     used[best.effect] = true;
@@ -661,7 +662,7 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   const Model base = fit_base(bank, base_cols, out.base);
   if (opt.progress) opt.progress(0.2);
 
-  const std::vector<EffectModel> catalogue = diag::effect_catalogue(obs, diag::trace_extent(obs));
+  const std::vector<EffectModel> catalogue = diag::effect_catalogue(obs, diag::trace_extent(obs), out.lag_beyond_conventions_s);
   const Stage st{obs, bank, base_cols, catalogue};
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
@@ -735,6 +736,15 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"z_statistic", x.z_statistic}, {"significant", x.significant},
                  {"indistinguishable", x.indistinguishable}, {"note", x.note}});
   j["candidates"] = c;
+  nlohmann::json steps = nlohmann::json::array();
+  for (const auto& step : r.steps) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& x : step)
+      list.push_back({{"kind", x.kind}, {"heldout_rms_N", x.heldout_rms_N}, {"energy_share", x.energy_share},
+                      {"z_statistic", x.z_statistic}, {"significant", x.significant}, {"note", x.note}});
+    steps.push_back(list);
+  }
+  j["selection_steps"] = steps;
   nlohmann::json ind = nlohmann::json::array();
   for (const auto& x : r.candidates)
     if (x.indistinguishable) ind.push_back({{"kind", x.kind}, {"note", x.note}, {"parameters", x.parameters}});

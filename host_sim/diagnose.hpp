@@ -83,6 +83,7 @@ struct DiagnoseResult {
   std::vector<WhereEntry> where;  ///< of the base model's held-out residual
   std::vector<WhereEntry> where_left;  ///< of what the named effects leave (when a gap remains)
   std::vector<Candidate> candidates;  ///< first step, ranked, best first
+  std::vector<std::vector<Candidate>> steps;  ///< every forward-selection step's candidates, ranked
   /// Effects the data cannot tell from the base model's own terms, e.g. an
   /// offset from Coulomb friction that differs by direction.
   nlohmann::json ambiguities = nlohmann::json::array();

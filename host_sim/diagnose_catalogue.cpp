@@ -231,7 +231,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
 /// The recorded force lags, u_rec(t) = u(t - d), so u_rec(t) = model(t) -
 /// [u_rec(t + d) - u_rec(t)]: regressor u_f(t + d) - u_f(t) (coefficient
 /// near -1), d by grid search. Exact for any d, unlike u - d du/dt.
-EffectModel delay_model(const Observations& obs, const TraceExtent& e) {
+EffectModel delay_model(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s) {
   EffectModel m;
   m.kind = "delay";
   m.grid = log_grid(0.2 / e.sample_rate_hz, 25.0 / e.sample_rate_hz, 40);
@@ -247,7 +247,11 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e) {
   m.parameters = [](double d, const Vec& c, double) {
     return nlohmann::json{{"delay_s", -c(0) * d}, {"shift_s", d}, {"coefficient", c(0)}};
   };
-  m.implausible = [](const nlohmann::json& p, double) {
+  // The timing search keeps the base model's lag within what logging
+  // conventions explain; only a lag it found beyond them is a delay. A
+  // smaller one is the lag estimate's own error, not a physical effect.
+  m.implausible = [lag_beyond_conventions_s](const nlohmann::json& p, double) {
+    if (!(lag_beyond_conventions_s > 0.0)) return std::string("the force lag is within what logging conventions explain");
     return p.value("delay_s", 0.0) > 0.0 ? std::string() : std::string("recorded force would lead the motion");
   };
   return m;
@@ -267,10 +271,10 @@ TraceExtent trace_extent(const Observations& obs) {
   return e;
 }
 
-std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e) {
+std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s) {
   return {offset_model(obs),          ripple_model(obs, e),    position_friction_model(obs, e),
           thermal_drift_model(obs, e), quadratic_viscous_model(obs), presliding_model(obs, e),
-          compliance_model(obs, e),    delay_model(obs, e)};
+          compliance_model(obs, e),    delay_model(obs, e, lag_beyond_conventions_s)};
 }
 
 }  // namespace feedid::host::diag

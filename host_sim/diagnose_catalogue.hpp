@@ -36,7 +36,8 @@ struct TraceExtent {
 };
 TraceExtent trace_extent(const Observations& obs);
 
-/// Every catalogue effect, in effect_kinds() order.
-std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e);
+/// Every catalogue effect, in effect_kinds() order. A delay is physical only
+/// when the timing search found lag beyond the logging conventions.
+std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s);
 
 }  // namespace feedid::host::diag

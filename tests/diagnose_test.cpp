@@ -6,7 +6,9 @@
 // held-out gap.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include "diagnose.hpp"
 #include "test_support.hpp"
@@ -82,6 +84,37 @@ TEST(DiagnoseEffect, DelayBeyondTheConventionsIsNamedAndSizedBeyondThem) {
   ASSERT_EQ(r.effect, "delay") << host::summary(r);
   EXPECT_NEAR(r.lag_beyond_conventions_s / period, 2.5 - 0.6, 0.2);
   EXPECT_NEAR(r.effect_parameters["delay_s"].get<double>() / period, 2.5 - 0.6, 0.3) << r.effect_parameters.dump();
+}
+
+
+// Two effects at once: forward selection names both, each from what the
+// other leaves, and together they close most of the held-out gap.
+TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 60.0}, 4);
+  cfg.effects.ripple_amplitude_N = 4.0;
+  cfg.effects.ripple_period_m = 8e-3;
+  cfg.effects.drift_fraction = 0.4;
+  cfg.effects.drift_time_constant_s = 15.0;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  std::vector<std::string> named;
+  for (const auto& e : r.effects) named.push_back(e.kind);
+  std::sort(named.begin(), named.end());
+  EXPECT_EQ(named, (std::vector<std::string>{"position_ripple", "thermal_drift"})) << host::summary(r);
+  EXPECT_GT(r.closed_fraction, 0.8);
+}
+
+// An offset is the same regressor as Coulomb friction that differs by
+// direction: the diagnosis reports the ambiguity with the offset's size
+// and names no effect from it.
+TEST(DiagnoseEffects, OffsetIsReportedAsAmbiguousNotNamed) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 30.0}, 6);
+  cfg.effects.offset_N = 8.0;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.effect, "none") << host::summary(r);
+  ASSERT_EQ(r.ambiguities.size(), 1u) << host::summary(r);
+  EXPECT_NEAR(r.ambiguities[0]["offset_N"].get<double>(), 8.0, 0.5);
 }
 
 }  // namespace
