@@ -17,18 +17,13 @@ namespace {
 using diag::ColumnBank;
 using diag::EffectModel;
 using diag::LinearFit;
+using diag::log_grid;
 using diag::Mat;
 using diag::Observation;
 using diag::Observations;
 using diag::Vec;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::vector<double> log_grid(double lo, double hi, int n) {
-  std::vector<double> g;
-  for (int i = 0; i < n; ++i) g.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1)));
-  return g;
-}
 
 std::string fmt(double v, const char* unit) {
   std::ostringstream o;

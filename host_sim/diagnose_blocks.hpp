@@ -7,6 +7,7 @@
 #pragma once
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -16,6 +17,13 @@ namespace feedid::host::diag {
 
 using Vec = Eigen::VectorXd;
 using Mat = Eigen::MatrixXd;
+
+/// n values from lo to hi, evenly spaced in log (every grid of the diagnosis).
+inline std::vector<double> log_grid(double lo, double hi, int n) {
+  std::vector<double> g;
+  for (int i = 0; i < n; ++i) g.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1)));
+  return g;
+}
 
 /// Time folds. Folds of fixed length alias with periodic motion (0.75 s
 /// folds over a ladder whose strokes alternate every 0.75 s put every

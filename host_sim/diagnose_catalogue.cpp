@@ -7,12 +7,6 @@
 namespace feedid::host::diag {
 namespace {
 
-std::vector<double> log_grid(double lo, double hi, int n) {
-  std::vector<double> g;
-  for (int i = 0; i < n; ++i) g.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1)));
-  return g;
-}
-
 /// Mean of exp(-s/d) while s runs linearly from s0 to s1.
 double mean_decay(double s0, double s1, double d) {
   if (std::fabs(s1 - s0) < 1e-3 * d) return std::exp(-0.5 * (s0 + s1) / d);
