@@ -466,12 +466,13 @@ std::string machine_description() {
 std::string ranges_markdown() {
   return R"(| drawn | range |
 | --- | --- |
-| label | none, the 8 catalogue effects, unexplained: each block of 10 cases holds every label once, in random order |
+| label | none, the 8 catalogue effects, unexplained, pair: each block of 11 cases holds every label once, in random order (`--labels` deals a subset) |
 | mass | 20 .. 400 kg, log-uniform |
 | friction (+ side) | default drive (sigma 700 N s/m, Fc 25 N, Fs 8 N) each scaled by U(0.5, 1.5); vs U(1, 5) mm/s |
 | friction (- side) | each + side value times U(0.9, 1.1) |
 | servo / sampling rate | 1 .. 4 kHz (10 Hz steps); velocity-loop bandwidth 25 .. 50 Hz |
-| encoder resolution | 1e-8 .. 1e-7 m, log-uniform; velocity from position differences |
+| encoder resolution | 1e-8 .. 1e-7 m, log-uniform |
+| logging | force held, instant or averaged over the period; velocity a backward difference, a moving average of 2 .. 5 of them, or a first-order low-pass of 0.5 .. 2 periods (each equally likely) |
 | force noise | 0.1 .. 1 N std, white |
 | motion | 40 .. 90 s; 10 .. 16 log-spaced peak speeds from 0.1 .. 0.5 mm/s (log-uniform) to 80 .. 250 mm/s; acceleration 0.5 .. 2 m/s^2; cruise 0.4 .. 1 s; dwell 0.1 .. 0.3 s; travel limit 0.1 .. 0.4 m (travel L below = longest stroke actually made) |
 | offset | +-(3 .. 20) N, random sign |
@@ -481,7 +482,8 @@ std::string ranges_markdown() {
 | quadratic_viscous | c2 with c2 V^2 = max(r sigma V, 8 N), r 0.1 .. 0.25, V the fastest peak speed |
 | presliding_hysteresis | Fp 0.3 .. 0.8 Fc; d 5 .. 50 um, log-uniform (extra force -2 Fp sign(v) e^-r/d after each reversal) |
 | compliance | free resonance 15 .. 60 Hz; load share of the mass 0.2 .. 0.5; damping ratio 0.03 .. 0.08; encoder on the motor side |
-| delay | 1 .. 5 sample periods (fractional, linear interpolation) |
+| delay | 1.5 .. 5 sample periods (fractional, linear interpolation); below about one period a lag is a logging convention, not named |
+| pair | two different catalogue effects other than offset, each drawn as in its own row; right when exactly those two are named |
 | unexplained | time-periodic load force 3 .. 15 N at 0.7 .. 7 Hz (log-uniform), random phase: outside the catalogue |
 )";
 }

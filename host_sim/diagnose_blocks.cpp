@@ -87,8 +87,8 @@ Observations::Observations(const Signals& s, double v_min, double block_s, const
   for (std::size_t k = 1; k < s.t.size(); ++k)
     force_integral_[k] = force_integral_[k - 1] + 0.5 * (force_lp_[k] + force_lp_[k - 1]) * (s.t[k] - s.t[k - 1]);
   make_blocks(v_min, block_s, folds);
-  make_observations(accel);
   fine_ = make_segments(accel, v_min, block_s / 5.0);
+  make_observations(accel);
   coarse_ = make_segments(accel, v_min, 2.0 * block_s);
 }
 
@@ -146,20 +146,10 @@ void Observations::make_blocks(double v_min, double block_s, const Folds& folds)
 
 void Observations::make_observations(const std::vector<double>& accel) {
   auto interval_accel = [&](std::size_t j) { return 0.5 * (accel[j] + accel[j + 1]); };
-  // Distance since the last reversal at each block's start.
+  // Distance since the last reversal at each block's start: its first fine segment's.
   std::vector<double> since_reversal(blocks_.size(), 0.0);
-  {
-    int last_dir = 0;
-    double x_rev = 0.0;
-    std::size_t b = 0;
-    for (std::size_t j = 0; j + 1 < s_.t.size() && b < blocks_.size(); ++j) {
-      const double xm = 0.5 * (s_.x[j] + s_.x[j + 1]);
-      if (j == blocks_[b].j0) {
-        if (blocks_[b].dir != last_dir) x_rev = xm, last_dir = blocks_[b].dir;
-        since_reversal[b++] = std::fabs(xm - x_rev);
-      }
-    }
-  }
+  for (auto it = fine_.rbegin(); it != fine_.rend(); ++it)
+    if (it->block != Segment::kNoBlock) since_reversal[it->block] = it->rev0;
   for (std::size_t a = 0; a + 1 < blocks_.size(); ++a) {
     const Block& ba = blocks_[a];
     const Block& bb = blocks_[a + 1];
