@@ -192,6 +192,36 @@ Model fit_base(const ColumnBank& bank, const BaseColumns& b, const IdentifyResul
   return m;
 }
 
+/// Held-out observations the identification folds do not pin down, in
+/// units of the identification residual variance s2: the linear fit's
+/// prediction variance (leverage), and, because a Stribeck velocity the data
+/// barely constrain is outside that linear picture, the squared spread of
+/// the predictions of every vs on the grid that fits the identification
+/// observations almost as well as the best: SSR within 25 s2, the same
+/// five standard deviations a candidate must clear (the blocks' errors are
+/// correlated, so chi2_1 quantiles would claim more than the data know).
+/// Those above max_leverage are set aside (a slow jog only a held-out fold
+/// has is a question the fit cannot answer, not an unmodelled effect).
+std::size_t set_aside_unsupported(Observations& obs, const ColumnBank& bank, const BaseColumns& b, const Model& base,
+                                  double max_leverage) {
+  constexpr double kIndistinct = 25.0;
+  Vec spread = bank.leverage(model_columns(b, base));
+  const auto n_id = static_cast<double>(std::count(bank.id().begin(), bank.id().end(), 1));
+  const double s2 = base.fit.ssr_id / std::max(n_id - static_cast<double>(model_columns(b, base).size()), 1.0);
+  for (int d = 0; d < 2 && s2 > 0; ++d) {
+    if (!b.stribeck[d]) continue;
+    for (int g = 0; g < static_cast<int>(b.vs_grid.size()); ++g) {
+      Model m = base;
+      m.g[d] = g;
+      const LinearFit f = bank.fit(model_columns(b, m));
+      if (!f.ok || f.ssr_id - base.fit.ssr_id > kIndistinct * s2) continue;
+      const Vec change = bank.residual(model_columns(b, m), nullptr, f.theta) - base.residual;
+      spread = spread.cwiseMax(change.array().square().matrix() / s2);
+    }
+  }
+  return obs.set_aside_beyond(spread, max_leverage);
+}
+
 // ---------------------------------------------------------------------------
 // 3. The gap on the held-out observations.
 // ---------------------------------------------------------------------------
@@ -625,7 +655,7 @@ void keep_series(const Observations& obs, const Vec& r_base, const Vec& r_aug, D
 
 bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseResult& out) {
   out.blocks_heldout = obs.heldout_count();
-  out.blocks_identification = obs.size() - out.blocks_heldout;
+  out.blocks_identification = obs.size() - out.blocks_heldout - out.heldout_beyond_identification;
   if (out.blocks_identification >= 50 && out.blocks_heldout >= 50) return true;
   out.error = trace.source + ": too little motion to diagnose: " + std::to_string(obs.size()) +
               " observations of motion (need 50 for identification and 50 held out)";
@@ -648,13 +678,15 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   if (!identify_base(trace, sig, folds, opt, out)) return out;
   if (opt.progress) opt.progress(0.1);
 
-  const Observations obs(sig, out.base.config.velocity_min_m_s, opt.block_s, folds);
+  Observations obs(sig, out.base.config.velocity_min_m_s, opt.block_s, folds);
   if (!enough_observations(trace, obs, out)) return out;
   std::vector<char> id(obs.size());
   for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.obs()[i].heldout ? 0 : 1;
   ColumnBank bank(obs.sample_column([&](std::size_t j) { return obs.interval_force(j); }), id);
   const BaseColumns base_cols = add_base_columns(obs, bank, out.base);
   const Model base = fit_base(bank, base_cols, out.base);
+  out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
+  if (!enough_observations(trace, obs, out)) return out;
   if (opt.progress) opt.progress(0.2);
 
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(obs, diag::trace_extent(obs), out.lag_beyond_conventions_s);
@@ -720,7 +752,10 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                   {"closed_fraction", r.closed_fraction},
                   {"gap_ratio", r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0},
                   {"gap_ratio_left", r.noise_floor_N > 0 ? r.rms_augmented_N / r.noise_floor_N : 0.0},
-                  {"blocks", r.blocks_heldout}};
+                  {"blocks", r.blocks_heldout},
+                  {"blocks_beyond_identification", r.heldout_beyond_identification},
+                  {"max_leverage", "held-out observations whose prediction variance under the base fit exceeds half the "
+                                   "noise variance lie where the identification folds do not reach; they are set aside"}};
   j["noise_floor_N"] = r.noise_floor_N;
   j["where"] = where_json(r.where);
   j["where_left"] = where_json(r.where_left);
@@ -764,6 +799,9 @@ std::string summary(const DiagnoseResult& r) {
   std::snprintf(buf, sizeof buf, "held-out gap: RMS %.3g N (noise floor %.3g N, ratio %.2f) over %zu observations\n",
                 r.rms_base_N, r.noise_floor_N, r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0, r.blocks_heldout);
   o << buf;
+  if (r.heldout_beyond_identification > 0)
+    o << "  " << r.heldout_beyond_identification
+      << " held-out observations set aside: the identification folds do not pin the base model down there (prediction variance above half the noise)\n";
   o << "effect: " << r.effect << "\n";
   for (const auto& e : r.effects) {
     std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g N, closes %.0f %% of the excess (z %.1f)\n",

@@ -37,6 +37,10 @@ struct DiagnoseOptions {
   /// A Coulomb asymmetry |Fc+ - Fc-|/2 above this share of the mean Coulomb
   /// force is reported as ambiguous with an offset (indistinguishable while moving).
   double offset_asymmetry_ratio = 0.1;
+  /// A held-out observation whose leverage under the base fit exceeds this
+  /// (its prediction variance above half the noise variance) lies where the
+  /// identification folds do not reach; it is set aside, not scored.
+  double max_leverage = 0.5;
   std::function<void(double)> progress;
 };
 
@@ -92,6 +96,7 @@ struct DiagnoseResult {
   DriveParams augmented_model{};
   bool has_augmented_model = false;
   std::size_t blocks_identification = 0, blocks_heldout = 0;
+  std::size_t heldout_beyond_identification = 0;  ///< held-out observations set aside (max_leverage)
   double force_lag_s = 0.0;               ///< lag the base model pairs force with (s)
   double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
   int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)

@@ -110,6 +110,17 @@ double Observations::lowpass_force_mean(double t0, double t1, std::size_t j) con
   return (force_integral(t1, j) - a) / (t1 - t0);
 }
 
+std::size_t Observations::set_aside_beyond(const Vec& prediction_variance, double max_variance) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < obs_.size(); ++i)
+    if (obs_[i].heldout && prediction_variance(static_cast<Eigen::Index>(i)) > max_variance) {
+      obs_[i].heldout = false;
+      obs_[i].beyond_identification = true;
+      ++n;
+    }
+  return n;
+}
+
 std::size_t Observations::heldout_count() const {
   return static_cast<std::size_t>(std::count_if(obs_.begin(), obs_.end(), [](const Observation& o) { return o.heldout; }));
 }

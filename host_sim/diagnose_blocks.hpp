@@ -59,6 +59,7 @@ struct Observation {
   double accel_change = 0.0;    ///< |a_end - a_start| (m/s^2)
   int dir = 0, fold = 0;
   bool heldout = false;
+  bool beyond_identification = false;  ///< in a held-out fold but set aside (set_aside_beyond)
 };
 
 /// A stretch of one block (or of the time between blocks, block ==
@@ -95,6 +96,10 @@ class Observations {
   }
   const Signals& signals() const { return s_; }
   std::size_t heldout_count() const;
+  /// Takes the held-out observations whose prediction variance (in units of
+  /// the noise variance) exceeds max_variance out of the held-out set; they
+  /// lie where the identification folds do not reach. Returns how many.
+  std::size_t set_aside_beyond(const Vec& prediction_variance, double max_variance);
 
   /// Column of w-weighted means of g(j) over each observation, g per interval j.
   template <typename G> Vec sample_column(G&& g) const {

@@ -72,6 +72,17 @@ Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const
   return r;
 }
 
+Vec ColumnBank::leverage(const std::vector<int>& cols) const {
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  Mat g(p, p), x(y_.size(), p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    x.col(i) = column(cols[static_cast<std::size_t>(i)]);
+    for (Eigen::Index j = 0; j <= i; ++j) g(i, j) = g(j, i) = gram(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
+  }
+  const Mat g_inv = pseudo_inverse_normal(g);
+  return ((x * g_inv).array() * x.array()).rowwise().sum();
+}
+
 double ColumnBank::max_collinearity(const std::vector<int>& cols, const Extra& extra) const {
   double worst = 0.0;
   for (Eigen::Index c = 0; c < extra.cols.cols(); ++c) {
@@ -91,26 +102,29 @@ double ColumnBank::max_collinearity(const std::vector<int>& cols, const Extra& e
   return worst;
 }
 
+Mat pseudo_inverse_normal(const Mat& g) {
+  const Eigen::Index n = g.rows();
+  Vec scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) scale(i) = g(i, i) > 0 ? 1.0 / std::sqrt(g(i, i)) : 0.0;
+  Eigen::SelfAdjointEigenSolver<Mat> eig(scale.asDiagonal() * g * scale.asDiagonal());
+  if (eig.info() != Eigen::Success) return Mat::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
+  const Vec& lambda = eig.eigenvalues();
+  const double cut = 1e-10 * std::max(lambda.maxCoeff(), 0.0);
+  Vec inv(n);
+  for (Eigen::Index i = 0; i < n; ++i) inv(i) = lambda(i) > cut ? 1.0 / lambda(i) : 0.0;
+  const Mat v = eig.eigenvectors();
+  return scale.asDiagonal() * (v * inv.asDiagonal() * v.transpose()) * scale.asDiagonal();
+}
+
 LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty) {
   LinearFit f;
-  const Eigen::Index n = g.rows();
-  if (n == 0) {
+  if (g.rows() == 0) {
     f.theta = Vec();
     f.ssr_id = yty;
     f.ok = true;
     return f;
   }
-  Vec scale(n);
-  for (Eigen::Index i = 0; i < n; ++i) scale(i) = g(i, i) > 0 ? 1.0 / std::sqrt(g(i, i)) : 0.0;
-  const Mat gs = scale.asDiagonal() * g * scale.asDiagonal();
-  const Vec bs = scale.cwiseProduct(gy);
-  Eigen::SelfAdjointEigenSolver<Mat> eig(gs);
-  if (eig.info() != Eigen::Success) return f;
-  const Vec& lambda = eig.eigenvalues();
-  const double cut = 1e-10 * std::max(lambda.maxCoeff(), 0.0);
-  Vec proj = eig.eigenvectors().transpose() * bs;
-  for (Eigen::Index i = 0; i < n; ++i) proj(i) = lambda(i) > cut ? proj(i) / lambda(i) : 0.0;
-  f.theta = scale.cwiseProduct(eig.eigenvectors() * proj);
+  f.theta = pseudo_inverse_normal(g) * gy;
   f.ssr_id = yty - 2.0 * f.theta.dot(gy) + f.theta.dot(g * f.theta);
   f.ok = f.theta.allFinite() && std::isfinite(f.ssr_id);
   return f;

@@ -39,6 +39,12 @@ class ColumnBank {
   LinearFit fit(const std::vector<int>& cols, const Extra* extra = nullptr) const;
   /// y minus the fitted columns, on every observation.
   Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
+  /// Leverage x_i' G^+ x_i of every observation under the fit on bank
+  /// columns `cols` (G: their products on the identification observations):
+  /// the variance of the fit's prediction there in units of the noise
+  /// variance. Far above the identification observations' own (p / n), an
+  /// observation lies where the identification data do not reach.
+  Vec leverage(const std::vector<int>& cols) const;
   /// R^2 of each extra column regressed on bank columns `cols` (uncentred:
   /// the model has no intercept of its own); near 1: no new information.
   double max_collinearity(const std::vector<int>& cols, const Extra& extra) const;
@@ -60,5 +66,7 @@ class ColumnBank {
 /// exactly collinear columns (an offset beside Coulomb terms of both signs)
 /// share their coefficient instead of blowing it up.
 LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty);
+/// The pseudo-inverse that solve uses (correlation form, the same cut).
+Mat pseudo_inverse_normal(const Mat& g);
 
 }  // namespace feedid::host::diag

@@ -10,6 +10,8 @@
 //      side), the sim-to-real effects of Effects included.
 #include "drive_sim.hpp"
 
+#include "open_loop_plant.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -170,118 +172,6 @@ double branch_friction(const DirectionFriction& f, double s, double v) {
   const double r = v / f.stribeck_velocity_m_s;
   return s * (f.coulomb_N + f.breakaway_N * std::exp(-r * r)) + f.viscous_Ns_m * v;
 }
-
-// ---------------------------------------------------------------------------
-// Reciprocating reference: a list of strokes, each a trapezoid (or triangle)
-// followed by a dwell. Stroke j of level i: direction + for even j, - for odd.
-// ---------------------------------------------------------------------------
-struct Stroke {
-  double dir = 1.0;    ///< +1 or -1
-  double v_peak = 0;   ///< peak speed (m/s)
-  double t_acc = 0;    ///< acceleration time = decel time (s)
-  double t_cruise = 0; ///< cruise time (s)
-  double d_acc = 0;    ///< distance while accelerating (m)
-  double d_cruise = 0; ///< distance while cruising (m)
-  double t_total = 0;  ///< 2*t_acc + t_cruise + dwell (s)
-};
-
-struct Reference {
-  double x = 0.0;  ///< m
-  double v = 0.0;  ///< m/s
-};
-
-class ReferenceGenerator {
- public:
-  explicit ReferenceGenerator(const MotionParams& m) : accel_(m.acceleration_m_s2), dwell_(m.dwell_s) {
-    const int n = m.speed_levels;
-    std::vector<double> speeds;
-    if (n == 1) {
-      speeds.push_back(m.fastest_speed_m_s);
-    } else {
-      // Log-spaced peak speeds: V_i = V_slow * (V_fast/V_slow)^(i/(n-1)).
-      const double ratio = m.fastest_speed_m_s / m.slowest_speed_m_s;
-      for (int i = 0; i < n; ++i)
-        speeds.push_back(m.slowest_speed_m_s * std::pow(ratio, double(i) / double(n - 1)));
-      speeds.back() = m.fastest_speed_m_s;
-    }
-    for (double V : speeds) {
-      Stroke s = make_stroke(V, m);
-      s.dir = 1.0;
-      strokes_.push_back(s);
-      s.dir = -1.0;
-      strokes_.push_back(s);
-    }
-  }
-
-  /// Reference at time t (s); t must not decrease between calls.
-  Reference at(double t) {
-    // Advance the current stroke while t lies beyond it. Each positive stroke
-    // is followed by its negative twin, so every stroke starts at x = 0 or +L.
-    while (t >= stroke_start_ + strokes_[idx_].t_total) {
-      const Stroke& s = strokes_[idx_];
-      x_start_ += s.dir * (2.0 * s.d_acc + s.d_cruise);
-      stroke_start_ += s.t_total;
-      idx_ = (idx_ + 1) % strokes_.size();
-      if (idx_ == 0) x_start_ = 0.0;  // a full cycle returns to 0 exactly
-    }
-    const Stroke& s = strokes_[idx_];
-    const double tau = t - stroke_start_;
-    const double A = accel_;
-    Reference r;
-    if (tau < s.t_acc) {
-      // x = x0 + dir * A tau^2 / 2
-      r.v = s.dir * A * tau;
-      r.x = x_start_ + s.dir * 0.5 * A * tau * tau;
-    } else if (tau < s.t_acc + s.t_cruise) {
-      // x = x0 + dir * (d_acc + V (tau - t_acc))
-      r.v = s.dir * s.v_peak;
-      r.x = x_start_ + s.dir * (s.d_acc + s.v_peak * (tau - s.t_acc));
-    } else if (tau < 2.0 * s.t_acc + s.t_cruise) {
-      // x = x0 + dir * (d_acc + d_cruise + V tau2 - A tau2^2 / 2)
-      const double tau2 = tau - s.t_acc - s.t_cruise;
-      r.v = s.dir * std::max(0.0, s.v_peak - A * tau2);
-      r.x = x_start_ + s.dir * (s.d_acc + s.d_cruise + s.v_peak * tau2 - 0.5 * A * tau2 * tau2);
-    } else {
-      r.v = 0.0;
-      r.x = x_start_ + s.dir * (2.0 * s.d_acc + s.d_cruise);
-    }
-    return r;
-  }
-
- private:
-  Stroke make_stroke(double V, const MotionParams& m) const {
-    Stroke s;
-    const double A = m.acceleration_m_s2;
-    const double L = m.max_travel_m;
-    // Trapezoid: d_acc = V^2/(2A) per ramp, cruise V*T; shorten the cruise to
-    // fit L, and if the two ramps alone exceed L make it a triangle with
-    // V = sqrt(A L).
-    double d_acc = V * V / (2.0 * A);
-    double d_cruise = V * m.cruise_time_s;
-    if (2.0 * d_acc + d_cruise > L) {
-      d_cruise = L - 2.0 * d_acc;
-      if (d_cruise < 0.0) {
-        V = std::sqrt(A * L);
-        d_acc = 0.5 * L;
-        d_cruise = 0.0;
-      }
-    }
-    s.v_peak = V;
-    s.t_acc = V / A;
-    s.d_acc = d_acc;
-    s.d_cruise = d_cruise;
-    s.t_cruise = d_cruise / V;
-    s.t_total = 2.0 * s.t_acc + s.t_cruise + dwell_;
-    return s;
-  }
-
-  double accel_;
-  double dwell_;
-  std::vector<Stroke> strokes_;
-  std::size_t idx_ = 0;
-  double stroke_start_ = 0.0;  ///< time the current stroke began (s)
-  double x_start_ = 0.0;       ///< reference position at its start (m)
-};
 
 // ---------------------------------------------------------------------------
 // Plant (equations in drive_sim.hpp, struct Effects):
@@ -533,8 +423,6 @@ class Plant {
   double x_pass0_ = 0.0;   ///< motor position at the start of the current pass (m)
 };
 
-double quantise(double x, double q) { return q > 0.0 ? std::round(x / q) * q : x; }
-
 }  // namespace
 
 std::vector<std::string> active_effects(const Effects& e) {
@@ -559,18 +447,17 @@ double stribeck_friction(const DriveParams& p, double v_m_s) {
 }
 
 namespace {
-/// The drive's log of force and velocity (LoggingParams), one sample at a time.
-class Logger {
+/// The logged force of a zero-order-held command (ForceLog), one sample at a time.
+class HeldForceLog {
  public:
-  Logger(const LoggingParams& p, double dt)
-      : p_(p), alpha_(1.0 - std::exp(-dt / p.velocity_time_constant_s)),
-        window_(static_cast<std::size_t>(std::max(1, p.velocity_average_samples)), 0.0) {}
+  explicit HeldForceLog(ForceLog kind) : kind_(kind) {}
 
-  double force(double u_held) {
+  /// Logged value for the command u_held applied over [t_k, t_k+1].
+  double next(double u_held) {
     const double prev = has_u_ ? u_prev_ : u_held;
     has_u_ = true;
     u_prev_ = u_held;
-    switch (p_.force) {
+    switch (kind_) {
       case ForceLog::held: return u_held;
       case ForceLog::instant: return 0.5 * (prev + u_held);
       case ForceLog::averaged: return prev;
@@ -578,59 +465,24 @@ class Logger {
     return u_held;
   }
 
-  double velocity(double v_backward) {
-    switch (p_.velocity) {
-      case VelocityLog::backward_difference: return v_backward;
-      case VelocityLog::moving_average: {
-        sum_ += v_backward - window_[next_];
-        window_[next_] = v_backward;
-        next_ = (next_ + 1) % window_.size();
-        return sum_ / static_cast<double>(window_.size());
-      }
-      case VelocityLog::low_pass: return lp_ += alpha_ * (v_backward - lp_);
-    }
-    return v_backward;
-  }
-
  private:
-  LoggingParams p_;
-  double alpha_;
-  std::vector<double> window_;
-  std::size_t next_ = 0;
-  double sum_ = 0.0, lp_ = 0.0, u_prev_ = 0.0;
+  ForceLog kind_;
+  double u_prev_ = 0.0;
   bool has_u_ = false;
 };
 }  // namespace
 
-const char* force_log_name(ForceLog f) {
-  switch (f) {
-    case ForceLog::held: return "held";
-    case ForceLog::instant: return "instant";
-    case ForceLog::averaged: return "averaged";
-  }
-  return "?";
-}
-const char* velocity_log_name(VelocityLog v) {
-  switch (v) {
-    case VelocityLog::backward_difference: return "backward";
-    case VelocityLog::moving_average: return "average";
-    case VelocityLog::low_pass: return "lowpass";
-  }
-  return "?";
-}
-ForceLog parse_force_log(const std::string& s) {
-  for (ForceLog f : {ForceLog::held, ForceLog::instant, ForceLog::averaged})
-    if (s == force_log_name(f)) return f;
-  throw std::invalid_argument("--force-log must be held, instant or averaged, not '" + s + "'");
-}
-VelocityLog parse_velocity_log(const std::string& s) {
-  for (VelocityLog v : {VelocityLog::backward_difference, VelocityLog::moving_average, VelocityLog::low_pass})
-    if (s == velocity_log_name(v)) return v;
-  throw std::invalid_argument("--velocity-log must be backward, average or lowpass, not '" + s + "'");
+const char* plant_name(PlantKind p) { return p == PlantKind::open_loop ? "open" : "closed"; }
+
+PlantKind parse_plant(const std::string& s) {
+  for (PlantKind p : {PlantKind::closed_loop, PlantKind::open_loop})
+    if (s == plant_name(p)) return p;
+  throw std::invalid_argument("--plant must be closed or open, not '" + s + "'");
 }
 
 Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress) {
   validate(cfg);
+  if (cfg.plant == PlantKind::open_loop) return simulate_open_loop(cfg, progress);
 
   const ControllerParams& kc = cfg.controller;
   const double m = cfg.drive.mass_kg;
@@ -651,7 +503,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   std::mt19937_64 rng(cfg.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
 
-  ReferenceGenerator ref_gen(cfg.motion);
+  MotionPath path(cfg.motion, cfg.seed);
   Plant plant(cfg.drive, cfg.effects, cfg.extra_force);
 
   // Delay of the recorded force: u_rec[k] = u(t_k - delay), linear between
@@ -669,7 +521,8 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   const double wander_b = fx.wander_force_N * std::sqrt(std::max(0.0, 1.0 - wander_a * wander_a));
   double wander = fx.wander_force_N > 0.0 ? fx.wander_force_N * wander_normal(wander_rng) : 0.0;
 
-  Logger logger(cfg.logging, dt);
+  HeldForceLog force_log(cfg.logging.force);
+  LoggedVelocity velocity_log(cfg.logging, dt);
   Trace trace;
   trace.source = "simulator";
   trace.has_position = true;
@@ -679,7 +532,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   const std::size_t progress_every = std::max<std::size_t>(1, (n_samples + 99) / 100);
   double integral = 0.0;  // PI integrator state (N)
   double x_meas_prev = 0.0;
-  Reference r_next = ref_gen.at(0.0);  // reference at t_k, carried from tick to tick
+  PathPoint r_next = path.at(0.0);  // reference at t_k, carried from tick to tick
 
   for (std::size_t k = 0; k < n_samples; ++k) {
     const double t = static_cast<double>(k) * dt;
@@ -694,10 +547,10 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
     // Feedforward m * a_ref with a_ref averaged over the hold interval,
     // (v_ref(t_k+1) - v_ref(t_k)) / dt: the held force then delivers exactly
     // the reference velocity change, also for ramps shorter than one period.
-    const Reference r = r_next;
-    r_next = ref_gen.at(static_cast<double>(k + 1) * dt);
-    const double a_ff = (r_next.v - r.v) / dt;
-    const double v_cmd = r.v + kp * (r.x - x_meas);
+    const PathPoint r = r_next;
+    r_next = path.at(static_cast<double>(k + 1) * dt);
+    const double a_ff = (r_next.v_m_s - r.v_m_s) / dt;
+    const double v_cmd = r.v_m_s + kp * (r.x_m - x_meas);
     const double e = v_cmd - v_meas;
     const double ff = kc.acceleration_feedforward ? m * a_ff : 0.0;
     const double u_raw = kv * e + integral + ff;
@@ -724,7 +577,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
                                           : u_applied[i0];
       }
     }
-    trace.samples.push_back(TraceSample{t, x_meas, logger.velocity(v_meas), logger.force(u_rec) + w_meas});
+    trace.samples.push_back(TraceSample{t, x_meas, velocity_log.next(v_meas), force_log.next(u_rec) + w_meas});
 
     // Plant over [t_k, t_k + dt) with u held.
     if (k + 1 < n_samples) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "drive_log.hpp"
+#include "motion_path.hpp"
 #include "trace.hpp"
 
 namespace feedid::host {
@@ -40,16 +42,6 @@ struct ControllerParams {
   bool acceleration_feedforward = true;///< add mass*a_ref (mass as the drive believes it)
 };
 
-struct MotionParams {
-  double slowest_speed_m_s = 2.0e-4;  ///< lowest peak speed of the reciprocating strokes
-  double fastest_speed_m_s = 0.15;    ///< highest peak speed
-  int speed_levels = 14;              ///< peak speeds log-spaced between slowest and fastest
-  double acceleration_m_s2 = 1.0;     ///< reference acceleration (m/s^2)
-  double cruise_time_s = 0.6;         ///< time at peak speed per stroke (s), capped by travel
-  double max_travel_m = 0.4;          ///< stroke never exceeds this (m)
-  double dwell_s = 0.15;              ///< rest between strokes (s)
-  double duration_s = 60.0;           ///< total trace length (s); the level list repeats
-};
 
 struct SensorParams {
   double encoder_resolution_m = 1.0e-8;  ///< position quantum (m)
@@ -158,38 +150,21 @@ struct Effects {
   double wander_time_constant_s = 2.0;  ///< correlation time (s), > 0
 };
 
-/// How the drive writes its log (NOTES.md, "Logging conventions"). The plant
-/// and the controller do not change; only the recorded force and velocity do.
-/// The controller itself always uses the backward difference of position.
-enum class ForceLog {
-  held,      ///< u_k: the command held over [t_k, t_k+1] (a setpoint log)
-  instant,   ///< the force at t_k itself: (u_{k-1} + u_k)/2 for a held command
-  averaged,  ///< the mean over [t_{k-1}, t_k]: u_{k-1} (a filtered current)
-};
-enum class VelocityLog {
-  backward_difference,  ///< (x_k - x_{k-1})/dt: half a period late
-  moving_average,       ///< mean of the last `velocity_average_samples` backward differences
-  low_pass,             ///< first-order low-pass (time constant below) of the backward difference
-};
-struct LoggingParams {
-  ForceLog force = ForceLog::held;
-  VelocityLog velocity = VelocityLog::backward_difference;
-  int velocity_average_samples = 4;           ///< k of the moving average (>= 1)
-  double velocity_time_constant_s = 1.0e-3;   ///< tau of the low-pass (s, > 0)
-};
-const char* force_log_name(ForceLog f);
-const char* velocity_log_name(VelocityLog v);
-/// Parses the names above ("held", "instant", "averaged"; "backward",
-/// "average", "lowpass"); throws std::invalid_argument naming the option.
-ForceLog parse_force_log(const std::string& s);
-VelocityLog parse_velocity_log(const std::string& s);
 
 /// Catalogue names (diagnose's effect_kinds()) of the effects switched on, in
 /// catalogue order, followed by "disturbance" / "wander" for the two outside
 /// the catalogue. Empty when none is on.
 std::vector<std::string> active_effects(const Effects& e);
 
+/// Which plant makes the trace: the closed-loop drive of this file, or the
+/// independent open-loop inverse dynamics of open_loop_plant.hpp.
+enum class PlantKind { closed_loop, open_loop };
+const char* plant_name(PlantKind p);
+/// "closed", "open"; throws std::invalid_argument naming --plant.
+PlantKind parse_plant(const std::string& s);
+
 struct SimConfig {
+  PlantKind plant = PlantKind::closed_loop;
   DriveParams drive{};
   ControllerParams controller{};
   MotionParams motion{};

@@ -37,6 +37,14 @@ void add_sim_options(CLI::App* c, SimConfig& s) {
   c->add_option("--duration", s.motion.duration_s, "trace length (s)")->capture_default_str();
   c->add_option("--slowest-speed", s.motion.slowest_speed_m_s, "lowest stroke peak speed (m/s)")->capture_default_str();
   c->add_option("--fastest-speed", s.motion.fastest_speed_m_s, "highest stroke peak speed (m/s)")->capture_default_str();
+  c->add_option_function<std::string>("--program", [&s](const std::string& v) { s.motion.program = parse_program(v); },
+                                      "motion: ladder (reciprocating strokes at log-spaced speeds, default), sine (reciprocation whose "
+                                      "amplitude and speed change every 2-4 cycles) or production (rapids, feeds, jogs, dwells)")
+      ->check(CLI::IsMember({"ladder", "sine", "production"}));
+  c->add_option_function<std::string>("--plant", [&s](const std::string& v) { s.plant = parse_plant(v); },
+                                      "closed (the drive under its cascaded controller, default) or open (inverse dynamics "
+                                      "along the reference: no controller, no stick/slip; docs/diagnosis.md)")
+      ->check(CLI::IsMember({"closed", "open"}));
   c->add_option("--levels", s.motion.speed_levels, "number of log-spaced peak speeds")->capture_default_str();
   c->add_option("--accel", s.motion.acceleration_m_s2, "reference acceleration (m/s^2)")->capture_default_str();
   c->add_option("--travel", s.motion.max_travel_m, "maximum stroke (m)")->capture_default_str();
