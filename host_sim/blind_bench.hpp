@@ -38,6 +38,8 @@ struct BlindOptions {
   int threads = 0;  ///< worker threads; 0: the machine's hardware threads (at most 8)
   bool quiet = false;  ///< no per-case lines on stdout (the summary tables are still printed)
   std::string labels;     ///< comma-separated subset of the labels to deal (empty: all), e.g. "none" to calibrate
+  std::string plants = "closed,open";               ///< plants a case draws from (drive_sim.hpp PlantKind names)
+  std::string programs = "ladder,sine,production";  ///< motion programs a case draws from (motion_path.hpp)
   int write_case = 0;     ///< > 0: only write this case's trace (1-based) to case_path, and its truth beside it
   std::string case_path;  ///< CSV path for write_case
 };

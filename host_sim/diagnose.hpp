@@ -83,6 +83,9 @@ struct DiagnoseResult {
   double rms_base_N = 0.0;        ///< held-out RMS force residual of the base model
   double rms_augmented_N = 0.0;   ///< held-out RMS with every named effect (= base when none)
   double noise_floor_N = 0.0;     ///< RMS a perfect model would leave (white block noise)
+  /// RMS a point-sampled force log adds at acceleration steps (0 for period-mean logs);
+  /// with noise_floor_N it sets the floor of the test for a remaining gap.
+  double sampling_floor_N = 0.0;
   double closed_fraction = 0.0;   ///< of the excess gap, by every named effect
   std::vector<WhereEntry> where;  ///< of the base model's held-out residual
   std::vector<WhereEntry> where_left;  ///< of what the named effects leave (when a gap remains)

@@ -54,6 +54,8 @@ inline void add_blind_bench_options(CLI::App* c, BlindOptions& o) {
   c->add_option("--threads", o.threads, "worker threads (0: hardware threads, at most 8); results do not depend on it")->capture_default_str();
   c->add_flag("--quiet", o.quiet, "no per-case lines");
   c->add_option("--labels", o.labels, "only these labels, comma-separated (e.g. none, to calibrate false alarms)");
+  c->add_option("--plants", o.plants, "plants to draw from, comma-separated: closed (the drive under its controller), open (independent inverse dynamics)")->capture_default_str();
+  c->add_option("--programs", o.programs, "motion programs to draw from, comma-separated: ladder, sine, production")->capture_default_str();
   c->add_option("--write-case", o.write_case, "only write case N's trace to --case-csv (and its truth beside it), to diagnose it alone");
   c->add_option("--case-csv", o.case_path, "CSV path for --write-case");
 }
