@@ -258,7 +258,11 @@ struct Gap {
   double excess_energy() const { return std::max(rms * rms - floor * floor, 0.0); }
 };
 
-Gap measure_gap(const Vec& r, const Observations& obs) { return {heldout_rms(r, obs), noise_floor(r, obs)}; }
+/// The held-out RMS against what a perfect model would leave: white noise
+/// and the log's time resolution (point_sampling_floor).
+Gap measure_gap(const Vec& r, const Observations& obs, double sampling_floor_N) {
+  return {heldout_rms(r, obs), std::hypot(noise_floor(r, obs), sampling_floor_N)};
+}
 
 /// Held-out improvement of a candidate over its noise-only spread. With
 /// delta = r_current - r_new (the candidate's predicted change, fitted on
@@ -299,6 +303,7 @@ struct Stage {
   ColumnBank& bank;
   const BaseColumns& base;
   const std::vector<EffectModel>& catalogue;
+  double sampling_floor_N = 0.0;  ///< point_sampling_floor
 };
 
 /// The effect's nonlinear parameter by least squares with the current
@@ -435,7 +440,7 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
   Model current = base;
   std::vector<bool> used(st.catalogue.size(), false);
   for (int step = 0; step < opt.max_effects; ++step) {
-    const Gap gap = measure_gap(current.residual, st.obs);
+    const Gap gap = measure_gap(current.residual, st.obs, st.sampling_floor_N);
     // The first step's candidates are listed even without a gap (and
     // calibrate the test on effect-free traces); later ones need a gap.
     if (step > 0 && gap.ratio() < opt.unexplained_ratio) break;
@@ -614,14 +619,14 @@ std::vector<WhereEntry> where_gap_lies(const Observations& obs, const Vec& r, co
 // 7. Verdict and the report's series.
 // ---------------------------------------------------------------------------
 
-/// Mean variance (N^2) the log's time resolution adds to the held-out
+/// RMS (N) the log's time resolution adds to the held-out
 /// observations when the force is a point sample at the tick: a step of
 /// acceleration da at an unknown place within a period moves the force
 /// integral of that period by up to m da dt / 2 (uniform: variance
 /// (m da dt)^2 / 12), seen through the observation's weight (mean w^2 = 1/3)
 /// and divided by its area. A period-mean log (held, averaged) integrates
 /// the step exactly and has none of it.
-double point_sampling_variance(const Observations& obs, double mass_kg, bool point_sampled) {
+double point_sampling_floor(const Observations& obs, double mass_kg, bool point_sampled) {
   if (!point_sampled || !(mass_kg > 0)) return 0.0;
   const double dt = 1.0 / obs.signals().sample_rate_hz;
   double sum = 0.0;
@@ -632,19 +637,21 @@ double point_sampling_variance(const Observations& obs, double mass_kg, bool poi
       sum += jump * jump / 36.0;
       ++n;
     }
-  return n ? sum / static_cast<double>(n) : 0.0;
+  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
 void verdict(const Stage& st, const Model& base, const Model& final_model, const DiagnoseOptions& opt, DiagnoseResult& out) {
-  const Gap base_gap = measure_gap(base.residual, st.obs), left = measure_gap(final_model.residual, st.obs);
-  // The floor from what is left: structure the effects remove (a ripple at
-  // speed) no longer inflates the differences it is taken from.
-  out.noise_floor_N = std::min(base_gap.floor, left.floor > 0 ? left.floor : base_gap.floor);
-  out.rms_base_N = base_gap.rms;
-  out.rms_augmented_N = left.rms;
-  const double excess = std::max(out.rms_base_N - out.noise_floor_N, 0.0);
+  // The white floor from what is left too: structure the effects remove (a
+  // ripple at speed) no longer inflates the differences it is taken from.
+  const double white_base = noise_floor(base.residual, st.obs), white_left = noise_floor(final_model.residual, st.obs);
+  out.noise_floor_N = std::min(white_base, white_left > 0 ? white_left : white_base);
+  out.sampling_floor_N = st.sampling_floor_N;
+  const double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
+  out.rms_base_N = heldout_rms(base.residual, st.obs);
+  out.rms_augmented_N = heldout_rms(final_model.residual, st.obs);
+  const double excess = std::max(out.rms_base_N - floor, 0.0);
   auto closed = [&](double rms) { return excess > 0 ? std::clamp((out.rms_base_N - rms) / excess, -1.0, 1.0) : 0.0; };
-  out.closed_fraction = closed(left.rms);
+  out.closed_fraction = closed(out.rms_augmented_N);
   for (auto& e : out.effects) e.closed_fraction = closed(e.heldout_rms_N);
   if (!out.effects.empty() && out.closed_fraction < opt.min_closed_fraction) {
     // Together they explain too little of the gap to be its cause.
@@ -652,10 +659,6 @@ void verdict(const Stage& st, const Model& base, const Model& final_model, const
     out.rms_augmented_N = out.rms_base_N;
     out.closed_fraction = 0.0;
   }
-  // What a perfect model would leave: white noise plus the log's time resolution.
-  out.sampling_floor_N = std::sqrt(point_sampling_variance(st.obs, out.base.estimate.mass_kg,
-                                                           out.base.signals.force_convention == "instant"));
-  const double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
   out.gap_remains = floor > 0 && out.rms_augmented_N / floor >= opt.unexplained_ratio;
   if (!out.effects.empty()) {
     out.effect = out.effects.front().kind;
@@ -714,7 +717,8 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   if (opt.progress) opt.progress(0.2);
 
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(obs, diag::trace_extent(obs), out.lag_beyond_conventions_s);
-  const Stage st{obs, bank, base_cols, catalogue};
+  const Stage st{obs, bank, base_cols, catalogue,
+                 point_sampling_floor(obs, out.base.estimate.mass_kg, out.base.signals.force_convention == "instant")};
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);
