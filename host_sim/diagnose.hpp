@@ -28,7 +28,7 @@ struct DiagnoseOptions {
   /// Held-out improvement over its noise-only spread (improvement_z in
   /// diagnose.cpp) a candidate must exceed; calibrated in docs/diagnosis.md.
   double significance_z = 5.0;
-  double min_closed_fraction = 0.5;  ///< share of the excess gap the named effects together must close
+  double min_closed_fraction = 0.5;  ///< share of the gap's excess energy the named effects together must explain
   /// Share of the gap's excess energy left at a step that an effect added
   /// there must explain (forward selection, docs/diagnosis.md).
   double min_step_energy_share = 0.4;
