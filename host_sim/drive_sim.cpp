@@ -278,15 +278,7 @@ class Plant {
 
   double extra(double t, double x, double v) const { return extra_ ? extra_(t, x, v) : 0.0; }
 
-  // F_load(t, x): offset, position ripple, time-periodic and wandering disturbance (N).
-  double load(double t, double x) const {
-    double f = e_.offset_N + held_load_;
-    if (e_.ripple_amplitude_N != 0.0)
-      f += e_.ripple_amplitude_N * std::sin(2.0 * kPi * x / e_.ripple_period_m + e_.ripple_phase_rad);
-    if (e_.disturbance_amplitude_N != 0.0)
-      f += e_.disturbance_amplitude_N * std::sin(2.0 * kPi * e_.disturbance_frequency_hz * t + e_.disturbance_phase_rad);
-    return f;
-  }
+  double load(double t, double x) const { return load_force(e_, t, x) + held_load_; }
 
   // Spring force on the load, = minus the force on the motor (N).
   double spring(const State& s) const { return k_ * (s.x - s.x2) + c_ * (s.v - s.v2); }
@@ -438,6 +430,15 @@ std::vector<std::string> active_effects(const Effects& e) {
   if (e.disturbance_amplitude_N != 0.0) on.push_back("disturbance");
   if (e.wander_force_N != 0.0) on.push_back("wander");
   return on;
+}
+
+double load_force(const Effects& e, double t_s, double x_m) {
+  double f = e.offset_N;
+  if (e.ripple_amplitude_N != 0.0)
+    f += e.ripple_amplitude_N * std::sin(2.0 * kPi * x_m / e.ripple_period_m + e.ripple_phase_rad);
+  if (e.disturbance_amplitude_N != 0.0)
+    f += e.disturbance_amplitude_N * std::sin(2.0 * kPi * e.disturbance_frequency_hz * t_s + e.disturbance_phase_rad);
+  return f;
 }
 
 double stribeck_friction(const DriveParams& p, double v_m_s) {

@@ -151,6 +151,10 @@ struct Effects {
 };
 
 
+/// F_load(t, x) of the offset, position ripple and time-periodic disturbance
+/// (N), without the wandering force (a random state the plant holds).
+double load_force(const Effects& e, double t_s, double x_m);
+
 /// Catalogue names (diagnose's effect_kinds()) of the effects switched on, in
 /// catalogue order, followed by "disturbance" / "wander" for the two outside
 /// the catalogue. Empty when none is on.

@@ -68,14 +68,7 @@ class InverseDynamics {
     return std::clamp(std::min(x - lo, hi - x) / ramp + 0.5, 0.0, 1.0);
   }
 
-  double load(double t, double x) const {
-    double f = e_.offset_N + wander_N_;
-    if (e_.ripple_amplitude_N != 0.0)
-      f += e_.ripple_amplitude_N * std::sin(2.0 * kPi * x / e_.ripple_period_m + e_.ripple_phase_rad);
-    if (e_.disturbance_amplitude_N != 0.0)
-      f += e_.disturbance_amplitude_N * std::sin(2.0 * kPi * e_.disturbance_frequency_hz * t + e_.disturbance_phase_rad);
-    return f;
-  }
+  double load(double t, double x) const { return load_force(e_, t, x) + wander_N_; }
 
   double spring(const PathPoint& p) const { return k_ * (p.x_m - x_load_) + c_ * (p.v_m_s - v_load_); }
 
