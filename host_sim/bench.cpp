@@ -19,6 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "baselines.hpp"
+#include "csv_trace.hpp"
+#include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
@@ -885,9 +887,64 @@ CoreLoop make_core_loop(double seconds) {
   return l;
 }
 
+/// One CLI-like run: read the CSV, then `work` on the trace; wall time, CPU
+/// time and the peak memory above the process before the read.
+struct CostRun {
+  double seconds = 0.0, cpu_seconds = 0.0;
+  long long peak_rss_bytes = -1;
+};
+template <typename F> CostRun cost_of(const std::string& csv, F&& work) {
+  CostRun r;
+  r.seconds = timed(
+      [&] {
+        const CsvResult in = read_trace_csv(csv, CsvColumns{});
+        if (!in.error.empty()) throw std::runtime_error(in.error);
+        work(in.trace);
+      },
+      1, &r.peak_rss_bytes, &r.cpu_seconds);
+  return r;
+}
+
+int run_diagnose_cost(const BenchOptions& o) {
+  SimConfig c;
+  c.controller.servo_rate_hz = o.cost_rate_hz;
+  c.motion.duration_s = o.cost_duration_s;
+  c.effects.ripple_amplitude_N = 3.0;
+  std::fprintf(stderr, "diagnose cost: simulating %.0f s at %.0f Hz ...\n", o.cost_duration_s, o.cost_rate_hz);
+  const std::string csv = "/tmp/feedid_cost_" + std::to_string(getpid()) + ".csv";
+  std::string error;
+  if (!write_trace_csv(csv, simulate(c), error)) throw std::runtime_error(error);
+  std::fprintf(stderr, "diagnose cost: identify ...\n");
+  const CostRun id = cost_of(csv, [](const Trace& t) { identify(t, IdentifyOptions{}); });
+  std::fprintf(stderr, "diagnose cost: diagnose ...\n");
+  const CostRun dg = cost_of(csv, [](const Trace& t) { diagnose(t, DiagnoseOptions{}); });
+  std::remove(csv.c_str());
+  const double t_ratio = dg.seconds / id.seconds;
+  const double m_ratio = id.peak_rss_bytes > 0 && dg.peak_rss_bytes >= 0
+                             ? static_cast<double>(dg.peak_rss_bytes) / static_cast<double>(id.peak_rss_bytes) : NAN;
+  std::printf("diagnose against identify, one %.0f s trace at %.0f Hz (CSV read included), one run each:\n",
+              o.cost_duration_s, o.cost_rate_hz);
+  std::printf("  %-9s %9s %9s %11s\n", "command", "wall s", "cpu s", "peak mem");
+  std::printf("  %-9s %9.2f %9.2f %11s\n", "identify", id.seconds, id.cpu_seconds, human_bytes(static_cast<double>(id.peak_rss_bytes)).c_str());
+  std::printf("  %-9s %9.2f %9.2f %11s\n", "diagnose", dg.seconds, dg.cpu_seconds, human_bytes(static_cast<double>(dg.peak_rss_bytes)).c_str());
+  std::printf("  ratio     %8.2fx %18.2fx   (bar: <= 3x time, <= 2x memory)\n", t_ratio, m_ratio);
+  if (!o.json_path.empty()) {
+    const json j = {{"mode", "diagnose_cost"}, {"machine", machine_json()}, {"rate_hz", o.cost_rate_hz},
+                    {"duration_s", o.cost_duration_s},
+                    {"identify", {{"seconds", id.seconds}, {"cpu_seconds", id.cpu_seconds}, {"peak_rss_bytes", id.peak_rss_bytes}}},
+                    {"diagnose", {{"seconds", dg.seconds}, {"cpu_seconds", dg.cpu_seconds}, {"peak_rss_bytes", dg.peak_rss_bytes}}},
+                    {"time_ratio", t_ratio}, {"memory_ratio", std::isfinite(m_ratio) ? json(m_ratio) : json(nullptr)}};
+    std::ofstream f(o.json_path);
+    f << j.dump(2) << "\n";
+    if (!f) return 1;
+  }
+  return 0;
+}
+
 int run_bench(const BenchOptions& o) {
   try {
     if (o.core_only) return run_core_only(o);
+    if (o.diagnose_cost) return run_diagnose_cost(o);
     std::vector<std::string> methods;
     if (!parse_methods(o.methods, methods)) return 2;
     if (o.repeats < 1 || o.ga_population < 5 || o.ga_generations < 0) {

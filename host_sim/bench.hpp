@@ -38,6 +38,13 @@ struct BenchOptions {
   /// per row and evaluation, and marked so.
   long ga_max_samples = 1000000;
 
+  /// --diagnose-cost: time and peak memory of `diagnose` against `identify`
+  /// on one simulated trace (a 3 N ripple), each reading the CSV as the CLI
+  /// does, and their ratios (issue 10's bar: <= 3x time, <= 2x memory).
+  bool diagnose_cost = false;
+  double cost_rate_hz = 8000.0;
+  double cost_duration_s = 600.0;
+
   /// Comma-separated subset of streaming,batch_lm,ga,rls (empty: all).
   std::string methods;
   /// Each fast method is timed as the minimum over this many runs (the GA

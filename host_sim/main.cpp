@@ -194,6 +194,9 @@ int main(int argc, char** argv) {
   c_bench->add_option("--samples", bo.samples, "core-only: samples to push")->capture_default_str();
   c_bench->add_option("--precision", bo.precision, "core-only: float or double")->capture_default_str();
   c_bench->add_flag("--quick", bo.quick, "two short traces, small GA budget");
+  c_bench->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios");
+  c_bench->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
+  c_bench->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
   c_bench->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");
   c_bench->add_option("--max-samples", bo.max_samples, "scaling: longest trace (samples)")->capture_default_str();
   c_bench->add_option("--ga-max-samples", bo.ga_max_samples, "scaling: longest trace the GA runs on")->capture_default_str();
