@@ -274,7 +274,7 @@ int main(int argc, char** argv) {
       if (!dg_report.empty()) {
         std::string err;
         if (!write_diagnosis_report(r, dg_report, dg_in, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-        std::printf("report: %s/report.md\n", dg_report.c_str());
+        std::printf("report: %s/report.html\n", dg_report.c_str());
       }
       return 0;
     }
@@ -327,7 +327,7 @@ int main(int argc, char** argv) {
       if (!demo_report.empty()) {
         std::string err;
         if (!write_diagnosis_report(d, demo_report, "feedid demo", err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-        std::printf("report: %s/report.md\n", demo_report.c_str());
+        std::printf("report: %s/report.html\n", demo_report.c_str());
       }
       return 0;
     }

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "svg_plot.hpp"
 
 namespace feedid::host {
@@ -21,9 +23,61 @@ PlotSeries scatter(const std::string& label, const std::vector<double>& x, const
   return s;
 }
 
-/// Held-out blocks' residual before and after against one block quantity.
-bool residual_plot(const DiagnoseResult& r, const std::vector<double>& q, const std::string& xlabel,
-                   const std::string& title, const std::string& path, std::string& error) {
+/// HTML text with <, > and & escaped.
+std::string html(const std::string& t) {
+  std::string o;
+  for (char c : t) o += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
+  return o;
+}
+
+/// Three significant digits (a fitted effect parameter has no standard error of its own).
+std::string sig3(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+
+/// v +- se with the digits the standard error justifies: two significant
+/// digits of se, v rounded to the same place.
+std::string with_se(double v, double se) {
+  if (!(se > 0) || !std::isfinite(se)) return sig3(v);
+  const int place = static_cast<int>(std::floor(std::log10(se))) - 1;  // last digit kept, as a power of ten
+  char b[64];
+  if (place >= 0) {
+    const double q = std::pow(10.0, place);
+    std::snprintf(b, sizeof b, "%.0f &plusmn; %.0f", std::round(v / q) * q, std::round(se / q) * q);
+  } else {
+    std::snprintf(b, sizeof b, "%.*f &plusmn; %.*f", -place, v, -place, se);
+  }
+  return b;
+}
+
+/// Unit of a diagnosis parameter from its SI name's suffix.
+std::string unit_of(const std::string& key) {
+  const std::pair<const char*, const char*> suffixes[] = {{"_Ns_m", "N s/m"}, {"_hz", "Hz"}, {"_kg", "kg"},
+                                                          {"_rad", "rad"}, {"_N", "N"}, {"_s", "s"}, {"_m", "m"}};
+  if (key == "c2") return "N s&sup2;/m&sup2;";
+  for (const auto& [suffix, unit] : suffixes) {
+    const std::string sfx = suffix;
+    if (key.size() > sfx.size() && key.compare(key.size() - sfx.size(), sfx.size(), sfx) == 0) return unit;
+  }
+  return "";
+}
+
+std::string parameters_html(const nlohmann::json& p) {
+  std::string o;
+  for (auto it = p.begin(); p.is_object() && it != p.end(); ++it) {
+    if (!it.value().is_number()) continue;
+    o += (o.empty() ? "" : ", ") + html(it.key()) + " = " + sig3(it.value().get<double>()) + " " + unit_of(it.key());
+  }
+  return o;
+}
+
+/// Side-by-side panels of the held-out residual against one block quantity:
+/// the base model, and (if effects were named) the model with them, on one
+/// y range so the two compare at a glance and neither hides the other.
+std::string residual_panels(const DiagnoseResult& r, const std::vector<double>& q, const std::string& xlabel,
+                            const std::string& id) {
   std::vector<double> x, before, after;
   for (std::size_t i = 0; i < q.size(); ++i)
     if (r.block_heldout[i]) {
@@ -31,21 +85,94 @@ bool residual_plot(const DiagnoseResult& r, const std::vector<double>& q, const 
       before.push_back(r.block_r_base[i]);
       after.push_back(r.block_r_aug[i]);
     }
-  PlotSpec p;
-  p.title = title;
-  p.x = {xlabel, false};
-  p.y = {"force residual, 5 ms block mean (N)", false};
-  p.series.push_back(scatter("base model", x, before, "#b0b0b0"));
-  if (r.effect != "none" && r.effect != "unexplained")
-    p.series.push_back(scatter("with " + r.effect, x, after, "#d62728"));
-  p.legend = "top-right";
-  p.note = "held-out blocks only";
-  return write_svg(path, p, error);
+  const bool named = !r.effects.empty();
+  double lo = 0.0, hi = 0.0;
+  for (double v : before) lo = std::min(lo, v), hi = std::max(hi, v);
+  for (double v : after) lo = std::min(lo, v), hi = std::max(hi, v);
+  std::string effects;
+  for (const auto& e : r.effects) effects += (effects.empty() ? "" : " + ") + e.kind;
+  std::string o = "<div class=\"row\">";
+  for (int panel = 0; panel < (named ? 2 : 1); ++panel) {
+    PlotSpec p;
+    p.id = id + std::to_string(panel);
+    p.title = panel == 0 ? "base model" : "with " + effects;
+    p.x = {xlabel, false};
+    p.y = {"residual, 5 ms observation mean (N)", false, lo, hi};
+    p.series.push_back(scatter("", x, panel == 0 ? before : after, panel == 0 ? "#7f7f7f" : "#d62728"));
+    p.width_px = 470;
+    p.height_px = 330;
+    p.note = "held-out observations only";
+    o += render_svg(p);
+  }
+  return o + "</div>\n";
+}
+
+std::string verdict_html(const DiagnoseResult& r) {
+  std::ostringstream o;
+  o << "<table>\n<tr><th>verdict</th><td><b>" << html(r.effect) << "</b></td></tr>\n";
+  for (const auto& e : r.effects)
+    o << "<tr><th>" << html(e.kind) << "</th><td>" << parameters_html(e.parameters) << "<br>held-out RMS after adding it "
+      << sig3(e.heldout_rms_N) << " N; closes " << sig3(100 * e.closed_fraction) << " % of the excess; z " << sig3(e.z_statistic)
+      << "</td></tr>\n";
+  if (r.gap_remains && !r.effects.empty())
+    o << "<tr><th>unexplained</th><td>a gap of " << sig3(r.rms_augmented_N) << " N RMS remains"
+      << (r.where_left.empty() ? "" : ", most in " + html(r.where_left.front().domain + " " + r.where_left.front().range))
+      << "</td></tr>\n";
+  for (const auto& a : r.ambiguities) o << "<tr><th>ambiguous</th><td>" << html(a.value("note", std::string())) << "</td></tr>\n";
+  o << "<tr><th>held-out RMS, base model</th><td>" << sig3(r.rms_base_N) << " N</td></tr>\n";
+  o << "<tr><th>noise floor</th><td>" << sig3(r.noise_floor_N) << " N white";
+  if (r.sampling_floor_N > 0) o << ", " << sig3(r.sampling_floor_N) << " N from point-sampled force at acceleration steps";
+  o << "</td></tr>\n<tr><th>observations</th><td>" << r.blocks_identification << " identification, " << r.blocks_heldout
+    << " held out";
+  if (r.heldout_beyond_identification > 0)
+    o << ", " << r.heldout_beyond_identification << " set aside (the identification folds do not pin the model down there)";
+  o << "</td></tr>\n</table>\n";
+  return o.str();
+}
+
+std::string where_and_candidates_html(const DiagnoseResult& r) {
+  std::ostringstream o;
+  o << "<h2>Where the base model's residual lies</h2>\n<p>Share of the held-out residual energy against share of "
+       "held-out time.</p>\n<table>\n<tr><th>domain</th><th>range</th><th>energy</th><th>time</th></tr>\n";
+  for (const auto& w : r.where)
+    o << "<tr><td>" << html(w.domain) << "</td><td>" << html(w.range) << "</td><td>" << sig3(100 * w.share)
+      << " %</td><td>" << sig3(100 * w.time_share) << " %</td></tr>\n";
+  o << "</table>\n<h2>Candidates at the first step</h2>\n<p>Each fitted with the base model on the identification "
+       "folds and judged on the held-out folds.</p>\n<table>\n<tr><th>effect</th><th>held-out RMS</th><th>closes</th>"
+       "<th>z</th><th>judgement</th><th>parameters</th></tr>\n";
+  for (const auto& c : r.candidates)
+    o << "<tr><td>" << html(c.kind) << "</td><td>" << sig3(c.heldout_rms_N) << " N</td><td>" << sig3(100 * c.closed_fraction)
+      << " %</td><td>" << sig3(c.z_statistic) << "</td><td>"
+      << (c.indistinguishable ? "indistinguishable" : c.significant ? "significant" : "not significant")
+      << (c.note.empty() ? "" : "<br><small>" + html(c.note) + "</small>") << "</td><td>" << parameters_html(c.parameters)
+      << "</td></tr>\n";
+  o << "</table>\n";
+  return o.str();
+}
+
+std::string base_model_html(const IdentifyResult& b) {
+  const auto& e = b.estimate;
+  std::ostringstream o;
+  o << "<h2>Base model (identification folds)</h2>\n<table>\n<tr><th>parameter</th><th>v &gt; 0</th><th>v &lt; 0</th>"
+       "<th>unit</th></tr>\n";
+  o << "<tr><td>mass m</td><td colspan=\"2\">" << with_se(e.mass_kg, e.mass_se_kg) << "</td><td>kg</td></tr>\n";
+  auto row = [&](const char* name, const char* unit, auto value, auto se) {
+    o << "<tr><td>" << name << "</td><td>" << with_se(value(e.pos), se(e.pos)) << "</td><td>"
+      << with_se(value(e.neg), se(e.neg)) << "</td><td>" << unit << "</td></tr>\n";
+  };
+  using D = feedid::DirectionEstimate<double>;
+  row("viscous &sigma;", "N s/m", [](const D& d) { return d.viscous_Ns_m; }, [](const D& d) { return d.viscous_se; });
+  row("Coulomb F<sub>c</sub>", "N", [](const D& d) { return d.coulomb_N; }, [](const D& d) { return d.coulomb_se; });
+  row("break-away F<sub>s</sub>", "N", [](const D& d) { return d.breakaway_N; }, [](const D& d) { return d.breakaway_se; });
+  row("Stribeck v<sub>s</sub>", "m/s", [](const D& d) { return d.stribeck_velocity_m_s; },
+      [](const D& d) { return d.stribeck_velocity_se; });
+  o << "</table>\n";
+  return o.str();
 }
 
 }  // namespace
 
-bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, std::string& error) {
+PlotSpec friction_curve_plot(const IdentifyResult& r) {
   PlotSpec p;
   p.title = "Friction curve: measured band means and identified model";
   p.x = {"speed |v| (m/s)", true};
@@ -71,7 +198,12 @@ bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, 
     p.series.push_back(line);
   }
   p.note = "points: mean of u - m a per velocity band (inertia removed); lines: identified F(|v|)";
-  return write_svg(path, p, error);
+  p.legend = "below";
+  return p;
+}
+
+bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, std::string& error) {
+  return write_svg(path, friction_curve_plot(r), error);
 }
 
 bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
@@ -79,49 +211,24 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) { error = dir + ": cannot create: " + ec.message(); return false; }
-  if (!write_friction_curve_svg(r.base, dir + "/friction_curve.svg", error)) return false;
-  if (!residual_plot(r, r.block_v, "velocity (m/s)", "Held-out residual over velocity", dir + "/residual_velocity.svg", error)) return false;
-  if (!residual_plot(r, r.block_x, "position (m)", "Held-out residual over position", dir + "/residual_position.svg", error)) return false;
-  if (!residual_plot(r, r.block_t, "time (s)", "Held-out residual over time", dir + "/residual_time.svg", error)) return false;
-
-  std::ostringstream md;
-  md << "# Sim-to-real gap diagnosis\n\n";
-  md << "Trace: `" << source << "`. Made by `feedid diagnose --in " << source << " --report " << dir << "`.\n\n";
-  md << "## Verdict\n\n";
-  md << "| | |\n|---|---|\n";
-  md << "| effect | **" << r.effect << "** |\n";
-  if (r.effect_parameters.is_object())
-    for (auto it = r.effect_parameters.begin(); it != r.effect_parameters.end(); ++it)
-      md << "| " << it.key() << " | " << it.value().dump() << " |\n";
-  char buf[256];
-  std::snprintf(buf, sizeof buf, "| held-out RMS, base model | %.4g N |\n| held-out RMS, with the effect | %.4g N |\n"
-                "| noise floor | %.4g N |\n| share of the excess gap closed | %.0f %% |\n",
-                r.rms_base_N, r.rms_augmented_N, r.noise_floor_N, 100 * r.closed_fraction);
-  md << buf << "\n";
-  md << "## Where the residual lies\n\nShare of held-out residual energy against share of held-out time.\n\n";
-  md << "| domain | range | energy | time |\n|---|---|---|---|\n";
-  for (const auto& w : r.where) {
-    std::snprintf(buf, sizeof buf, "| %s | %s | %.1f %% | %.1f %% |\n", w.domain.c_str(), w.range.c_str(), 100 * w.share,
-                  100 * w.time_share);
-    md << buf;
-  }
-  md << "\n## Candidates\n\nEach fitted with the base model on the identification folds, judged on the held-out folds.\n\n";
-  md << "| effect | held-out RMS (N) | closes | z | verdict | parameters |\n|---|---|---|---|---|---|\n";
-  for (const auto& c : r.candidates) {
-    std::snprintf(buf, sizeof buf, "| %s | %.4g | %.0f %% | %.1f | %s | ", c.kind.c_str(), c.heldout_rms_N,
-                  100 * c.closed_fraction, c.z_statistic,
-                  c.indistinguishable ? "indistinguishable from base" : c.significant ? "significant" : "not significant");
-    md << buf << "`" << c.parameters.dump() << "` |\n";
-  }
-  for (const auto& c : r.candidates)
-    if (!c.note.empty()) md << "\n*" << c.kind << "*: " << c.note << "\n";
-  md << "\n## Pictures\n\n";
-  md << "![friction curve](friction_curve.svg)\n\n![residual over velocity](residual_velocity.svg)\n\n"
-        "![residual over position](residual_position.svg)\n\n![residual over time](residual_time.svg)\n\n";
-  md << "## Base model (identification folds)\n\n```\n" << summary(r.base) << "```\n";
-  std::ofstream f(dir + "/report.md");
-  if (!f) { error = dir + "/report.md: cannot write"; return false; }
-  f << md.str();
+  PlotSpec curve = friction_curve_plot(r.base);
+  curve.id = "curve";
+  std::ostringstream o;
+  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>feedid diagnosis: " << html(source)
+    << "</title>\n<style>\nbody{font-family:Helvetica,Arial,sans-serif;max-width:1000px;margin:2em auto;color:#222}\n"
+       "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:4px 8px;text-align:left;"
+       "vertical-align:top}th{background:#f4f4f4}\n.row{display:flex;gap:12px;flex-wrap:wrap}\n</style>\n</head>\n<body>\n";
+  o << "<h1>Sim-to-real gap diagnosis</h1>\n<p>Trace <code>" << html(source) << "</code>, made by <code>feedid diagnose --in "
+    << html(source) << " --report " << html(dir) << "</code>. docs/diagnosis.md explains every quantity.</p>\n";
+  o << "<h2>Verdict</h2>\n" << verdict_html(r) << where_and_candidates_html(r);
+  o << "<h2>Friction curve</h2>\n" << render_svg(curve);
+  o << "<h2>Held-out residual over velocity</h2>\n" << residual_panels(r, r.block_v, "velocity (m/s)", "v");
+  o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (m)", "x");
+  o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t");
+  o << base_model_html(r.base) << "</body>\n</html>\n";
+  std::ofstream f(dir + "/report.html");
+  if (!f) { error = dir + "/report.html: cannot write"; return false; }
+  f << o.str();
   return static_cast<bool>(f);
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "diagnose.hpp"
+#include "svg_plot.hpp"
 #include "identify.hpp"
 #include "validate.hpp"
 
@@ -15,8 +16,14 @@ namespace feedid::host {
 /// the identified F(|v|) (lines), both directions, log speed axis.
 bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, std::string& error);
 
-/// Writes friction_curve.svg, residual_velocity.svg, residual_position.svg,
-/// residual_time.svg and report.md into dir (created if missing).
+/// The friction-curve figure (the plot write_friction_curve_svg writes).
+PlotSpec friction_curve_plot(const IdentifyResult& r);
+
+/// Writes report.html into dir (created if missing): one self-contained
+/// page with inline SVG: the verdict, where the gap lies, the candidates,
+/// the friction curve, the held-out residual before and after side by side
+/// over velocity, position and time, and the base model with the digits
+/// its standard errors justify.
 bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
                             std::string& error);
 

@@ -118,7 +118,8 @@ std::string render_svg(const PlotSpec& p) {
   const Scale sx = make_scale(p.x, xs), sy = make_scale(p.y, ys);
   const double W = p.width_px, H = p.height_px;
   const double left = 78, right = 24, top = p.title.empty() ? 20 : 44;
-  const double bottom = p.note.empty() ? 58 : 76;
+  const bool below = p.legend == "below";
+  const double bottom = (p.note.empty() ? 58 : 76) + (below ? 22 : 0);
   const double pw = W - left - right, ph = H - top - bottom;
   auto px = [&](double axis_x) { return left + (axis_x - sx.lo) / (sx.hi - sx.lo) * pw; };
   auto py = [&](double axis_y) { return top + ph - (axis_y - sy.lo) / (sy.hi - sy.lo) * ph; };
@@ -127,7 +128,7 @@ std::string render_svg(const PlotSpec& p) {
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" viewBox=\"0 0 "
     << W << " " << H << "\" font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
   o << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  o << "<defs><clipPath id=\"plot\"><rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw
+  o << "<defs><clipPath id=\"" << escape(p.id) << "\"><rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw
     << "\" height=\"" << ph << "\"/></clipPath></defs>\n";
   if (!p.title.empty())
     o << "<text x=\"" << W / 2 << "\" y=\"26\" text-anchor=\"middle\" font-size=\"15\" font-weight=\"bold\">"
@@ -157,7 +158,7 @@ std::string render_svg(const PlotSpec& p) {
       << "</text>\n";
 
   // Series, clipped to the plot area; invalid points break the line.
-  o << "<g clip-path=\"url(#plot)\" fill=\"none\" stroke-width=\"1.8\">\n";
+  o << "<g clip-path=\"url(#" << escape(p.id) << ")\" fill=\"none\" stroke-width=\"1.8\">\n";
   for (std::size_t i = 0; i < p.series.size(); ++i) {
     const PlotSeries& s = p.series[i];
     const std::string color = s.color.empty() ? kPalette[i % (sizeof kPalette / sizeof *kPalette)] : s.color;
@@ -192,21 +193,26 @@ std::string render_svg(const PlotSpec& p) {
     const bool at_right = p.legend.find("right") != std::string::npos;
     const bool at_bottom = p.legend.find("bottom") != std::string::npos;
     const double lx = at_right ? left + pw - lw - 8 : left + 8;
-    const double ly = at_bottom ? top + ph - lh - 8 : top + 8;
-    o << "<g><rect x=\"" << lx << "\" y=\"" << ly << "\" width=\"" << num(lw, 6) << "\" height=\"" << lh
-      << "\" fill=\"white\" fill-opacity=\"0.9\" stroke=\"#999\"/>\n";
+    const double ly = below ? top + ph + 46 : (at_bottom ? top + ph - lh - 8 : top + 8);
+    o << "<g>";
+    if (!below)
+      o << "<rect x=\"" << lx << "\" y=\"" << ly << "\" width=\"" << num(lw, 6) << "\" height=\"" << lh
+        << "\" fill=\"white\" fill-opacity=\"0.9\" stroke=\"#999\"/>";
+    o << "\n";
     for (std::size_t r = 0; r < shown.size(); ++r) {
       const PlotSeries& s = p.series[shown[r]];
       const std::string color =
           s.color.empty() ? kPalette[shown[r] % (sizeof kPalette / sizeof *kPalette)] : s.color;
-      const double yy = ly + 16 + 18.0 * static_cast<double>(r);
+      // Below the plot the entries run in one row, each as wide as the longest.
+      const double lx_r = below ? left + (lw + 10) * static_cast<double>(r) : lx;
+      const double yy = below ? ly + 12 : ly + 16 + 18.0 * static_cast<double>(r);
       if (s.line)
-        o << "<line x1=\"" << lx + 6 << "\" y1=\"" << yy - 4 << "\" x2=\"" << lx + 28 << "\" y2=\"" << yy - 4
+        o << "<line x1=\"" << lx_r + 6 << "\" y1=\"" << yy - 4 << "\" x2=\"" << lx_r + 28 << "\" y2=\"" << yy - 4
           << "\" stroke=\"" << color << "\" stroke-width=\"1.8\"" << (s.dashed ? " stroke-dasharray=\"6,4\"" : "")
           << "/>\n";
       if (s.markers)
-        o << "<circle cx=\"" << lx + 17 << "\" cy=\"" << yy - 4 << "\" r=\"3\" fill=\"" << color << "\"/>\n";
-      o << "<text x=\"" << lx + 34 << "\" y=\"" << yy << "\">" << escape(s.label) << "</text>\n";
+        o << "<circle cx=\"" << lx_r + 17 << "\" cy=\"" << yy - 4 << "\" r=\"3\" fill=\"" << color << "\"/>\n";
+      o << "<text x=\"" << lx_r + 34 << "\" y=\"" << yy << "\">" << escape(s.label) << "</text>\n";
     }
     o << "</g>\n";
   }

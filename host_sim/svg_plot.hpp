@@ -40,8 +40,12 @@ struct PlotSpec {
   std::vector<PlotSeries> series;
   int width_px = 720;
   int height_px = 460;
-  /// Legend corner: "top-left", "top-right", "bottom-left", "bottom-right".
+  /// Legend corner: "top-left", "top-right", "bottom-left", "bottom-right",
+  /// or "below": one row under the plot, off the data.
   std::string legend = "top-left";
+  /// Id prefix of the SVG's clip path: plots inlined into one HTML page
+  /// need different ones.
+  std::string id = "plot";
   std::string note;  ///< optional small text under the plot (e.g. the machine)
 };
 
