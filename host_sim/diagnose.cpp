@@ -42,6 +42,14 @@ Signals aligned_signals(const Trace& trace, const DiagnoseOptions& opt, Diagnose
   IdentifyOptions timing = opt.identify;
   timing.lag_within_conventions = true;
   Signals sig = prepare_signals(trace, timing);
+  if (!sig.has_position) {
+    // Position from the velocity (trapezoid, 0 at the start): the position
+    // and reversal candidates then see relative positions, not zeros.
+    sig.x.assign(sig.t.size(), 0.0);
+    for (std::size_t k = 1; k < sig.t.size(); ++k)
+      sig.x[k] = sig.x[k - 1] + 0.5 * (sig.v[k] + sig.v[k - 1]) * (sig.t[k] - sig.t[k - 1]);
+    out.position_origin = "integrated from velocity (no position column): positions are relative to the start";
+  }
   out.force_lag_s = sig.force_lag_s;
   out.lag_beyond_conventions_s = sig.lag_beyond_conventions / sig.sample_rate_hz;
   return sig;
@@ -826,6 +834,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"convention_force_delay_limit_periods", convention_force_delay_limit()},
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
                           "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
+  j["input"] = {{"position", r.position_origin}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},
                 {"folds", r.folds}, {"blocks_identification", r.blocks_identification},
                 {"blocks_heldout", r.blocks_heldout}};
@@ -847,6 +856,7 @@ std::string summary(const DiagnoseResult& r) {
   if (r.heldout_beyond_identification > 0)
     o << "  " << r.heldout_beyond_identification
       << " held-out observations set aside: the identification folds do not pin the base model down there (prediction variance above half the noise)\n";
+  if (r.position_origin != "measured") o << "position " << r.position_origin << "\n";
   o << "effect: " << r.effect << "\n";
   for (const auto& e : r.effects) {
     std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g N, closes %.0f %% of the excess (z %.1f)\n",

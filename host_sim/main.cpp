@@ -263,6 +263,11 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*c_dg) {
+      if (dg_method != "bands") {
+        std::fprintf(stderr, "error: diagnose --method %s: the diagnosis refits the bands model's terms and has no "
+                             "other method; use identify --method %s for that estimate\n", dg_method.c_str(), dg_method.c_str());
+        return 2;
+      }
       const CsvResult csv = read_trace_csv(dg_in, dg_cols);
       if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
       Progress p("diagnose");

@@ -119,6 +119,23 @@ TEST(DiagnoseEffect, DelayBeyondTheConventionsIsNamedAndSizedBeyondThem) {
   EXPECT_NEAR(r.effect_parameters["delay_s"].get<double>() / period, 2.5 - 0.6, 0.3) << r.effect_parameters.dump();
 }
 
+// A log without a position column: the diagnosis integrates velocity for
+// the position and reversal candidates, and says so. It used zeros, which no
+// ripple fits.
+TEST(DiagnoseEffect, RippleWithoutAPositionColumnIsFoundOnIntegratedVelocity) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 40.0}, 3);
+  cfg.effects.ripple_amplitude_N = 3.0;
+  cfg.effects.ripple_period_m = 5e-3;
+  host::Trace trace = host::simulate(cfg);
+  trace.has_position = false;
+  for (auto& s : trace.samples) s.x_m = 0.0;
+  const host::DiagnoseResult r = host::diagnose(trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
+  EXPECT_NEAR(r.effect_parameters["period_m"].get<double>(), 5e-3, 2e-4);
+  EXPECT_NE(r.position_origin.find("integrated from velocity"), std::string::npos);
+}
+
 // Per candidate term: a trace with exactly that effect gives back its
 // parameters. Tolerances are about three times the blind benchmark's median
 // errors (docs/blind_bench_seed11.md): position range edges 5 % of its width
