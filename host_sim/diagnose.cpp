@@ -69,6 +69,8 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   idopt.force_lag_s = sig.force_lag_samples / sig.sample_rate_hz;
   idopt.velocity_lag_s = sig.velocity_is_difference ? 0.5 / sig.sample_rate_hz : sig.velocity_lag_s;
   out.base = identify(id_trace, idopt);
+  // The identification folds reach the core as a measured column; say where it came from.
+  out.base.signals.velocity_origin = sig.velocity_origin;
   if (!out.base.error.empty()) out.error = out.base.error;
   return out.error.empty();
 }

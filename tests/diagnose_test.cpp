@@ -136,6 +136,17 @@ TEST(DiagnoseEffect, RippleWithoutAPositionColumnIsFoundOnIntegratedVelocity) {
   EXPECT_NE(r.position_origin.find("integrated from velocity"), std::string::npos);
 }
 
+// A log without a velocity column: the base model's JSON says the velocity
+// was derived, not "measured" (the identification folds reach the core as a
+// column, which had made it say measured).
+TEST(DiagnoseEffect, DerivedVelocityIsReportedAsDerived) {
+  host::Trace trace = host::simulate(logged({ForceLog::held, VelocityLog::backward_difference, 30.0}, 2));
+  trace.has_velocity = false;
+  const host::DiagnoseResult r = host::diagnose(trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.base.signals.velocity_origin.rfind("derived", 0), 0u) << r.base.signals.velocity_origin;
+}
+
 // Per candidate term: a trace with exactly that effect gives back its
 // parameters. Tolerances are about three times the blind benchmark's median
 // errors (docs/blind_bench_seed11.md): position range edges 5 % of its width
