@@ -116,6 +116,29 @@ TEST(Stream, FloatMatchesDoubleOverOneHourAt4kHz) {
 // (2) section detection
 // ---------------------------------------------------------------------------
 
+// solve() never publishes a non-finite number: force readings that are
+// finite one by one and inside a configured max_force_N but overflow the sums
+// give numerical_error, and the last good estimate stays (the status had been
+// documented and never returned).
+TEST(Stream, OverflowingSumsGiveNumericalErrorAndKeepTheLastEstimate) {
+  test::SimSpec spec;
+  spec.duration_s = 30.0;
+  const host::SimConfig sc = test::sim_config(spec);
+  const host::Trace tr = host::simulate(sc);
+  auto est = std::make_unique<Estimator<double>>();
+  Config<double> cfg = test::default_config<double>(sc);
+  cfg.max_force_N = 1e307;  // the input gate would reject such readings at the default 1e6 N
+  ASSERT_EQ(est->init(cfg), Status::ok);
+  test::push_trace(*est, tr);
+  ASSERT_EQ(est->solve(), Status::ok);
+  const double good_mass = est->estimate().mass_kg;
+  host::Trace huge = tr;
+  for (auto& x : huge.samples) x.u_N = 1e306;
+  test::push_trace(*est, huge, 1.0 / sc.controller.servo_rate_hz);
+  EXPECT_EQ(est->solve(), Status::numerical_error);
+  EXPECT_EQ(est->estimate().mass_kg, good_mass);
+}
+
 TEST(Stream, RestJitterOpensNoSections) {
   // GIVEN 30 s of velocity jitter of up to +-3 quanta around zero and random
   // force (sections open at 2 * velocity_min = 4 quanta)

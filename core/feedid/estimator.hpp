@@ -95,15 +95,29 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     if (section_open_) mark_split();
     fold(0);
     fold(1);
+    if (!finite_statistics(stats_)) return Status::numerical_error;  // the last good estimate stays
     Estimate<T> e;
     e.method = method;
     const Status st = method == Method::paper ? detail::solve_paper(stats_, cfg_, e)
                                               : detail::solve_bands(stats_, layout_, cfg_, e);
+    // A non-finite number is never published: the last good estimate stays.
+    if (!finite_estimate(e)) return Status::numerical_error;
     estimate_ = e;
     return st;
   }
 
   const Estimate<T>& estimate() const { return estimate_; }
+
+  /// Every number solve() reports, finite (rare path: once per solve).
+  static bool finite_estimate(const Estimate<T>& e) {
+    bool ok = port::all_finite(e.mass_kg, e.mass_se_kg, T(0));
+    const DirectionEstimate<T>* dirs[2] = {&e.pos, &e.neg};
+    for (const DirectionEstimate<T>* d : dirs)
+      ok = ok && port::all_finite(d->viscous_Ns_m, d->coulomb_N, d->breakaway_N) &&
+           port::all_finite(d->stribeck_velocity_m_s, d->viscous_se, d->coulomb_se) &&
+           port::all_finite(d->breakaway_se, d->stribeck_velocity_se, T(0));
+    return ok;
+  }
   const Diagnostics& diagnostics() const { return diag_; }
   /// The sufficient statistics (folded part); for host-side plots and checks.
   const Stats& statistics() const { return stats_; }

@@ -424,7 +424,13 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     const int base = offset < T(0) ? best - 1 : best;
     const T frac = offset < T(0) ? T(1) + offset : offset;
     Vector<T, 3> inv;
-    const T ssr = cost(base, frac, th, &inv);
+    T ssr = cost(base, frac, th, &inv);
+    if (ssr < T(0)) {  // the interpolated sums are singular: stay on the best candidate
+      offset = T(0);
+      curvature = T(0);
+      ssr = cost(best, T(0), th, &inv);
+    }
+    if (ssr < T(0)) { e.flags |= flag_fit_failed; continue; }  // never standard errors of 0 from a failed solve
     const T vs = s.vs_candidate[best] * port::exp(offset * lstep);
     e.coulomb_N = th.v[0];
     e.viscous_Ns_m = th.v[1];

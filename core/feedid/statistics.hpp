@@ -148,6 +148,29 @@ template <typename T, int Bands, int Candidates> struct Statistics {
   T vs_candidate[Candidates] = {};        ///< paper method's bank (m/s), fixed at init
 };
 
+/// Calls f(x, y) for every running sum x of `a` and the same sum y of `b`
+/// (the one list of them; a and b of the same configuration, either may be
+/// const, and they may be one object). Counters and the candidate bank are not sums and are left out.
+template <typename A, typename B, typename F> void visit_sums(A& a, B& b, F&& f) {
+  for (int d = 0; d < 2; ++d) {
+    for (int j = 0; j < static_cast<int>(sizeof a.band[d] / sizeof a.band[d][0]); ++j) {
+      auto& x = a.band[d][j];
+      auto& y = b.band[d][j];
+      f(x.time_s, y.time_s), f(x.speed, y.speed), f(x.speed2, y.speed2), f(x.force, y.force), f(x.dvel, y.dvel);
+      f(x.proj_time, y.proj_time), f(x.proj_speed, y.proj_speed), f(x.proj_speed2, y.proj_speed2);
+    }
+    auto& x = a.dir[d];
+    auto& y = b.dir[d];
+    f(x.win_dv_force, y.win_dv_force), f(x.win_dv2, y.win_dv2), f(x.win_tau_dv2, y.win_tau_dv2);
+    f(x.sec_xy, y.sec_xy), f(x.sec_xx, y.sec_xx), f(x.sec_yy, y.sec_yy), f(x.sec_tt, y.sec_tt);
+    f(x.sec_tv, y.sec_tv), f(x.sec_vv, y.sec_vv), f(x.sec_tu, y.sec_tu), f(x.sec_vu, y.sec_vu), f(x.sec_uu, y.sec_uu);
+    for (int i = 0; i < static_cast<int>(sizeof x.cand_et / sizeof x.cand_et[0]); ++i)
+      f(x.cand_et[i], y.cand_et[i]), f(x.cand_ev[i], y.cand_ev[i]), f(x.cand_eu[i], y.cand_eu[i]), f(x.cand_ee[i], y.cand_ee[i]);
+  }
+  f(a.noise_d2, b.noise_d2);
+  f(a.total_interval_time, b.total_interval_time);
+}
+
 /// Adds the sums of `from` into `into` (same configuration: the candidate
 /// bank of `into` is kept). Statistics are plain sums, so the statistics of
 /// two stretches of data are their sum: the host forms delete-one-chunk
@@ -158,33 +181,18 @@ template <typename T> void add_sum(Sum<T>& into, const Sum<T>& from) {
 }
 template <typename T, int Bands, int C>
 void add_statistics(Statistics<T, Bands, C>& into, const Statistics<T, Bands, C>& from) {
-  for (int d = 0; d < 2; ++d) {
-    for (int j = 0; j < Bands; ++j) {
-      BandSums<T>& a = into.band[d][j];
-      const BandSums<T>& b = from.band[d][j];
-      Sum<T>* const to[] = {&a.time_s, &a.speed, &a.speed2, &a.force, &a.dvel, &a.proj_time, &a.proj_speed, &a.proj_speed2};
-      const Sum<T>* const fr[] = {&b.time_s, &b.speed, &b.speed2, &b.force, &b.dvel, &b.proj_time, &b.proj_speed, &b.proj_speed2};
-      for (int k = 0; k < 8; ++k) add_sum(*to[k], *fr[k]);
-    }
-    DirectionSums<T, C>& a = into.dir[d];
-    const DirectionSums<T, C>& b = from.dir[d];
-    Sum<T>* const to[] = {&a.win_dv_force, &a.win_dv2, &a.win_tau_dv2, &a.sec_xy, &a.sec_xx, &a.sec_yy,
-                          &a.sec_tt, &a.sec_tv, &a.sec_vv, &a.sec_tu, &a.sec_vu, &a.sec_uu};
-    const Sum<T>* const fr[] = {&b.win_dv_force, &b.win_dv2, &b.win_tau_dv2, &b.sec_xy, &b.sec_xx, &b.sec_yy,
-                                &b.sec_tt, &b.sec_tv, &b.sec_vv, &b.sec_tu, &b.sec_vu, &b.sec_uu};
-    for (int k = 0; k < 12; ++k) add_sum(*to[k], *fr[k]);
-    for (int i = 0; i < C; ++i) {
-      add_sum(a.cand_et[i], b.cand_et[i]);
-      add_sum(a.cand_ev[i], b.cand_ev[i]);
-      add_sum(a.cand_eu[i], b.cand_eu[i]);
-      add_sum(a.cand_ee[i], b.cand_ee[i]);
-    }
-    a.sections += b.sections;
-  }
-  add_sum(into.noise_d2, from.noise_d2);
+  visit_sums(into, from, [](Sum<T>& x, const Sum<T>& y) { add_sum(x, y); });
+  for (int d = 0; d < 2; ++d) into.dir[d].sections += from.dir[d].sections;
   into.noise_count += from.noise_count;
-  add_sum(into.total_interval_time, from.total_interval_time);
   into.interval_count += from.interval_count;
+}
+
+/// True when every running sum is finite: inputs each within range can
+/// still overflow a sum of squares (solve() then reports numerical_error).
+template <typename T, int Bands, int C> bool finite_statistics(const Statistics<T, Bands, C>& s) {
+  T z = T(0);  // (x - x) is 0 for a finite x and NaN otherwise; a sum of them is NaN iff one is
+  visit_sums(s, s, [&z](const Sum<T>& x, const Sum<T>&) { z += (x.value - x.value) + (x.carry - x.carry); });
+  return z == z;
 }
 
 /// exp_integral_moments() from the band's time > 0, squared mean speed
