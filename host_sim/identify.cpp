@@ -340,8 +340,11 @@ DriveParams to_drive_params(const feedid::Estimate<double>& e) {
   DriveParams p;
   p.mass_kg = e.mass_kg;
   auto dir = [](const feedid::DirectionEstimate<double>& d) {
-    return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, d.breakaway_N,
-                             d.stribeck_velocity_m_s > 0 ? d.stribeck_velocity_m_s : 1e-9};
+    // No Stribeck velocity identified: the model has no dip, so Fs is 0 (vs
+    // is then irrelevant; 1 m/s keeps F(v) defined). It used to keep Fs with
+    // vs = 1e-9, a dip nobody could see, silently.
+    if (!(d.stribeck_velocity_m_s > 0)) return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, 0.0, 1.0};
+    return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
   };
   p.pos = dir(e.pos);
   p.neg = dir(e.neg);
