@@ -2,6 +2,7 @@
 #include "baselines.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -196,8 +197,9 @@ RegressionRows regression_rows(const Trace& trace, const BaselineOptions& opt) {
 namespace {
 
 /// Linear least squares without the Stribeck term:
-///   u = m a + Fc+ s+ + sigma+ v s+ - Fc- s- + sigma- v s-,  s+- the direction indicators.
-DriveParams fit_without_stribeck(const RegressionRows& r) {
+///   u = m a + Fc+ s+ + sigma+ v s+ - Fc- s- + sigma- v s-,  s+- the direction indicators;
+/// nullopt when the rows do not separate them (one speed per direction, or no acceleration).
+std::optional<DriveParams> fit_without_stribeck(const RegressionRows& r) {
   constexpr int N = 5;
   std::array<std::array<double, N>, N> ata{};
   std::array<double, N> atb{}, th{};
@@ -211,7 +213,7 @@ DriveParams fit_without_stribeck(const RegressionRows& r) {
     }
   }
   DriveParams p;
-  if (!solve_ls<N>(ata, atb, th)) th = {1.0, 1.0, 1.0, 1.0, 1.0};
+  if (!solve_ls<N>(ata, atb, th)) return std::nullopt;
   p.mass_kg = th[0];
   p.pos.coulomb_N = th[1];
   p.pos.viscous_Ns_m = th[2];
@@ -223,7 +225,7 @@ DriveParams fit_without_stribeck(const RegressionRows& r) {
 }  // namespace
 
 DriveParams linear_start(const RegressionRows& r) {
-  DriveParams p = fit_without_stribeck(r);
+  DriveParams p = fit_without_stribeck(r).value();  // rows_for() refused rows without a solution
   const std::size_t n = r.v.size();
   // Stribeck part from the low-speed residual, per direction: mean residual
   // in 16 log-spaced speed bands; Fs = its largest value above the
@@ -266,7 +268,7 @@ DriveParams linear_start(const RegressionRows& r) {
 }
 
 DriveParams naive_start(const RegressionRows& r) {
-  DriveParams p = fit_without_stribeck(r);
+  DriveParams p = fit_without_stribeck(r).value();  // rows_for() refused rows without a solution
   std::vector<double> speed(r.v.size());
   for (std::size_t k = 0; k < r.v.size(); ++k) speed[k] = std::fabs(r.v[k]);
   double med = std::sqrt(r.velocity_min_m_s * r.velocity_max_m_s);
@@ -358,6 +360,11 @@ bool rows_for(const Trace& trace, const BaselineOptions& opt, const char* method
   out.rows = r.v.size();
   if (out.rows < 20 || r.n_pos < 5 || out.rows - r.n_pos < 5) {
     out.status = "too few moving samples in one direction";
+    out.seconds = since(t0);
+    return false;
+  }
+  if (!fit_without_stribeck(r)) {  // it used to start from all-ones parameters instead
+    out.status = "no start: the linear fit of m, Fc+-, sigma+- is singular on this trace";
     out.seconds = since(t0);
     return false;
   }

@@ -91,6 +91,23 @@ TEST(Baselines, TraceWithoutMotionIsRefused) {
   EXPECT_FALSE(feedid::host::recursive_least_squares(tr, BaselineOptions{}).ok);
 }
 
+// One speed per direction: Coulomb and viscous friction are the same
+// column, the linear start has no solution, and the baselines say so (they
+// used to start from all-ones parameters).
+TEST(Baselines, SingularStartIsReportedNotReplacedByOnes) {
+  feedid::host::Trace tr;
+  for (int k = 0; k < 8000; ++k) {
+    const double t = k * 1e-3, v = k < 4000 ? 0.01 : -0.01;
+    // Position off any grid (a few nm), so no coarse encoder quantum is inferred.
+    const double x = (k < 4000 ? v * t : 0.04 + v * (t - 4.0)) + 1e-9 * ((k * 7919) % 13);
+    tr.samples.push_back({t, x, v, v > 0 ? 30.0 : -30.0});
+  }
+  for (const BaselineResult& r : {feedid::host::batch_lm(tr, BaselineOptions{}), feedid::host::genetic_algorithm(tr, BaselineOptions{})}) {
+    EXPECT_FALSE(r.ok) << r.method;
+    EXPECT_NE(r.status.find("singular"), std::string::npos) << r.method << ": " << r.status;
+  }
+}
+
 TEST(Baselines, ErrorMeasures) {
   const DriveParams t = truth();
   EXPECT_EQ(feedid::host::max_rel_error(t, t), 0.0);
