@@ -130,13 +130,17 @@ struct LineCursor {
 }  // namespace
 
 CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns) {
+  std::string buf;
+  CsvResult failed;
+  if (!read_file(path, buf, failed.error)) return failed;
+  return parse_trace_csv(buf, path, columns);
+}
+
+CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;
   result.trace.source = path;
   result.trace.has_position = false;
   result.trace.has_velocity = false;
-
-  std::string buf;
-  if (!read_file(path, buf, result.error)) return result;
 
   const char* data = buf.data();
   const char* data_end = data + buf.size();

@@ -29,6 +29,8 @@ struct CsvResult {
 /// trailing newline are allowed; separators ',' (and ';' or tab if the header
 /// uses them).
 CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);
+/// The same for text already in memory; `source` names it in messages.
+CsvResult parse_trace_csv(const std::string& text, const std::string& source, const CsvColumns& columns);
 
 /// Writes t,x,v,u with full precision. Returns false with `error` set on failure.
 bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error);

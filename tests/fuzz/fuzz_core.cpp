@@ -1,0 +1,100 @@
+// libFuzzer target: arbitrary configurations and sample streams into the
+// float and double estimators (docs/reference.md has the contract).
+// Invariants checked on every input, besides ASan/UBSan:
+//   - every call returns a Status the enum names;
+//   - a rejected sample leaves the statistics exactly as they were;
+//   - solve() returns (its work is bounded), and either the running sums are
+//     finite or it reports numerical_error;
+//   - a published estimate is always finite.
+// Build: cmake -DFEEDID_FUZZ=ON with clang (docs/reference.md, "Fuzzing").
+#include <fuzzer/FuzzedDataProvider.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "feedid/feedid.hpp"
+
+namespace {
+
+void require(bool ok) {
+  if (!ok) std::abort();  // libFuzzer records the input that broke an invariant
+}
+
+bool named(feedid::Status s) { return static_cast<uint8_t>(s) <= static_cast<uint8_t>(feedid::Status::numerical_error); }
+
+template <typename T> T any(FuzzedDataProvider& in) { return static_cast<T>(in.ConsumeFloatingPoint<double>()); }
+
+/// A value near a plausible one most of the time, anything at all otherwise.
+template <typename T> T near(FuzzedDataProvider& in, double typical) {
+  return in.ConsumeBool() ? any<T>(in) : static_cast<T>(typical * in.ConsumeFloatingPointInRange<double>(-2.0, 2.0));
+}
+
+template <typename T> feedid::Config<T> config(FuzzedDataProvider& in) {
+  feedid::Config<T> c;
+  if (!in.ConsumeBool()) return c;
+  c.velocity_min_m_s = near<T>(in, 1e-4);
+  c.velocity_max_m_s = near<T>(in, 0.5);
+  c.velocity_resolution_m_s = near<T>(in, 1e-5);
+  c.min_section_s = near<T>(in, 0.02);
+  c.mass_window_s = near<T>(in, 0.02);
+  c.max_force_N = near<T>(in, 1e6);
+  c.max_gap_s = near<T>(in, 0.1);
+  c.force_lag_samples = near<T>(in, -1.0);
+  c.max_vs_iterations = in.ConsumeIntegral<uint16_t>();
+  return c;
+}
+
+/// The object's bytes (padding included, so a byte comparison is exact).
+template <typename T> std::vector<unsigned char> bytes_of(const T& a) {
+  std::vector<unsigned char> b(sizeof(T));
+  std::memcpy(b.data(), &a, sizeof(T));
+  return b;
+}
+
+template <typename T> bool finite(const feedid::Estimate<T>& e) {
+  return feedid::Estimator<T>::finite_estimate(e);
+}
+
+template <typename T> void run(FuzzedDataProvider& in) {
+  auto est = std::make_unique<feedid::Estimator<T>>();
+  const feedid::Status s0 = est->init(config<T>(in));
+  require(named(s0));
+  if (s0 != feedid::Status::ok) {
+    require(est->push(feedid::Sample<T>{}) == feedid::Status::not_initialized);
+    return;
+  }
+  T x = T(0);
+  while (in.remaining_bytes() > 0) {
+    feedid::Sample<T> smp;
+    smp.dt_s = near<T>(in, 5e-4);
+    smp.velocity_m_s = near<T>(in, 0.05);
+    x += smp.velocity_m_s * smp.dt_s;
+    smp.position_m = in.ConsumeBool() ? x : any<T>(in);
+    smp.force_N = near<T>(in, 50.0);
+    const std::vector<unsigned char> before = bytes_of(est->statistics());
+    const feedid::Status s = est->push(smp);
+    require(named(s));
+    if (s != feedid::Status::ok) require(before == bytes_of(est->statistics()));
+    if (in.ConsumeIntegralInRange<int>(0, 255) == 0) {
+      const feedid::Status st = est->solve(in.ConsumeBool() ? feedid::Method::paper : feedid::Method::bands);
+      require(named(st));
+      require(finite(est->estimate()));
+    }
+  }
+  const feedid::Status st = est->solve();
+  require(named(st));
+  require(feedid::finite_statistics(est->statistics()) || st == feedid::Status::numerical_error);
+  require(finite(est->estimate()));
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  FuzzedDataProvider in(data, size);
+  if (in.ConsumeBool()) run<float>(in);
+  else run<double>(in);
+  return 0;
+}
