@@ -100,11 +100,22 @@ void split(const char* b, const char* e, char sep,
   }
 }
 
+/// 'text' with bytes outside printable ASCII as \xNN: a message never
+/// echoes raw binary to the terminal.
 std::string quoted(std::string_view s) {
   std::string r;
   r.reserve(s.size() + 2);
   r += '\'';
-  r.append(s.data(), s.size());
+  for (const char c : s) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b >= 0x20 && b < 0x7f) {
+      r += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02X", b);
+      r += hex;
+    }
+  }
   r += '\'';
   return r;
 }
@@ -254,18 +265,39 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   double prev_time = 0.0;
   bool have_prev = false;
 
+  Trace& tr = result.trace;
+  std::size_t rows = 0;
+  // A bad row: skipped and counted, or (skip_bad_rows false) the error.
+  auto bad_row = [&](std::string why) {
+    if (!columns.skip_bad_rows) {
+      result.error = std::move(why);
+      samples.clear();
+      return false;
+    }
+    ++tr.rows_skipped;
+    if (tr.skipped_rows.size() < 5) tr.skipped_rows.push_back(std::move(why));
+    return true;
+  };
+  std::string_view prev_row;
+
   const char* lb = nullptr;
   const char* le = nullptr;
   while (cursor.next(lb, le)) {
     if (is_blank(lb, le, sep)) continue;
     const std::size_t line = cursor.line;
+    ++rows;
+    const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
+    if (have_prev && row_text == prev_row) {  // the logger wrote the same sample twice
+      ++tr.rows_repeated;
+      continue;
+    }
     split(lb, le, sep, fields);
     if (fields.size() != ncols) {
-      result.error = at(line) + "expected " + std::to_string(ncols) + " fields, found " +
-                     std::to_string(fields.size());
-      samples.clear();
-      return result;
+      if (!bad_row(at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size())))
+        return result;
+      continue;
     }
+    bool row_ok = true;
     TraceSample s;
     std::string_view time_text;
     for (std::size_t i = 0; i < ncols; ++i) {
@@ -273,9 +305,9 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
       if (r == 0u) continue;
       const std::string_view text = trim_field(fields[i].first, fields[i].second);
       if (text.empty()) {
-        result.error = at(line) + "column " + quoted(names[i]) + ": empty value";
-        samples.clear();
-        return result;
+        row_ok = false;
+        if (!bad_row(at(line) + "column " + quoted(names[i]) + ": empty value")) return result;
+        break;
       }
       // `text` starts with a non-space character, so strtod skips nothing and
       // stops no later than the separator / line end that bounds the field
@@ -284,20 +316,15 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
       errno = 0;
       const double value = std::strtod(text.data(), &endp);
       if (endp != text.data() + text.size()) {
-        result.error = at(line) + "column " + quoted(names[i]) + ": " + quoted(text) +
-                       " is not a number";
-        samples.clear();
-        return result;
+        row_ok = false;
+        if (!bad_row(at(line) + "column " + quoted(names[i]) + ": " + quoted(text) + " is not a number")) return result;
+        break;
       }
       if (!std::isfinite(value)) {
-        if (errno == ERANGE) {
-          result.error = at(line) + "column " + quoted(names[i]) + ": " + quoted(text) +
-                         " is out of range for a double";
-        } else {
-          result.error = at(line) + "column " + quoted(names[i]) + ": value is NaN/Inf";
-        }
-        samples.clear();
-        return result;
+        row_ok = false;
+        const std::string why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
+        if (!bad_row(at(line) + "column " + quoted(names[i]) + why)) return result;
+        break;
       }
       if (r & kTime) {
         s.t_s = value;
@@ -307,14 +334,15 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
       if (r & kVelocity) s.v_m_s = value;
       if (r & kForce) s.u_N = value;
     }
+    if (!row_ok) continue;
     if (have_prev && !(s.t_s > prev_time)) {
-      result.error = at(line) + "column " + quoted(*wanted[0].name) + ": time " +
-                     std::string(time_text) + " is not greater than previous " +
-                     std::string(prev_time_text) + " on line " + std::to_string(prev_time_line) +
-                     " (time must increase)";
-      samples.clear();
-      return result;
+      if (!bad_row(at(line) + "column " + quoted(*wanted[0].name) + ": time " + quoted(time_text) +
+                   " is not greater than previous " + quoted(prev_time_text) + " on line " +
+                   std::to_string(prev_time_line) + " (time must increase)"))
+        return result;
+      continue;
     }
+    prev_row = row_text;
     prev_time = s.t_s;
     prev_time_text = time_text;
     prev_time_line = line;
@@ -322,6 +350,14 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     samples.push_back(s);
   }
 
+  if (tr.rows_skipped > 0 && static_cast<double>(tr.rows_skipped) > columns.max_bad_row_share * static_cast<double>(rows)) {
+    result.error = path + ": " + std::to_string(tr.rows_skipped) + " of " + std::to_string(rows) +
+                   " rows are bad, more than " + std::to_string(static_cast<int>(100 * columns.max_bad_row_share + 0.5)) +
+                   " %; the first: " + tr.skipped_rows.front();
+    for (std::size_t i = 1; i < tr.skipped_rows.size(); ++i) result.error += "; " + tr.skipped_rows[i];
+    samples.clear();
+    return result;
+  }
   if (samples.empty()) {
     result.error = path + ": header only, no data rows";
     return result;

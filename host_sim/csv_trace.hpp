@@ -12,20 +12,29 @@ struct CsvColumns {
   std::string position = "x";   ///< optional if velocity is present
   std::string velocity = "v";   ///< optional if position is present
   std::string force = "u";
+  /// --bad-rows: skip a row that is not finite numbers or whose time does not
+  /// increase, count it and name the first few; false: the first is an error.
+  bool skip_bad_rows = true;
+  /// With skipping, more than this share of bad rows is still an error.
+  double max_bad_row_share = 0.01;
 };
 
 /// Result of reading: ok, or an error message that names file, line and column.
 struct CsvResult {
   bool ok = false;
   std::string error;
-  Trace trace;
+  Trace trace;  ///< its rows_skipped, rows_repeated and skipped_rows say what was left out
 };
 
 /// Reads a CSV with a header row. Columns are looked up by name; time and force
 /// are required, and at least one of position and velocity. When a column is
 /// missing, has_position / has_velocity say so. Every value must parse as a
-/// finite number and time must increase strictly; the first violation is
-/// reported as "<file>:<line>: column '<name>': <problem>". Blank lines and a
+/// finite number and time must increase strictly; a row that breaks this is
+/// skipped and counted (the first five described as "<file>:<line>: column
+/// '<name>': <problem>"), or with skip_bad_rows false is the error. A row
+/// that repeats the previous one exactly (a logger writing a sample twice)
+/// is counted apart and never kept as a zero-length interval. Bytes that
+/// are not printable ASCII are escaped (\xNN) in messages. Blank lines and a
 /// trailing newline are allowed; separators ',' (and ';' or tab if the header
 /// uses them).
 CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);

@@ -374,6 +374,9 @@ std::vector<std::string> flag_names(uint32_t flags) {
 
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   IdentifyResult r;
+  r.rows_skipped = trace.rows_skipped;
+  r.rows_repeated = trace.rows_repeated;
+  r.skipped_rows = trace.skipped_rows;
   const std::size_t n = trace.samples.size();
   constexpr std::size_t min_samples = 100;
   if (n < min_samples) {
@@ -540,7 +543,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
-                {"position_quantum_m", r.signals.position_quantum_m}};
+                {"position_quantum_m", r.signals.position_quantum_m},
+                {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
   j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
                  {"velocity_resolution_m_s", c.velocity_resolution_m_s},
                  {"section_enter_m_s", c.section_enter_m_s > 0 ? c.section_enter_m_s : 2 * c.velocity_min_m_s},

@@ -108,6 +108,8 @@ struct IdentifyResult {
   std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
   double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks
   double residual_block_s = 0.01;
+  std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
+  std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
   double duration_s = 0.0;
 };
 

@@ -64,7 +64,33 @@ void add_sim_options(CLI::App* c, SimConfig& s) {
   c->add_option("--velocity-log-tau", lg.velocity_time_constant_s, "time constant of the logged low-pass (s)")->capture_default_str();
 }
 
+/// --bad-rows, for every command that reads a trace CSV.
+void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
+  c->add_option_function<std::string>("--bad-rows", [&cols](const std::string& v) { cols.skip_bad_rows = v == "skip"; },
+                                      "a non-finite or non-increasing row: skip (default: counted, the first named; more than 1 % "
+                                      "is an error) or error")
+      ->check(CLI::IsMember({"skip", "error"}));
+}
+
+/// Reads a trace CSV; prints the error, or a note of the rows left out.
+bool read_trace(const std::string& path, const CsvColumns& cols, CsvResult& out) {
+  out = read_trace_csv(path, cols);
+  if (!out.ok) {
+    std::fprintf(stderr, "error: %s\n", out.error.c_str());
+    return false;
+  }
+  const Trace& t = out.trace;
+  if (t.rows_skipped > 0)
+    std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); first: %s\n", path.c_str(),
+                 t.rows_skipped, t.rows_skipped == 1 ? "" : "s", t.skipped_rows.front().c_str());
+  if (t.rows_repeated > 0)
+    std::fprintf(stderr, "note: %s: %zu row%s repeated the row before exactly and %s left out\n", path.c_str(),
+                 t.rows_repeated, t.rows_repeated == 1 ? "" : "s", t.rows_repeated == 1 ? "was" : "were");
+  return true;
+}
+
 void add_identify_options(CLI::App* c, CsvColumns& cols, IdentifyOptions& o, std::string& method) {
+  add_bad_row_option(c, cols);
   c->add_option("--time", cols.time, "CSV column of time (s)")->capture_default_str();
   c->add_option("--position", cols.position, "CSV column of position (m)")->capture_default_str();
   c->add_option("--velocity", cols.velocity, "CSV column of velocity (m/s); derived from position if absent")->capture_default_str();
@@ -155,6 +181,7 @@ int main(int argc, char** argv) {
   c_val->add_option("--position", val_cols.position, "CSV column of position (m)")->capture_default_str();
   c_val->add_option("--velocity", val_cols.velocity, "CSV column of velocity (m/s), used if no position")->capture_default_str();
   c_val->add_option("--force", val_cols.force, "CSV column of force (N)")->capture_default_str();
+  add_bad_row_option(c_val, val_cols);
   c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
   c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
   c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
@@ -228,8 +255,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*c_id) {
-      const CsvResult csv = read_trace_csv(in_path, cols);
-      if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
+      CsvResult csv;
+      if (!read_trace(in_path, cols, csv)) return 2;
       idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
       Progress p("identify");
       if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
@@ -250,8 +277,8 @@ int main(int argc, char** argv) {
         return 2;
       }
       const DriveParams model = model_from_json(mj);
-      const CsvResult csv = read_trace_csv(val_in, val_cols);
-      if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
+      CsvResult csv;
+      if (!read_trace(val_in, val_cols, csv)) return 2;
       const ValidateResult r = validate(model, csv.trace, valopt);
       std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g N\n",
                   r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N);
@@ -268,8 +295,8 @@ int main(int argc, char** argv) {
                              "other method; use identify --method %s for that estimate\n", dg_method.c_str(), dg_method.c_str());
         return 2;
       }
-      const CsvResult csv = read_trace_csv(dg_in, dg_cols);
-      if (!csv.ok) { std::fprintf(stderr, "error: %s\n", csv.error.c_str()); return 2; }
+      CsvResult csv;
+      if (!read_trace(dg_in, dg_cols, csv)) return 2;
       Progress p("diagnose");
       if (csv.trace.samples.size() > 500000) dgopt.progress = std::ref(p);
       const DiagnoseResult r = diagnose(csv.trace, dgopt);

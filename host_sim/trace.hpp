@@ -1,6 +1,7 @@
 // A recorded or simulated trace of one axis, in SI units, as the host tools
 // pass it around. Host only: uses the standard library freely.
 #pragma once
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,9 @@ struct Trace {
   bool has_position = true;
   bool has_velocity = true;
   std::string source;  ///< file name or "simulator", for messages
+  std::size_t rows_skipped = 0;   ///< bad rows the reader left out
+  std::size_t rows_repeated = 0;  ///< rows that repeated the previous one exactly
+  std::vector<std::string> skipped_rows;  ///< the first few skips, with file:line and why
 };
 
 }  // namespace feedid::host

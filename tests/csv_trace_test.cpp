@@ -130,8 +130,8 @@ TEST(CsvTrace, TrailingGarbageInNumberIsRejected) {
 }
 
 TEST(CsvTrace, NonIncreasingTimeNamesLine) {
-  // GIVEN time that repeats on line 4
-  const std::string path = write_text("time", "t,x,v,u\n0,0,0,0\n0.001,0,0,0\n0.001,0,0,0\n0.003,0,0,0\n");
+  // GIVEN time that repeats on line 4 with other values (not a repeated row)
+  const std::string path = write_text("time", "t,x,v,u\n0,0,0,0\n0.001,0,0,0\n0.001,0,0,1\n0.003,0,0,0\n");
   // WHEN it is read
   const CsvResult r = read_trace_csv(path, CsvColumns{});
   // THEN the error names line 4, the time column, and the previous line 3
@@ -150,6 +150,71 @@ TEST(CsvTrace, DecreasingTimeIsRejected) {
   // THEN the error names line 3
   EXPECT_FALSE(r.ok);
   EXPECT_TRUE(contains(r.error, path + ":3:"));
+}
+
+/// n rows of a clean trace, with `bad` replacing row `at` (1-based data row).
+std::string rows_with(int n, int at, const std::string& bad) {
+  std::string text = "t,x,v,u\n";
+  for (int k = 1; k <= n; ++k)
+    text += k == at ? bad + "\n" : std::to_string(k * 1e-3) + "," + std::to_string(k * 1e-6) + ",0.001,1\n";
+  return text;
+}
+
+TEST(CsvTrace, OneNaNRowInThousandsIsSkippedCountedAndNamed) {
+  // GIVEN 5000 rows, one of them with a NaN force on file line 1001
+  const std::string path = write_text("one_nan", rows_with(5000, 1000, "1.0,0.001,0.001,nan"));
+  // WHEN it is read with the defaults
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the trace has the other 4999 rows, and the skip is counted and named
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 4999u);
+  EXPECT_EQ(r.trace.rows_skipped, 1u);
+  ASSERT_EQ(r.trace.skipped_rows.size(), 1u);
+  EXPECT_TRUE(contains(r.trace.skipped_rows[0], path + ":1001:"));
+  EXPECT_TRUE(contains(r.trace.skipped_rows[0], "NaN"));
+}
+
+TEST(CsvTrace, BadRowIsTheErrorWhenSkippingIsOff) {
+  const std::string path = write_text("one_nan_strict", rows_with(5000, 1000, "1.0,0.001,0.001,nan"));
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  const CsvResult r = read_trace_csv(path, strict);
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1001:"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, RepeatedRowsAreCountedAndNeverKept) {
+  // GIVEN a logger that wrote rows 10 and 20 twice
+  std::string text = "t,x,v,u\n";
+  for (int k = 1; k <= 100; ++k) {
+    const std::string row = std::to_string(k * 1e-3) + "," + std::to_string(k * 1e-6) + ",0.001,1\n";
+    text += row;
+    if (k == 10 || k == 20) text += row;
+  }
+  const CsvResult r = read_trace_csv(write_text("repeated", text), CsvColumns{});
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 100u);  // no zero-length interval
+  EXPECT_EQ(r.trace.rows_repeated, 2u);
+  EXPECT_EQ(r.trace.rows_skipped, 0u);
+}
+
+TEST(CsvTrace, MoreThanOnePercentBadRowsIsAnErrorNamingTheFirst) {
+  std::string text = rows_with(100, 5, "0.005,0,0,abc");
+  const CsvResult r = read_trace_csv(write_text("many_bad", text + "0.2,0,0,x\n"), CsvColumns{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, "2 of 101 rows are bad"));
+  EXPECT_TRUE(contains(r.error, "'abc'"));
+}
+
+TEST(CsvTrace, BinaryBytesAreEscapedInMessages) {
+  const std::string path = write_text("binary", std::string("t,x,v,u\n0,0,0,\x01\xff\n"));
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  const CsvResult r = read_trace_csv(path, strict);
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, "\\x01\\xFF")) << r.error;
+  EXPECT_EQ(r.error.find('\x01'), std::string::npos);
 }
 
 TEST(CsvTrace, HeaderOnlyFileIsAnError) {
