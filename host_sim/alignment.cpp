@@ -175,10 +175,15 @@ double estimate_velocity_lag(const Signals& s) {
 void apply_force_lag(Signals& s, double lag_samples) {
   const int delay = whole_delay_for(lag_samples);
   // Newest first, so every sample reads its source before it is overwritten.
+  // A source across a time gap (another recording, Trace::runs) is not
+  // taken: the few samples after a gap keep their own values.
   const auto d = static_cast<std::size_t>(delay);
+  const double span_max = s.sample_rate_hz > 0 ? 5.0 * static_cast<double>(d) / s.sample_rate_hz : 0.0;
   for (std::size_t k = s.v.size(); delay > 0 && k-- > 0;) {
-    s.v[k] = s.v[k >= d ? k - d : 0];
-    s.x[k] = s.x[k >= d ? k - d : 0];
+    std::size_t src = k >= d ? k - d : 0;
+    if (span_max > 0 && s.t[k] - s.t[src] > span_max) src = k;
+    s.v[k] = s.v[src];
+    s.x[k] = s.x[src];
   }
   s.velocity_delay_samples = delay;
   s.force_lag_samples = lag_samples - delay;

@@ -377,6 +377,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   r.rows_skipped = trace.rows_skipped;
   r.rows_repeated = trace.rows_repeated;
   r.skipped_rows = trace.skipped_rows;
+  r.runs = trace.runs;
   const std::size_t n = trace.samples.size();
   constexpr std::size_t min_samples = 100;
   if (n < min_samples) {
@@ -545,6 +546,15 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
                 {"position_quantum_m", r.signals.position_quantum_m},
                 {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+  if (!r.runs.empty()) {
+    nlohmann::json runs = nlohmann::json::array();
+    for (const TraceRun& run : r.runs)
+      runs.push_back({{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
+                      {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}});
+    j["input"]["runs"] = runs;
+    j["input"]["runs_rule"] = "each file is its own run: the time jumps by 10 s between runs, a gap no section, window "
+                              "or integral spans";
+  }
   j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
                  {"velocity_resolution_m_s", c.velocity_resolution_m_s},
                  {"section_enter_m_s", c.section_enter_m_s > 0 ? c.section_enter_m_s : 2 * c.velocity_min_m_s},

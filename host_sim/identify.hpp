@@ -110,6 +110,7 @@ struct IdentifyResult {
   double residual_block_s = 0.01;
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
+  std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
   double duration_s = 0.0;
 };
 

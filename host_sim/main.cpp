@@ -73,8 +73,9 @@ void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
 }
 
 /// Reads a trace CSV; prints the error, or a note of the rows left out.
-bool read_trace(const std::string& path, const CsvColumns& cols, CsvResult& out) {
-  out = read_trace_csv(path, cols);
+bool read_trace(const std::vector<std::string>& paths, const CsvColumns& cols, CsvResult& out) {
+  out = read_trace_csvs(paths, cols);
+  const std::string path = out.trace.source;
   if (!out.ok) {
     std::fprintf(stderr, "error: %s\n", out.error.c_str());
     return false;
@@ -150,9 +151,10 @@ int main(int argc, char** argv) {
 
   CsvColumns cols;
   IdentifyOptions idopt;
-  std::string in_path, json_path, method = "bands";
+  std::vector<std::string> in_path;
+  std::string json_path, method = "bands";
   auto* c_id = app.add_subcommand("identify", "identify the nine parameters from a trace CSV");
-  c_id->add_option("--in", in_path, "trace CSV (header row; SI units)")->required();
+  c_id->add_option("--in", in_path, "trace CSV (header row; SI units); repeat to pool several recordings into one model")->required();
   c_id->add_option("--json", json_path, "write the result as JSON");
   std::string id_plot;
   c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
@@ -170,12 +172,13 @@ int main(int argc, char** argv) {
   c_demo->add_option("--json", demo_json, "write the identification result as JSON");
   c_demo->add_option("--report", demo_report, "write the diagnosis pictures and page to this folder");
 
-  std::string model_path, val_in, val_json;
+  std::vector<std::string> val_in;
+  std::string model_path, val_json;
   CsvColumns val_cols;
   ValidateOptions valopt;
   auto* c_val = app.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
   c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
-  c_val->add_option("--in", val_in, "trace CSV to predict")->required();
+  c_val->add_option("--in", val_in, "trace CSV to predict; repeat for several recordings")->required();
   c_val->add_option("--json", val_json, "write the result as JSON");
   c_val->add_option("--time", val_cols.time, "CSV column of time (s)")->capture_default_str();
   c_val->add_option("--position", val_cols.position, "CSV column of position (m)")->capture_default_str();
@@ -190,9 +193,10 @@ int main(int argc, char** argv) {
 
   CsvColumns dg_cols;
   DiagnoseOptions dgopt;
-  std::string dg_in, dg_json, dg_report, dg_method = "bands";
+  std::vector<std::string> dg_in;
+  std::string dg_json, dg_report, dg_method = "bands";
   auto* c_dg = app.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
-  c_dg->add_option("--in", dg_in, "trace CSV")->required();
+  c_dg->add_option("--in", dg_in, "trace CSV; repeat to pool several recordings (folds stay within each)")->required();
   c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
   c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
   add_identify_options(c_dg, dg_cols, dgopt.identify, dg_method);
@@ -285,7 +289,7 @@ int main(int argc, char** argv) {
       if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
       if (!val_plot.empty()) {
         std::string err;
-        if (!write_force_plot_svg(r, val_plot, "Cross-test: " + val_in, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+        if (!write_force_plot_svg(r, val_plot, "Cross-test: " + csv.trace.source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
       }
       return 0;
     }
@@ -305,7 +309,7 @@ int main(int argc, char** argv) {
       std::cout << summary(r);
       if (!dg_report.empty()) {
         std::string err;
-        if (!write_diagnosis_report(r, dg_report, dg_in, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+        if (!write_diagnosis_report(r, dg_report, csv.trace.source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
         std::printf("report: %s/report.html\n", dg_report.c_str());
       }
       return 0;

@@ -14,6 +14,15 @@ struct TraceSample {
   double u_N = 0.0;      ///< drive force (N), load side
 };
 
+/// One recording inside a trace that pools several (feedid ... --in a.csv --in b.csv).
+struct TraceRun {
+  std::string source;          ///< file name
+  std::size_t first = 0;       ///< index of its first sample in Trace::samples
+  std::size_t samples = 0;
+  double time_shift_s = 0.0;   ///< added to its time stamps so that runs follow each other
+  std::size_t rows_skipped = 0, rows_repeated = 0;
+};
+
 struct Trace {
   std::vector<TraceSample> samples;
   bool has_position = true;
@@ -22,6 +31,11 @@ struct Trace {
   std::size_t rows_skipped = 0;   ///< bad rows the reader left out
   std::size_t rows_repeated = 0;  ///< rows that repeated the previous one exactly
   std::vector<std::string> skipped_rows;  ///< the first few skips, with file:line and why
+  /// Pooled recordings, in order (empty for one file). Between two runs the
+  /// time jumps by kRunGap_s, a gap every stage treats as a break: no
+  /// integral, section, window or block spans two files.
+  std::vector<TraceRun> runs;
+  static constexpr double kRunGap_s = 10.0;
 };
 
 }  // namespace feedid::host
