@@ -14,6 +14,8 @@
 // depend on the number of threads.
 #include "blind_bench.hpp"
 
+#include "constants.hpp"
+
 #include <sys/utsname.h>
 
 #include <algorithm>
@@ -40,7 +42,6 @@
 namespace feedid::host {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// Labels in table order: none, the catalogue, unexplained.

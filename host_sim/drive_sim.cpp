@@ -10,6 +10,8 @@
 //      side), the sim-to-real effects of Effects included.
 #include "drive_sim.hpp"
 
+#include "constants.hpp"
+
 #include "open_loop_plant.hpp"
 
 #include <algorithm>
@@ -25,7 +27,6 @@ namespace feedid::host {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // ---------------------------------------------------------------------------
 // Input validation

@@ -1,6 +1,8 @@
 // Reference paths (motion_path.hpp). Host only.
 #include "motion_path.hpp"
 
+#include "constants.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -10,7 +12,6 @@ namespace feedid::host {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Sine program: half-periods between 0.05 s and 1 s (10 Hz .. 0.5 Hz cycles),
 // so that every block reverses several times within seconds.

@@ -1,6 +1,8 @@
 // Open-loop inverse-dynamics plant (open_loop_plant.hpp). Host only.
 #include "open_loop_plant.hpp"
 
+#include "constants.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -10,7 +12,6 @@ namespace feedid::host {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kSubsteps = 16;  ///< Simpson intervals per period (even)
 
 double sign_of(double v) { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
