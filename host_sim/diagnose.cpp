@@ -42,14 +42,9 @@ Signals aligned_signals(const Trace& trace, const DiagnoseOptions& opt, Diagnose
   IdentifyOptions timing = opt.identify;
   timing.lag_within_conventions = true;
   Signals sig = prepare_signals(trace, timing);
-  if (!sig.has_position) {
-    // Position from the velocity (trapezoid, 0 at the start): the position
-    // and reversal candidates then see relative positions, not zeros.
-    sig.x.assign(sig.t.size(), 0.0);
-    for (std::size_t k = 1; k < sig.t.size(); ++k)
-      sig.x[k] = sig.x[k - 1] + 0.5 * (sig.v[k] + sig.v[k - 1]) * (sig.t[k] - sig.t[k - 1]);
-    out.position_origin = "integrated from velocity (no position column): positions are relative to the start";
-  }
+  // Without a position column x is the integrated velocity (prepare_signals):
+  // the position and reversal candidates see relative positions, not zeros.
+  out.position_origin = sig.position_origin;
   out.force_lag_s = sig.force_lag_s;
   out.lag_beyond_conventions_s = sig.lag_beyond_conventions / sig.sample_rate_hz;
   return sig;
@@ -60,7 +55,7 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   Trace id_trace;
   id_trace.source = trace.source + " (identification folds)";
   id_trace.has_velocity = true;
-  id_trace.has_position = trace.has_position;
+  id_trace.has_position = true;  // logged, or integrated from the velocity column (aligned_signals)
   for (std::size_t k = 0; k < sig.t.size(); ++k)
     if (!diag::Folds::heldout(folds.of(sig.t[k]))) id_trace.samples.push_back({sig.t[k], sig.x[k], sig.v[k], sig.u[k]});
   IdentifyOptions idopt = opt.identify;

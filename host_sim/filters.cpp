@@ -79,4 +79,13 @@ std::vector<double> central_difference(const std::vector<double>& y, const std::
   return d;
 }
 
+std::vector<double> integrate_velocity(const std::vector<double>& v, const std::vector<double>& t, double max_step_s) {
+  std::vector<double> x(v.size(), 0.0);
+  for (std::size_t k = 1; k < v.size(); ++k) {
+    const double h = t[k] - t[k - 1];
+    x[k] = x[k - 1] + (h > 0 && h <= max_step_s ? v[k] * h : 0.0);
+  }
+  return x;
+}
+
 }  // namespace feedid::host

@@ -16,4 +16,11 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
 /// one-sided at the ends): the derivative at t_k, without lag.
 std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t);
 
+/// Position from a logged velocity, 0 at the start: x[k] = x[k-1] + v[k] (t[k] - t[k-1]),
+/// the inverse of the backward difference, so a position-difference log
+/// gives the encoder's positions back exactly and a filtered log gives the
+/// position seen through the filter. A step longer than max_step_s (a gap
+/// between recordings) adds nothing: no motion is invented across it.
+std::vector<double> integrate_velocity(const std::vector<double>& v, const std::vector<double>& t, double max_step_s);
+
 }  // namespace feedid::host

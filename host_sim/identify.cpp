@@ -50,6 +50,21 @@ double position_quantum(const std::vector<double>& x) {
   return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
 }
 
+/// White-noise level of a velocity from its second differences (m/s);
+/// differences across a gap in time (held-out folds cut out, another run)
+/// are not noise.
+double velocity_noise(const std::vector<double>& v, const std::vector<double>& t, double dt) {
+  double d2 = 0.0;
+  std::size_t nd = 0;
+  for (std::size_t k = 2; k < v.size(); ++k) {
+    if (t[k] - t[k - 1] > 1.5 * dt || t[k - 1] - t[k - 2] > 1.5 * dt) continue;
+    const double e = v[k] - 2.0 * v[k - 1] + v[k - 2];
+    d2 += e * e;
+    ++nd;
+  }
+  return nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
+}
+
 /// The lag a named --alignment states (sample periods); NaN for "auto".
 double named_lag(const std::string& name) {
   if (name == "auto") return std::numeric_limits<double>::quiet_NaN();
@@ -285,17 +300,42 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   s.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
   s.has_position = trace.has_position;
   s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
-  if (trace.has_velocity) {
+  if (!trace.has_velocity && !trace.has_position)
+    throw std::invalid_argument(trace.source + ": neither velocity nor position column");
+  if (!trace.has_position) {
+    // A velocity-only log: its quantisation and the drive's filter hide in
+    // the samples (a low-pass leaves no lattice to read the encoder quantum
+    // from, so the chatter at rest split sections and R^2 fell to 0.06 on a
+    // 100 nm, 8 kHz log). Integrated, it is the position seen through the
+    // drive's filter, and goes the way of a logged position; the force lag
+    // search takes up the filter's delay.
+    s.x = integrate_velocity(s.v, s.t, 5.0 * dt);
+    s.position_origin = "integrated from the velocity column (none logged): relative to the start";
+    // A position difference integrates back onto the encoder's lattice; a
+    // filtered column does not, and its sample noise stands in for the
+    // quantum (too low by the filter's noise gain, but on the right side of
+    // a band edge that the derived velocity would put at 1e-4 of top speed).
+    s.position_quantum_m = position_quantum(s.x);
+    s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
+  }
+  const bool measured = trace.has_velocity && trace.has_position;
+  if (measured) {
     s.velocity_origin = "measured";
   } else {
-    if (!trace.has_position) throw std::invalid_argument(trace.source + ": neither velocity nor position column");
     const double fc = std::min(opt.velocity_filter_hz, 0.4 * s.sample_rate_hz);
     s.v = central_difference(filtfilt_butter4(s.x, fc, s.sample_rate_hz), s.t);
     std::ostringstream o;
-    o << "derived: zero-phase 4th-order Butterworth " << fc << " Hz on position, central differences";
+    o << "derived: zero-phase 4th-order Butterworth " << fc << " Hz on position" << (trace.has_position ? "" : " (integrated velocity)")
+      << ", central differences";
     s.velocity_origin = o.str();
   }
-  align_force(s, opt, settle_velocity(s, opt, trace.has_velocity));
+  // Without a logged position the integrated velocity keeps the column's
+  // delay beyond a position difference (half a period): stated, or unknown,
+  // when the lag search finds force against it and names no convention.
+  const double velocity_lag = trace.has_position               ? settle_velocity(s, opt, measured)
+                              : std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt - 0.5
+                                                                  : std::numeric_limits<double>::quiet_NaN();
+  align_force(s, opt, velocity_lag);
   return s;
 }
 
@@ -303,17 +343,9 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   feedid::Config<double> c;
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   // Velocity resolution: the encoder quantum per sample period, or the white
-  // noise of the velocity (second differences), whichever is larger.
-  double d2 = 0.0;
-  std::size_t nd = 0;
-  for (std::size_t k = 2; k < s.v.size(); ++k) {
-    // Differences across a gap in time (e.g. held-out folds cut out) are not noise.
-    if (s.t[k] - s.t[k - 1] > 1.5 * dt || s.t[k - 1] - s.t[k - 2] > 1.5 * dt) continue;
-    const double e = s.v[k] - 2.0 * s.v[k - 1] + s.v[k - 2];
-    d2 += e * e;
-    ++nd;
-  }
-  const double v_noise = nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
+  // noise of the velocity (second differences), whichever is larger; a
+  // velocity column that was integrated and derived again keeps its own.
+  const double v_noise = std::max(velocity_noise(s.v, s.t, dt), s.column_velocity_noise_m_s);
   const double v_res = std::max(s.position_quantum_m / dt, v_noise);
   const double v_top = quantile_abs(s.v, 0.999);
   c.velocity_resolution_m_s = opt.velocity_resolution_m_s > 0 ? opt.velocity_resolution_m_s : v_res;

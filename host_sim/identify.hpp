@@ -54,6 +54,7 @@ struct IdentifyOptions {
 struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
+  std::string position_origin = "measured";  ///< or how x was made (no position column)
   /// Lag of the force behind the velocity as the core pairs them (sample
   /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
   double force_lag_samples = -1.0;
@@ -78,6 +79,9 @@ struct Signals {
   bool has_position = false;          ///< x is a logged position (not zeros)
   double sample_rate_hz = 0.0;        ///< from the median time step
   double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
+  /// Sample noise of a velocity column that was integrated and derived
+  /// again (no position logged), kept for the velocity resolution (m/s).
+  double column_velocity_noise_m_s = 0.0;
 };
 
 /// One velocity band of the measured friction curve (inertia removed).

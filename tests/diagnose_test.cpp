@@ -133,7 +133,7 @@ TEST(DiagnoseEffect, RippleWithoutAPositionColumnIsFoundOnIntegratedVelocity) {
   ASSERT_TRUE(r.error.empty()) << r.error;
   ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
   EXPECT_NEAR(r.effect_parameters["period_m"].get<double>(), 5e-3, 2e-4);
-  EXPECT_NE(r.position_origin.find("integrated from velocity"), std::string::npos);
+  EXPECT_NE(r.position_origin.find("integrated from the velocity"), std::string::npos);
 }
 
 // A log without a velocity column: the base model's JSON says the velocity
