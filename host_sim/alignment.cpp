@@ -31,10 +31,9 @@ struct LagCost {
   std::array<double, kJackknifeChunks> chunk_ssr{};
 };
 
-LagCost cost_at(const Signals& original, Signals& work, const feedid::Config<double>& cfg, double lag) {
-  const int delay = whole_delay_for(lag);
-  if (delay != work.velocity_delay_samples) delay_motion(original, delay, work);
-  work.force_lag_samples = lag - delay;
+/// The block residual of the model the core identifies on `work` as it is
+/// paired (work.force_lag_samples); cfg's band edges hold it to one set of blocks.
+LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
   feedid::Config<double> c = cfg;
   c.force_lag_samples = work.force_lag_samples;
   IdentifyOptions quiet;
@@ -54,6 +53,13 @@ LagCost cost_at(const Signals& original, Signals& work, const feedid::Config<dou
   out.blocks = b.blocks;
   out.chunk_ssr = b.chunk_sum_squares;
   return out;
+}
+
+LagCost cost_at(const Signals& original, Signals& work, const feedid::Config<double>& cfg, double lag) {
+  const int delay = whole_delay_for(lag);
+  if (delay != work.velocity_delay_samples) delay_motion(original, delay, work);
+  work.force_lag_samples = lag - delay;
+  return fit_cost(work, cfg);
 }
 
 /// Vertex of the parabola through (l - h, lo), (l, mid), (l + h, hi), kept
@@ -128,6 +134,25 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   if (std::isfinite(jack)) e.se_samples = std::max(e.se_samples, jack);
   e.ok = true;
   return e;
+}
+
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg) {
+  FilterChoice best;
+  best.cutoff_hz = s.velocity_filter_hz;
+  double best_ssr = std::numeric_limits<double>::infinity();
+  Signals work = s;
+  // Octave halves from 100 Hz to 0.4 of the rate (where the filter all but
+  // passes the position difference through).
+  for (double fc = kLowestVelocityFilter_hz; fc <= 0.4 * s.sample_rate_hz * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
+    derive_velocity(work, fc);
+    const LagCost c = fit_cost(work, cfg);
+    ++best.candidates;
+    if (c.ssr < best_ssr) {
+      best_ssr = c.ssr;
+      best.cutoff_hz = fc;
+    }
+  }
+  return best;
 }
 
 double estimate_velocity_lag(const Signals& s) {

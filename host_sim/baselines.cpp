@@ -168,8 +168,11 @@ template <typename V> double cost(const RegressionRows& r, const V& x) {
 /// Least squares by normal equations with Cholesky (small dense systems).
 template <int N> bool solve_ls(std::array<std::array<double, N>, N> a, std::array<double, N> b, std::array<double, N>& x) {
   for (int i = 0; i < N; ++i) {
+    const double energy = a[i][i];
     for (int k = 0; k < i; ++k) a[i][i] -= a[i][k] * a[i][k];
-    if (!(a[i][i] > 1e-300)) return false;
+    // Numerically singular too: less than 1e-10 of the column's energy left
+    // beside the earlier columns (a speed constant to rounding, one per direction).
+    if (!(a[i][i] > 1e-10 * energy) || !(a[i][i] > 1e-300)) return false;
     a[i][i] = std::sqrt(a[i][i]);
     for (int j = i + 1; j < N; ++j) {
       for (int k = 0; k < i; ++k) a[j][i] -= a[j][k] * a[i][k];

@@ -79,6 +79,38 @@ std::vector<double> central_difference(const std::vector<double>& y, const std::
   return d;
 }
 
+namespace {
+/// A position that does not change for `span` samples either side is at
+/// rest: its velocity is 0, not the filter's ringing from a start or stop
+/// nearby, whose sign would put +-Fc of friction on a standing axis.
+void hold_rest(const std::vector<double>& x, std::size_t span, std::vector<double>& v) {
+  const std::size_t n = x.size();
+  std::size_t run_start = 0;  // first index of the current run of equal positions
+  for (std::size_t k = 1; k <= n; ++k) {
+    if (k < n && x[k] == x[run_start]) continue;
+    // [run_start, k) hold one position; its inner part, span from each end, is at rest.
+    for (std::size_t j = run_start + span; j + span < k; ++j) v[j] = 0.0;
+    run_start = k;
+  }
+}
+}  // namespace
+
+std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
+                                        double rate_hz, double max_step_s) {
+  std::vector<double> v(x.size(), 0.0);
+  for (std::size_t a = 0; a < x.size();) {
+    std::size_t b = a + 1;
+    while (b < x.size() && t[b] - t[b - 1] <= max_step_s) ++b;
+    const std::vector<double> xs(x.begin() + static_cast<std::ptrdiff_t>(a), x.begin() + static_cast<std::ptrdiff_t>(b));
+    const std::vector<double> ts(t.begin() + static_cast<std::ptrdiff_t>(a), t.begin() + static_cast<std::ptrdiff_t>(b));
+    const std::vector<double> vs = central_difference(filtfilt_butter4(xs, cutoff_hz, rate_hz), ts);
+    std::copy(vs.begin(), vs.end(), v.begin() + static_cast<std::ptrdiff_t>(a));
+    a = b;
+  }
+  hold_rest(x, static_cast<std::size_t>(std::ceil(rate_hz / cutoff_hz)), v);
+  return v;
+}
+
 std::vector<double> integrate_velocity(const std::vector<double>& v, const std::vector<double>& t, double max_step_s) {
   std::vector<double> x(v.size(), 0.0);
   for (std::size_t k = 1; k < v.size(); ++k) {

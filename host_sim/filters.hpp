@@ -16,6 +16,13 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
 /// one-sided at the ends): the derivative at t_k, without lag.
 std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t);
 
+/// Velocity from position without lag: filtfilt_butter4 at cutoff_hz, then
+/// central differences, on each stretch between steps longer than
+/// max_step_s (a gap between recordings), so that no filter rings across a
+/// restarted clock or a jump of position.
+std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
+                                        double rate_hz, double max_step_s);
+
 /// Position from a logged velocity, 0 at the start: x[k] = x[k-1] + v[k] (t[k] - t[k-1]),
 /// the inverse of the backward difference, so a position-difference log
 /// gives the encoder's positions back exactly and a filtered log gives the

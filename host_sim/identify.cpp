@@ -74,42 +74,11 @@ double named_lag(const std::string& name) {
   throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'");
 }
 
-/// A logged velocity that lags position by more than this (periods) went
-/// through a filter beyond the position difference (0.5). The lag estimate
-/// is good to about 0.02 period; even a low-pass with 0.15 period of lag
-/// smears quantised velocity enough to wreck Fs (+3000 % on a 100 nm, 4 kHz
-/// drive), so any filter at all hands over to the position difference.
-constexpr double kFilteredVelocityLag = 0.6;
-
-/// Replaces a filtered velocity column by the backward difference of
-/// position, when there is one: the difference carries no filter rounding
-/// near reversals. Returns the velocity's lag behind the motion (periods).
-double settle_velocity(Signals& s, const IdentifyOptions& opt, bool measured) {
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
-  if (!measured) return 0.0;  // zero-phase derivative of position
-  const double lag = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : estimate_velocity_lag(s);
-  if (!std::isfinite(lag)) return lag;  // no position: the velocity's own lag is unknown
-  s.velocity_lag_s = lag * dt;
-  s.velocity_is_difference = std::fabs(lag - 0.5) < 0.25;
-  if (!(lag > kFilteredVelocityLag) || !s.has_position) return lag;
-  for (std::size_t k = s.v.size(); k-- > 1;) {
-    const double h = s.t[k] - s.t[k - 1];
-    s.v[k] = h > 0 ? (s.x[k] - s.x[k - 1]) / h : 0.0;
-  }
-  if (s.v.size() > 1) s.v[0] = s.v[1];
-  std::ostringstream o;
-  o << "measured column lags position by " << std::setprecision(2) << lag
-    << " periods (a drive filter): replaced by position differences";
-  s.velocity_origin = o.str();
-  s.velocity_is_difference = true;
-  return 0.5;
-}
-
 /// The lag nearest `lag` whose force delay (lag + the velocity's own lag,
-/// a position difference's half period when unknown) a logging convention
+/// none when unknown: the core's velocity is a zero-phase derivative) a logging convention
 /// explains; what is cut off is kept in s.lag_beyond_conventions.
 double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
-  const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.5;
+  const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.0;
   const double limit = convention_force_delay_limit();
   const double kept = std::clamp(lag + v_lag, -limit, limit) - v_lag;
   s.lag_beyond_conventions = lag - kept;
@@ -117,12 +86,15 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
 }
 
 /// Finds (or takes from the options) the force lag and applies it.
-void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
+/// velocity_lag: the core velocity's lag behind the motion (periods, NaN
+/// unknown); column_lag: the logged velocity column's lag behind the core's
+/// velocity, in which stated lags are given and the lag is reported.
+void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag) {
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
-  double lag = named_lag(opt.alignment), se = 0.0;
+  double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
   if (std::isfinite(opt.force_lag_s)) {
-    lag = opt.force_lag_s / dt;
+    lag = opt.force_lag_s / dt + column_lag;
     s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
     const LagEstimate e = estimate_force_lag(s, auto_config(s, opt));
@@ -132,14 +104,14 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag) {
       s.force_lag_origin = Signals::LagOrigin::estimated;
       if (opt.lag_within_conventions) lag = keep_within_conventions(s, lag, velocity_lag);
     } else {
-      lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.5);  // a held command, the commonest log
+      lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.0);  // a held command, the commonest log
       s.force_lag_origin = Signals::LagOrigin::assumed;
     }
   }
   if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
     throw std::invalid_argument("force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]");
   apply_force_lag(s, lag);
-  s.force_lag_s = lag * dt;
+  s.force_lag_s = (lag - column_lag) * dt;
   s.force_lag_se_s = se * dt;
   s.force_convention = std::isfinite(velocity_lag) ? nearest_force_convention(lag, velocity_lag)
                                                    : "unknown (no position column to time the velocity by)";
@@ -286,7 +258,24 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
   return out;
 }
 
-Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
+namespace {
+/// Longest step within one stretch of samples (s); a longer one is a gap
+/// (another recording, a cut) that no filter or integral crosses.
+double max_step_s(const Signals& s) { return s.sample_rate_hz > 0 ? 5.0 / s.sample_rate_hz : 0.0; }
+}  // namespace
+
+/// Velocity as the core sees it: position through the zero-phase
+/// Butterworth at cut-off fc (at most 0.4 of the rate), then central
+/// differences: no lag, and the encoder's counts averaged over about 1/fc.
+void derive_velocity(Signals& s, double fc_hz) {
+  s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, max_step_s(s));
+}
+
+namespace {
+/// The trace's columns, the rate and the encoder quantum; a velocity-only
+/// log integrated to a position.
+Signals read_signals(const Trace& trace) {
   Signals s;
   const std::size_t n = trace.samples.size();
   s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
@@ -309,7 +298,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     // 100 nm, 8 kHz log). Integrated, it is the position seen through the
     // drive's filter, and goes the way of a logged position; the force lag
     // search takes up the filter's delay.
-    s.x = integrate_velocity(s.v, s.t, 5.0 * dt);
+    s.x = integrate_velocity(s.v, s.t, max_step_s(s));
     s.position_origin = "integrated from the velocity column (none logged): relative to the start";
     // A position difference integrates back onto the encoder's lattice; a
     // filtered column does not, and its sample noise stands in for the
@@ -318,25 +307,111 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     s.position_quantum_m = position_quantum(s.x);
     s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
   }
-  const bool measured = trace.has_velocity && trace.has_position;
-  if (measured) {
-    s.velocity_origin = "measured";
-  } else {
-    const double fc = std::min(opt.velocity_filter_hz, 0.4 * s.sample_rate_hz);
-    s.v = central_difference(filtfilt_butter4(s.x, fc, s.sample_rate_hz), s.t);
-    std::ostringstream o;
-    o << "derived: zero-phase 4th-order Butterworth " << fc << " Hz on position" << (trace.has_position ? "" : " (integrated velocity)")
-      << ", central differences";
-    s.velocity_origin = o.str();
-  }
-  // Without a logged position the integrated velocity keeps the column's
-  // delay beyond a position difference (half a period): stated, or unknown,
-  // when the lag search finds force against it and names no convention.
-  const double velocity_lag = trace.has_position               ? settle_velocity(s, opt, measured)
-                              : std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt - 0.5
-                                                                  : std::numeric_limits<double>::quiet_NaN();
-  align_force(s, opt, velocity_lag);
   return s;
+}
+
+/// Timing of the velocity column (periods): `core` is the lag behind the
+/// motion of the velocity the core will see (NaN unknown), `column` the
+/// logged column's lag behind that velocity, in which stated force lags are
+/// given and the estimated one is reported.
+struct VelocityTiming {
+  double core = 0.0, column = 0.0;
+};
+
+VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double stated = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : std::numeric_limits<double>::quiet_NaN();
+  VelocityTiming v;
+  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+    v.core = std::isfinite(stated) ? stated : 0.0;
+  } else if (trace.has_velocity && trace.has_position) {
+    const double lag = std::isfinite(stated) ? stated : estimate_velocity_lag(s);
+    s.velocity_lag_s = lag * dt;
+    v.column = std::isfinite(lag) ? lag : 0.5;
+  } else if (!trace.has_position) {
+    // Integrated and derived again, the column is advanced by exactly half
+    // a period; its own lag behind the motion is unknown unless stated.
+    v.column = 0.5;
+    v.core = stated - 0.5;
+  }
+  return v;
+}
+
+/// The core's velocity at cut-off fc_hz, then the force lag on it.
+Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
+                         double fc_hz) {
+  Signals s = raw;
+  derive_velocity(s, fc_hz);
+  std::ostringstream o;
+  o << "derived: zero-phase 4th-order Butterworth " << std::setprecision(3) << s.velocity_filter_hz << " Hz ("
+    << s.velocity_filter_origin << ") on position" << (trace.has_position ? "" : " (integrated velocity)")
+    << ", central differences";
+  if (trace.has_velocity && trace.has_position)
+    o << "; the velocity column lags position by " << std::setprecision(2) << timing.column << " periods";
+  s.velocity_origin = o.str();
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column);
+  return s;
+}
+
+/// A velocity column lagging position by more than this (periods) went
+/// through a filter beyond the position difference (0.5); the estimate is
+/// good to about 0.02 period.
+constexpr double kFilteredVelocityLag = 0.6;
+
+/// VelocitySource::column: the column if it is a position difference, else
+/// the backward difference of position (a filter's rounding of quantised
+/// counts wrecked Fs, +3000 % on a 100 nm, 4 kHz drive).
+Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing) {
+  if (timing.column > kFilteredVelocityLag) {
+    for (std::size_t k = s.v.size(); k-- > 1;) {
+      const double h = s.t[k] - s.t[k - 1];
+      s.v[k] = h > 0 ? (s.x[k] - s.x[k - 1]) / h : 0.0;
+    }
+    if (s.v.size() > 1) s.v[0] = s.v[1];
+    std::ostringstream o;
+    o << "backward differences of position (the column lags position by " << std::setprecision(2) << timing.column
+      << " periods: a drive filter)";
+    s.velocity_origin = o.str();
+    timing.core = 0.5;
+  } else {
+    s.velocity_origin = "measured";
+    timing.core = timing.column;
+  }
+  timing.column -= timing.core;
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column);
+  return s;
+}
+}  // namespace
+
+Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
+  Signals raw = read_signals(trace);
+  const VelocityTiming timing = time_velocity_column(raw, trace, opt);
+  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+    raw.velocity_origin = "given";
+    raw.core_velocity_lag = timing.core;
+    align_force(raw, opt, timing.core, timing.column);
+    return raw;
+  }
+  if (trace.has_velocity && trace.has_position && opt.velocity_source == VelocitySource::column)
+    return column_and_align(raw, opt, timing);
+  // The core's velocity is the zero-phase derivative of position (logged or
+  // integrated), never the drive's column: the column's quantum noise (one
+  // count per period is 0.4 mm/s at 4 kHz and 100 nm) enters every band's
+  // m * dv at each crossing, which left Fc- 0.9 % and sigma- 0.35 % off on a
+  // 400 kg axis. How much to smooth depends on the encoder and the mass, so
+  // the cut-off is the one whose model leaves the least block residual
+  // (choose_velocity_filter), unless stated.
+  const bool stated = opt.velocity_filter_hz > 0;
+  raw.velocity_filter_origin = stated ? "stated" : "provisional";
+  Signals s = derive_and_align(raw, trace, opt, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
+  if (stated) return s;
+  const FilterChoice choice = choose_velocity_filter(s, auto_config(s, opt));
+  std::ostringstream o;
+  o << "least block residual of " << choice.candidates << " cut-offs";
+  raw.velocity_filter_origin = o.str();
+  return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz);
 }
 
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
@@ -572,6 +647,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
   const auto& c = r.config;
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
                 {"velocity", r.signals.velocity_origin},
+                {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
+                {"position", r.signals.position_origin},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},

@@ -20,11 +20,30 @@ namespace feedid::host {
 
 using Core = feedid::Estimator<double, 32, 16>;
 
+/// The velocity the core is fed.
+enum class VelocitySource {
+  /// The zero-phase derivative of position (logged, or integrated from a
+  /// velocity-only log) at a cut-off chosen from the data: the most
+  /// accurate parameters (docs/method.md).
+  position,
+  /// The drive's velocity column where it is a position difference, else
+  /// the backward difference of position: no filter rounds a start or a
+  /// reversal, which the diagnosis reads sample by sample. Without both
+  /// columns, as `position`.
+  column,
+  /// The velocity column as it is, its lag behind the motion as stated
+  /// (velocity_lag_s, 0 if not): signals the diagnosis has aligned already.
+  given,
+};
+
 struct IdentifyOptions {
   feedid::Method method = feedid::Method::bands;
-  /// Cut-off (Hz) of the zero-phase Butterworth applied to position before
-  /// central differences, when the trace has no velocity column.
-  double velocity_filter_hz = 100.0;
+  /// Cut-off (Hz) of the zero-phase Butterworth applied to position (logged,
+  /// or integrated from a velocity-only log) before central differences:
+  /// the velocity the core sees.
+  double velocity_filter_hz = 0.0;  ///< 0: chosen from the data (choose_velocity_filter)
+  /// Where the core's velocity comes from (VelocitySource).
+  VelocitySource velocity_source = VelocitySource::position;
   /// Force/velocity pairing: "auto" estimates the lag from the data
   /// (alignment.hpp); a named convention (held-backward, held-instant,
   /// trapezoid) or force_lag_s states it.
@@ -55,11 +74,16 @@ struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
   std::string position_origin = "measured";  ///< or how x was made (no position column)
+  double velocity_filter_hz = 0.0;            ///< cut-off of the derived velocity (Hz); 0: given as is
+  std::string velocity_filter_origin;         ///< stated, or how it was chosen
   /// Lag of the force behind the velocity as the core pairs them (sample
   /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
   double force_lag_samples = -1.0;
   int velocity_delay_samples = 0;     ///< whole samples v and x were delayed by (a positive lag)
   double force_lag_s = 0.0;           ///< force lag behind the logged velocity (s)
+  /// Lag of v (what the core sees) behind the motion, before any whole-sample
+  /// delay of the alignment (periods; NaN unknown).
+  double core_velocity_lag = 0.0;
   double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
   /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
@@ -68,9 +92,6 @@ struct Signals {
   /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
   double lag_beyond_conventions = 0.0;
   double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
-  /// v is the backward difference of the (quantised) position: a measured
-  /// column half a period late, or a filtered column replaced by it.
-  bool velocity_is_difference = false;
   feedid::ForcePairing<double> pairing() const {
     feedid::ForcePairing<double> p;
     (void)p.init(force_lag_samples);
@@ -120,6 +141,10 @@ struct IdentifyResult {
 
 /// Velocity (measured or derived) and the pairing convention for a trace.
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt);
+
+/// Sets s.v to the zero-phase derivative of s.x at cut-off fc_hz (at most
+/// 0.4 of the rate; filters.hpp), stretch by stretch between time gaps.
+void derive_velocity(Signals& s, double fc_hz);
 
 /// The same configuration in another precision, field by field (float on
 /// target, double on host; a force limit beyond float's range is clamped).

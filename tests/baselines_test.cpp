@@ -97,9 +97,11 @@ TEST(Baselines, TraceWithoutMotionIsRefused) {
 TEST(Baselines, SingularStartIsReportedNotReplacedByOnes) {
   feedid::host::Trace tr;
   for (int k = 0; k < 8000; ++k) {
-    const double t = k * 1e-3, v = k < 4000 ? 0.01 : -0.01;
-    // Position off any grid (a few nm), so no coarse encoder quantum is inferred.
-    const double x = (k < 4000 ? v * t : 0.04 + v * (t - 4.0)) + 1e-9 * ((k * 7919) % 13);
+    // Two recordings 10 s apart, so that no smoothing of the derived
+    // velocity makes a third speed out of the reversal; speeds in an
+    // irrational ratio, so that their steps are not read as an encoder's.
+    const double t = k * 1e-3 + (k < 4000 ? 0.0 : 10.0), v = k < 4000 ? 0.01 : -0.01 * std::sqrt(2.0);
+    const double x = k < 4000 ? v * t : 0.04 + v * (t - 14.0);
     tr.samples.push_back({t, x, v, v > 0 ? 30.0 : -30.0});
   }
   for (const BaselineResult& r : {feedid::host::batch_lm(tr, BaselineOptions{}), feedid::host::genetic_algorithm(tr, BaselineOptions{})}) {

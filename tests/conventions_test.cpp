@@ -98,7 +98,9 @@ TEST(ForceLag, KnownShiftFoundWithinATenthOfAPeriod) {
   }
 }
 
-// A stated lag overrides the search, and the core's pairing takes it as given.
+// A stated lag (behind the logged velocity column) overrides the search;
+// the core, which pairs force with the zero-phase derivative of position,
+// takes it plus the column's own lag behind that derivative.
 TEST(ForceLag, StatedLagIsUsedAsGiven) {
   const host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 3, 10.0);
   host::IdentifyOptions opt;
@@ -106,15 +108,18 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   const host::IdentifyResult r = host::identify(host::simulate(cfg), opt);
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.signals.force_lag_origin, host::Signals::LagOrigin::option);
-  EXPECT_NEAR(r.config.force_lag_samples, -0.75, 1e-9);
+  EXPECT_NEAR(r.signals.force_lag_s * 2000.0, -0.75, 1e-9);
+  EXPECT_NEAR(r.config.force_lag_samples, -0.75 + r.signals.velocity_lag_s * 2000.0, 1e-9);
+  EXPECT_NEAR(r.signals.velocity_lag_s * 2000.0, 0.5, 0.05);
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }
 
 // GIVEN velocity logged through a k-sample moving average or a first-order
 // low-pass, THEN its lag behind the motion is found against the position
 // column (a moving average: 0.5 + (k - 1)/2 periods; a discrete low-pass
-// y += a (v - y): 0.5 + (1 - a)/a), and any filter hands over to the
-// position difference.
+// y += a (v - y): 0.5 + (1 - a)/a), the held force is named, and its lag
+// is reported behind the logged column (-1/2 less the column's lag), the
+// figure a firmware that pairs with that column needs.
 TEST(VelocityLag, FilterDelayFoundAgainstPosition) {
   for (const int k : {2, 4}) {
     host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::moving_average, 100.0, 4000.0, 1e-7}, 4, 10.0);
@@ -122,7 +127,8 @@ TEST(VelocityLag, FilterDelayFoundAgainstPosition) {
     const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_NEAR(r.signals.velocity_lag_s * 4000.0, 0.5 + 0.5 * (k - 1), 0.05) << k << " samples";
-    EXPECT_TRUE(r.signals.velocity_is_difference);
+    EXPECT_EQ(r.signals.force_convention, "held");
+    EXPECT_NEAR(r.signals.force_lag_s * 4000.0, -0.5 - (0.5 + 0.5 * (k - 1)), 0.1) << k << " samples";
   }
   for (const double tau_periods : {0.5, 1.5}) {
     host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::low_pass, 100.0, 4000.0, 1e-7}, 4, 10.0);
@@ -131,21 +137,31 @@ TEST(VelocityLag, FilterDelayFoundAgainstPosition) {
     const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_NEAR(r.signals.velocity_lag_s * 4000.0, 0.5 + (1.0 - a) / a, 0.05) << tau_periods << " periods";
-    EXPECT_TRUE(r.signals.velocity_is_difference);
+    EXPECT_EQ(r.signals.force_convention, "held");
+    EXPECT_NEAR(r.signals.force_lag_s * 4000.0, -0.5 - (0.5 + (1.0 - a) / a), 0.1) << tau_periods << " periods";
   }
 }
 
 // GIVEN a fast, coarse log (8 kHz, 100 nm: a velocity quantum of 0.8 mm/s,
-// six times the velocity change per sample at 1 m/s^2), THEN the mass from
-// the triangle-weighted block pairs is within 0.3 % where the core's raw
-// window ends lose more than that to the quantisation noise, and its
-// standard error covers the error.
+// six times the velocity change per sample at 1 m/s^2), THEN fed the raw
+// column the core's window ends lose more than 0.3 % of the mass to the
+// quantisation noise, while the triangle-weighted block pairs do not; on
+// the zero-phase derivative of position (the default) both are within
+// 0.3 %, and the standard error covers the error.
 TEST(QuantisedVelocity, MassAtHighRateIsNotAttenuated) {
   const host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 8000.0, 1e-7}, 2, 30.0);
-  const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
+  const host::Trace trace = host::simulate(cfg);
+  host::IdentifyOptions raw;
+  raw.velocity_source = host::VelocitySource::given;
+  const host::IdentifyResult r_raw = host::identify(trace, raw);
+  ASSERT_TRUE(r_raw.error.empty()) << r_raw.error;
+  EXPECT_LT(r_raw.mass_from_windows_kg, 0.997 * cfg.drive.mass_kg) << "the attenuation this guards against is gone";
+  EXPECT_LT(rel_err(r_raw.estimate.mass_kg, cfg.drive.mass_kg), 0.003) << r_raw.estimate.mass_kg;
+
+  const host::IdentifyResult r = host::identify(trace, host::IdentifyOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;
   ASSERT_TRUE(r.estimate.mass_identified());
-  EXPECT_LT(r.mass_from_windows_kg, 0.997 * cfg.drive.mass_kg) << "the attenuation this guards against is gone";
+  EXPECT_LT(rel_err(r.mass_from_windows_kg, cfg.drive.mass_kg), 0.003) << r.mass_from_windows_kg;
   EXPECT_LT(rel_err(r.estimate.mass_kg, cfg.drive.mass_kg), 0.003) << r.estimate.mass_kg;
   EXPECT_LE(std::fabs(r.estimate.mass_kg - cfg.drive.mass_kg), 2.5 * r.estimate.mass_se_kg);
 }
