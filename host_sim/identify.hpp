@@ -129,6 +129,7 @@ struct IdentifyResult {
   /// The core's mass from its acceleration windows, before the block refit
   /// (equal to estimate.mass_kg when the refit did not run).
   double mass_from_windows_kg = 0.0;
+  double lag_se_periods = 0.0;   ///< the lag's uncertainty the timing terms use (0: stated lag)
   int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
   std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
   double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks

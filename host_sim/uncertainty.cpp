@@ -59,9 +59,7 @@ std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& 
                                 const std::array<double, 9>& theta, double lag_uncertainty) {
   std::array<double, 9> out{};
   if (!(lag_uncertainty > 0)) return out;
-  constexpr double step = 0.5;  // periods: well above rounding, within the lag search's parabola
-  const double lag = s.force_lag_samples >= -feedid::ForcePairing<double>::max_lead + step ? s.force_lag_samples - step
-                                                                                          : s.force_lag_samples + step;
+  const double lag = timing_probe_lag(s);
   feedid::Config<double> c = cfg;
   c.force_lag_samples = lag;
   Signals shifted = s;
@@ -71,11 +69,17 @@ std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& 
   const CoreRun run = run_core(shifted, c, quiet);
   if (run.status != feedid::Status::ok) return out;
   const auto at = parameters(run.estimate);
-  for (int i = 0; i < 9; ++i) out[i] = std::fabs(at[i] - theta[i]) / step * lag_uncertainty;
+  for (int i = 0; i < 9; ++i) out[i] = std::fabs(at[i] - theta[i]) / kTimingProbeStep * lag_uncertainty;
   return out;
 }
 
 }  // namespace
+
+double timing_probe_lag(const Signals& s) {
+  return s.force_lag_samples >= -feedid::ForcePairing<double>::max_lead + kTimingProbeStep
+             ? s.force_lag_samples - kTimingProbeStep
+             : s.force_lag_samples + kTimingProbeStep;
+}
 
 std::array<double, 9> standard_errors(const feedid::Estimate<double>& e) {
   return {e.mass_se_kg, e.pos.viscous_se, e.pos.coulomb_se, e.pos.breakaway_se, e.pos.stribeck_velocity_se,
@@ -95,6 +99,7 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
   u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se);
   const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated;
   const double lag_se = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
+  r.lag_se_periods = lag_se;
   u.timing_se = timing_se(s, r.config, opt.method, parameters(r.estimate), lag_se);
   feedid::Estimate<double>& e = r.estimate;
   const auto f = se_fields(e);

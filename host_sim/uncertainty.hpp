@@ -27,6 +27,13 @@ std::array<double, 9> standard_errors(const feedid::Estimate<double>& e);
 std::array<double, 9> parameters(const feedid::Estimate<double>& e);
 
 /// What the widening found, for the JSON.
+/// The timing term's probe: a second pairing this far from the estimated
+/// lag (periods; well above rounding, within the lag search's parabola), on
+/// the side the pairing rule can reach. Sensitivity x the lag's standard
+/// error is each parameter's timing term.
+constexpr double kTimingProbeStep = 0.5;
+double timing_probe_lag(const Signals& s);
+
 struct Uncertainty {
   int chunks_used = 0;                    ///< leave-one-out solves that succeeded
   std::array<double, 9> jackknife_se{};   ///< 0 where not available
