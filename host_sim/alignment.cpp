@@ -152,8 +152,11 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
       best.cutoff_hz = fc;
     }
   }
+  best.block_ssr = best_ssr;
   return best;
 }
+
+double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg) { return fit_cost(s, cfg).ssr; }
 
 double estimate_velocity_lag(const Signals& s) {
   const std::size_t n = s.t.size();

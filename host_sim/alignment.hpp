@@ -5,6 +5,7 @@
 // and biases the parameters. This finds the shift from the trace itself.
 // Host only.
 #pragma once
+#include <limits>
 #include <string>
 
 #include "identify.hpp"
@@ -41,6 +42,7 @@ constexpr double kLowestVelocityFilter_hz = 100.0;
 struct FilterChoice {
   double cutoff_hz = 0.0;
   int candidates = 0;  ///< cut-offs tried
+  double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
 };
 
 /// The cut-off, from 100 Hz up to 0.4 of the rate in half octaves, whose
@@ -52,6 +54,11 @@ struct FilterChoice {
 /// where the filter rounds the Stribeck dip). The residual is least where
 /// the parameters are best in both. cfg fixes the band edges for all.
 FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Sum of squared 10 ms block residuals (N^2) of the model the core
+/// identifies on `s` as paired, at cfg's band edges: the measure the lag
+/// search and the velocity choice minimise. Infinite if nothing identifies.
+double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg);
 
 /// Lag of the logged velocity behind the backward difference of the logged
 /// position, plus that difference's own half period (sample periods): 0.5 for

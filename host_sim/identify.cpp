@@ -397,19 +397,29 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   if (trace.has_velocity && trace.has_position && opt.velocity_source == VelocitySource::column)
     return column_and_align(raw, opt, timing);
   // The core's velocity is the zero-phase derivative of position (logged or
-  // integrated), never the drive's column: the column's quantum noise (one
-  // count per period is 0.4 mm/s at 4 kHz and 100 nm) enters every band's
-  // m * dv at each crossing, which left Fc- 0.9 % and sigma- 0.35 % off on a
-  // 400 kg axis. How much to smooth depends on the encoder and the mass, so
-  // the cut-off is the one whose model leaves the least block residual
-  // (choose_velocity_filter), unless stated.
+  // integrated): a drive's column carries the count noise (one count per
+  // period is 0.4 mm/s at 4 kHz and 100 nm) into every band's m * dv at
+  // each crossing, which left Fc- 0.9 % and sigma- 0.35 % off on a 400 kg
+  // axis. How much to smooth depends on the encoder and the mass, so the
+  // cut-off is the one whose model leaves the least block residual
+  // (choose_velocity_filter), unless stated. The column stays a candidate
+  // under the same measure: a log whose velocity comes from a better sensor
+  // than its position keeps it.
   const bool stated = opt.velocity_filter_hz > 0;
   raw.velocity_filter_origin = stated ? "stated" : "provisional";
   Signals s = derive_and_align(raw, trace, opt, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
   if (stated) return s;
-  const FilterChoice choice = choose_velocity_filter(s, auto_config(s, opt));
+  const feedid::Config<double> edges = auto_config(s, opt);
+  const FilterChoice choice = choose_velocity_filter(s, edges);
+  if (trace.has_velocity && trace.has_position) {
+    Signals column = column_and_align(raw, opt, timing);
+    if (block_fit_ssr(column, edges) < choice.block_ssr) {
+      column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
+      return column;
+    }
+  }
   std::ostringstream o;
-  o << "least block residual of " << choice.candidates << " cut-offs";
+  o << "least block residual of " << choice.candidates << " cut-offs" << (trace.has_velocity && trace.has_position ? " and the velocity column" : "");
   raw.velocity_filter_origin = o.str();
   return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz);
 }

@@ -101,9 +101,8 @@ TEST(ForceLag, KnownShiftFoundWithinATenthOfAPeriod) {
   }
 }
 
-// A stated lag (behind the logged velocity column) overrides the search;
-// the core, which pairs force with the zero-phase derivative of position,
-// takes it plus the column's own lag behind that derivative.
+// A stated lag (behind the logged velocity column) overrides the search,
+// and the core takes it as given for the velocity it pairs with.
 TEST(ForceLag, StatedLagIsUsedAsGiven) {
   const host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 3, 10.0);
   host::IdentifyOptions opt;
@@ -112,8 +111,13 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.signals.force_lag_origin, host::Signals::LagOrigin::option);
   EXPECT_NEAR(r.signals.force_lag_s * 2000.0, -0.75, 1e-9);
-  EXPECT_NEAR(r.config.force_lag_samples, -0.75 + r.signals.velocity_lag_s * 2000.0, 1e-9);
   EXPECT_NEAR(r.signals.velocity_lag_s * 2000.0, 0.5, 0.05);
+  // Whichever velocity the core took (the column or the derivative of
+  // position, by their block residuals), its pairing is the stated lag
+  // plus the column's lag behind it.
+  const bool column = r.signals.velocity_origin.rfind("measured", 0) == 0;
+  EXPECT_NEAR(r.config.force_lag_samples, -0.75 + (column ? 0.0 : r.signals.velocity_lag_s * 2000.0), 1e-9)
+      << r.signals.velocity_origin;
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }
 
@@ -167,6 +171,27 @@ TEST(QuantisedVelocity, MassAtHighRateIsNotAttenuated) {
   EXPECT_LT(rel_err(r.mass_from_windows_kg, cfg.drive.mass_kg), 0.003) << r.mass_from_windows_kg;
   EXPECT_LT(rel_err(r.estimate.mass_kg, cfg.drive.mass_kg), 0.003) << r.estimate.mass_kg;
   EXPECT_LE(std::fabs(r.estimate.mass_kg - cfg.drive.mass_kg), 2.5 * r.estimate.mass_se_kg);
+}
+
+// GIVEN a log whose velocity column is finer than its position (a 20 um
+// position against the velocity of a 1 nm encoder, as from a tachometer or
+// a second sensor), WHEN identify chooses the core's velocity, THEN the
+// column fits the blocks better than any derivative of that position and
+// is kept, and sigma and Fc are within 1 % (the derivative puts Fc+ 5 %
+// off).
+TEST(VelocityChoice, FinerColumnThanPositionIsKept) {
+  const host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-9}, 4, 30.0);
+  host::Trace t = host::simulate(cfg);
+  for (host::TraceSample& s : t.samples) s.x_m = 2e-5 * std::round(s.x_m / 2e-5);
+  const host::IdentifyResult r = host::identify(t, host::IdentifyOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.signals.velocity_origin.rfind("measured", 0), 0u) << r.signals.velocity_origin;
+  for (int d = 0; d < 2; ++d) {
+    const auto& de = d == 0 ? r.estimate.pos : r.estimate.neg;
+    const auto& tr = d == 0 ? cfg.drive.pos : cfg.drive.neg;
+    EXPECT_LT(rel_err(de.viscous_Ns_m, tr.viscous_Ns_m), 0.01) << de.viscous_Ns_m;
+    EXPECT_LT(rel_err(de.coulomb_N, tr.coulomb_N), 0.01) << de.coulomb_N;
+  }
 }
 
 // GIVEN a velocity-only log through the drive's first-order low-pass, from
