@@ -143,7 +143,8 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   Signals work = s;
   // Octave halves from 100 Hz to 0.4 of the rate (where the filter all but
   // passes the position difference through).
-  for (double fc = kLowestVelocityFilter_hz; fc <= 0.4 * s.sample_rate_hz * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
+  const double top = 0.4 * s.sample_rate_hz;
+  for (double fc = std::min(kLowestVelocityFilter_hz, 0.25 * top); fc <= top * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
     derive_velocity(work, fc);
     const LagCost c = fit_cost(work, cfg);
     ++best.candidates;

@@ -35,7 +35,8 @@ struct LagEstimate {
 LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
 
 /// Cut-off of the core's velocity (the zero-phase derivative of position)
-/// before one is chosen, and the lowest tried (Hz).
+/// before one is chosen, and the lowest tried (Hz; a slow log goes down to
+/// two octaves below its top cut-off of 0.4 of the rate).
 constexpr double kProvisionalVelocityFilter_hz = 300.0;
 constexpr double kLowestVelocityFilter_hz = 100.0;
 
@@ -45,7 +46,8 @@ struct FilterChoice {
   double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
 };
 
-/// The cut-off, from 100 Hz up to 0.4 of the rate in half octaves, whose
+/// The cut-off, from 100 Hz (or 0.1 of the rate, if less) up to 0.4 of the
+/// rate in half octaves, whose
 /// identified model leaves the least block residual (the measure the lag
 /// search minimises) on `s` as aligned. A coarse encoder on a heavy axis
 /// wants smoothing (the counts' noise enters m * dv at every band
