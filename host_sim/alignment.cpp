@@ -37,6 +37,7 @@ LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
   feedid::Config<double> c = cfg;
   c.force_lag_samples = work.force_lag_samples;
   IdentifyOptions quiet;
+  quiet.select_friction_model = false;
   const CoreRun run = run_core(work, c, quiet);
   LagCost out;
   if (run.status != feedid::Status::ok) return out;

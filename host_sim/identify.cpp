@@ -515,6 +515,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   }
   r.status = run.status;
   r.estimate = run.estimate;
+  r.friction_model = run.friction_model;
   r.diagnostics = run.diagnostics;
   r.first_rejections = run.first_rejections;
   if (opt.progress) opt.progress(1.0);
@@ -604,7 +605,55 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
   run.status = core.solve(opt.method);
   run.estimate = core.estimate();
   run.diagnostics = core.diagnostics();
+  if (run.status == feedid::Status::ok && opt.select_friction_model)
+    run.friction_model = select_friction_models(core, run.estimate);
   return run;
+}
+
+namespace {
+FrictionModel select_direction(const Core& core, int d, double mass, feedid::DirectionEstimate<double>& de) {
+  FrictionModel m;
+  if (!de.friction_identified()) {
+    m.reason = "no friction identified";
+    return m;
+  }
+  const auto p = feedid::detail::friction_points(core.statistics(), d, mass);
+  feedid::Vector<double, 3> th4, th2, inv2;
+  double ssr4 = 0.0, ssr2 = 0.0;
+  const bool has_dip = de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0 &&
+                       feedid::detail::fit_friction_at(p, de.stribeck_velocity_m_s, th4, ssr4);
+  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2) || p.count < 6) {
+    m.stribeck = has_dip;
+    m.reason = "too few velocity bands to weigh the Stribeck law";
+    return m;
+  }
+  const double n = p.count;
+  m.bic_gain = has_dip && ssr4 > 0 ? n * std::log(ssr2 / ssr4) - 2.0 * std::log(n) : 0.0;
+  const bool physical = de.coulomb_N >= 0 && de.viscous_Ns_m >= 0;
+  m.stribeck = has_dip && physical && m.bic_gain > 0;
+  if (m.stribeck) {
+    m.reason = "Stribeck: its dip lowers the band residual by more than BIC charges for Fs and vs";
+    return m;
+  }
+  m.reason = !has_dip    ? "Coulomb + viscous: the fit found no dip (Fs = 0)"
+             : !physical ? "Coulomb + viscous: the Stribeck fit was not physical (a negative Coulomb or viscous term)"
+                         : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
+  const double s2 = ssr2 / std::max(n - 2.0, 1.0);
+  de.coulomb_N = th2.v[0];
+  de.viscous_Ns_m = th2.v[1];
+  de.coulomb_se = std::sqrt(s2 * inv2.v[0]);
+  de.viscous_se = std::sqrt(s2 * inv2.v[1]);
+  de.breakaway_N = 0.0;
+  de.stribeck_velocity_m_s = 0.0;
+  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical);
+  if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
+  if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
+  return m;
+}
+}  // namespace
+
+std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e) {
+  return {select_direction(core, 0, e.mass_kg, e.pos), select_direction(core, 1, e.mass_kg, e.neg)};
 }
 
 
@@ -635,6 +684,47 @@ DriveParams model_from_json(const nlohmann::json& j) {
   return p;
 }
 
+SymmetricFriction symmetric_friction(const IdentifyResult& r) {
+  SymmetricFriction out;
+  const auto& p = r.estimate.pos;
+  const auto& n = r.estimate.neg;
+  if (r.friction_model[0].stribeck || r.friction_model[1].stribeck || !p.friction_identified() ||
+      !n.friction_identified())
+    return out;
+  // Inverse-variance means; the directions agree when each difference is
+  // within 2 of its standard errors.
+  auto pooled = [](double a, double sa, double b, double sb, double& mean, double& se) {
+    const double wa = 1.0 / (sa * sa), wb = 1.0 / (sb * sb);
+    mean = (wa * a + wb * b) / (wa + wb);
+    se = std::sqrt(1.0 / (wa + wb));
+    return std::fabs(a - b) <= 2.0 * std::hypot(sa, sb);
+  };
+  out.agree = pooled(p.coulomb_N, p.coulomb_se, n.coulomb_N, n.coulomb_se, out.coulomb_N, out.coulomb_se) &&
+              pooled(p.viscous_Ns_m, p.viscous_se, n.viscous_Ns_m, n.viscous_se, out.viscous_Ns_m, out.viscous_se);
+  out.agree = out.agree && std::isfinite(out.coulomb_N) && std::isfinite(out.viscous_Ns_m);
+  return out;
+}
+
+namespace {
+nlohmann::json friction_model_json(const IdentifyResult& r) {
+  nlohmann::json friction;
+  for (int d = 0; d < 2; ++d) {
+    const FrictionModel& m = r.friction_model[static_cast<std::size_t>(d)];
+    friction[d == 0 ? "pos" : "neg"] = {{"law", m.stribeck ? "stribeck" : "coulomb_viscous"},
+                                        {"reason", m.reason},
+                                        {"bic_gain", m.bic_gain}};
+  }
+  friction["rule"] = "the Stribeck law is kept where it is physical and lowers the band residual by more than the "
+                     "Bayesian information criterion charges for Fs and vs (n ln(SSR_cv/SSR_stribeck) > 2 ln n over n "
+                     "velocity bands); otherwise Coulomb + viscous, with Fs = vs = 0";
+  const SymmetricFriction sym = symmetric_friction(r);
+  friction["symmetric"] = sym.agree ? nlohmann::json{{"fc", sym.coulomb_N}, {"fc_se", sym.coulomb_se},
+                                                     {"sigma", sym.viscous_Ns_m}, {"sigma_se", sym.viscous_se}}
+                                    : nlohmann::json();
+  return {{"friction", friction}};
+}
+}  // namespace
+
 nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
@@ -648,6 +738,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["m_flags"] = flag_names(e.mass_flags);
   j["pos"] = direction_json(e.pos);
   j["neg"] = direction_json(e.neg);
+  j["model"] = friction_model_json(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
               {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
@@ -733,7 +824,13 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
       for (const auto& f : flag_names(de.flags)) o << " " << f;
       o << "\n";
     }
+    if (!r.friction_model[static_cast<std::size_t>(d)].reason.empty())
+      o << "    model: " << r.friction_model[static_cast<std::size_t>(d)].reason << "\n";
   }
+  const SymmetricFriction sym = symmetric_friction(r);
+  if (sym.agree)
+    o << "  the directions agree within 2 standard errors: symmetric Coulomb " << sym.coulomb_N << " +- " << sym.coulomb_se
+      << " N, viscous " << sym.viscous_Ns_m << " +- " << sym.viscous_se << " N s/m\n";
   std::snprintf(buf, sizeof buf,
                 "  friction curve R^2 %.5f (+) %.5f (-); RMS force residual %.3g N over %.0f ms blocks; force noise %.3g N\n",
                 e.pos.friction_r2, e.neg.friction_r2, r.residual_rms_N, 1e3 * r.residual_block_s, e.force_noise_N);

@@ -42,6 +42,10 @@ struct IdentifyOptions {
   /// or integrated from a velocity-only log) before central differences:
   /// the velocity the core sees.
   double velocity_filter_hz = 0.0;  ///< 0: chosen from the data (choose_velocity_filter)
+  /// Weigh the Stribeck law against Coulomb + viscous after each solve
+  /// (select_friction_models). The lag and velocity searches leave it off:
+  /// a law that switches from one candidate to the next makes their cost jump.
+  bool select_friction_model = true;
   /// Where the core's velocity comes from (VelocitySource).
   VelocitySource velocity_source = VelocitySource::position;
   /// Force/velocity pairing: "auto" estimates the lag from the data
@@ -105,6 +109,21 @@ struct Signals {
   double column_velocity_noise_m_s = 0.0;
 };
 
+/// Which friction law a direction's figures come from (model selection,
+/// docs/method.md "Model selection").
+struct FrictionModel {
+  bool stribeck = false;     ///< the Stribeck law was kept (else Coulomb + viscous)
+  std::string reason;        ///< why, for the summary and the JSON
+  double bic_gain = 0.0;     ///< BIC(Coulomb + viscous) - BIC(Stribeck); > 0 favours Stribeck
+};
+
+/// Coulomb + viscous in both directions, pooled, when the directions agree
+/// within 2 standard errors (inverse-variance means).
+struct SymmetricFriction {
+  bool agree = false;
+  double coulomb_N = 0.0, coulomb_se = 0.0, viscous_Ns_m = 0.0, viscous_se = 0.0;
+};
+
 /// One velocity band of the measured friction curve (inertia removed).
 struct FrictionPoint {
   double speed_m_s;     ///< time-weighted mean |v| in the band
@@ -126,6 +145,7 @@ struct IdentifyResult {
   Signals signals;
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::vector<FrictionPoint> friction_curve[2];  ///< [pos, neg]
+  std::array<FrictionModel, 2> friction_model;   ///< [pos, neg]: which law, and why
   /// The core's mass from its acceleration windows, before the block refit
   /// (equal to estimate.mass_kg when the refit did not run).
   double mass_from_windows_kg = 0.0;
@@ -201,7 +221,18 @@ struct CoreRun {
   feedid::Diagnostics diagnostics{};
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::unique_ptr<Core> core;               ///< the solved core (statistics for plots)
+  std::array<FrictionModel, 2> friction_model;  ///< [pos, neg], applied to estimate
 };
+
+/// Model selection on a solved core, per direction: keeps the Stribeck law
+/// only where it is physical (Fc, sigma >= 0) and pays for its two extra
+/// parameters in the Bayesian information criterion over the band points;
+/// otherwise replaces Fc, sigma and their standard errors by the Coulomb +
+/// viscous fit, sets Fs = vs = 0 (no dip) and flags the Stribeck pair.
+std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e);
+
+/// The symmetric model, where both directions fell back to Coulomb + viscous and agree.
+SymmetricFriction symmetric_friction(const IdentifyResult& r);
 /// Streams samples [begin, end) of the signals through a new core with `cfg`
 /// (its force lag as given) and solves.
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,

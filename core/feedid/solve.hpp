@@ -49,6 +49,37 @@ FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d
   return p;
 }
 
+/// Weighted residual (N^2 s) of the band points against theta = {Fc, sigma,
+/// Fs}, e[k] the band's integral of the Stribeck shape.
+template <typename T, int Bands>
+T friction_ssr(const FrictionPoints<T, Bands>& p, const Vector<T, 3>& theta, const T* e) {
+  T ssr = T(0);
+  for (int k = 0; k < p.count; ++k) {
+    const T r = p.target[k] - theta.v[0] * p.time[k] - theta.v[1] * p.speed[k] - theta.v[2] * e[k];
+    ssr += r * r / p.time[k];
+  }
+  return ssr;
+}
+
+/// The (Fc, sigma) corner of the friction normal equations a, b solved
+/// alone: theta = {Fc, sigma, 0}. False if singular.
+template <typename T>
+bool solve_coulomb_viscous(const SymMatrix<T, 3>& a, const Vector<T, 3>& b, T tol, Vector<T, 3>& theta,
+                           Vector<T, 3>* inv_diag) {
+  SymMatrix<T, 2> a2;
+  Vector<T, 2> b2, x2, d2;
+  for (int r = 0; r < 2; ++r) {
+    b2.v[r] = b.v[r];
+    for (int c = 0; c < 2; ++c) a2.a[r][c] = a.a[r][c];
+  }
+  if (!solve_normal_equations(a2, b2, tol, x2, inv_diag ? &d2 : nullptr)) return false;
+  theta.v[0] = x2.v[0];
+  theta.v[1] = x2.v[1];
+  theta.v[2] = T(0);
+  if (inv_diag) { inv_diag->v[0] = d2.v[0]; inv_diag->v[1] = d2.v[1]; inv_diag->v[2] = T(0); }
+  return true;
+}
+
 /// Weighted least squares of  Y_j = Fc T_j + sigma V_j + Fs E_j(vs)  with
 /// weights 1/T_j (the noise of a band integral grows with its time).
 /// theta = {Fc, sigma, Fs}. Fs is fitted only where the data can carry it:
@@ -79,25 +110,31 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
   // Effective number of bands the exponential reaches: (sum s)^2 / sum s^2.
   bool active = sum_e2 > T(0) && sum_e * sum_e >= T(2) * sum_e2 &&
                 solve_normal_equations(a, b, tol, theta, inv_diag) && theta.v[2] >= T(0);
-  if (!active) {
-    SymMatrix<T, 2> a2;
-    Vector<T, 2> b2, x2, d2;
-    for (int r = 0; r < 2; ++r) {
-      b2.v[r] = b.v[r];
-      for (int c = 0; c < 2; ++c) a2.a[r][c] = a.a[r][c];
-    }
-    if (!solve_normal_equations(a2, b2, tol, x2, inv_diag ? &d2 : nullptr)) return false;
-    theta.v[0] = x2.v[0];
-    theta.v[1] = x2.v[1];
-    theta.v[2] = T(0);
-    if (inv_diag) { inv_diag->v[0] = d2.v[0]; inv_diag->v[1] = d2.v[1]; inv_diag->v[2] = T(0); }
-  }
+  if (!active && !solve_coulomb_viscous(a, b, tol, theta, inv_diag)) return false;
   if (stribeck_active) *stribeck_active = active;
-  ssr = T(0);
+  ssr = friction_ssr(p, theta, e);
+  return port::is_finite(ssr);
+}
+
+/// Coulomb + viscous alone (no Stribeck dip): the alternative a model
+/// selection weighs the Stribeck law against. Same weights as fit_friction_at.
+template <typename T, int Bands>
+bool fit_coulomb_viscous_at(const FrictionPoints<T, Bands>& p, Vector<T, 3>& theta, T& ssr,
+                            Vector<T, 3>* inv_diag = nullptr) {
+  SymMatrix<T, 3> a;
+  Vector<T, 3> b;
+  T e[Bands];
   for (int k = 0; k < p.count; ++k) {
-    const T r = p.target[k] - theta.v[0] * p.time[k] - theta.v[1] * p.speed[k] - theta.v[2] * e[k];
-    ssr += r * r / p.time[k];
+    e[k] = T(0);
+    const T phi[2] = {p.time[k], p.speed[k]};
+    const T w = T(1) / p.time[k];
+    for (int r = 0; r < 2; ++r) {
+      b.v[r] += w * phi[r] * p.target[k];
+      for (int c = 0; c < 2; ++c) a.a[r][c] += w * phi[r] * phi[c];
+    }
   }
+  if (!solve_coulomb_viscous(a, b, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
+  ssr = friction_ssr(p, theta, e);
   return port::is_finite(ssr);
 }
 
