@@ -71,6 +71,10 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   // force lag was positive, which the base's convention naming must know
   // (or a period mean reads as held).
   idopt.velocity_source = VelocitySource::given;
+  // The base fit below refits the friction terms, vs on the core's grid;
+  // a Stribeck law dropped by identify's model selection (vs = 0) left it
+  // nothing to refit, and two effects of 66 went `unexplained`.
+  idopt.select_friction_model = false;
   idopt.velocity_lag_s = (sig.core_velocity_lag + sig.velocity_delay_samples) / sig.sample_rate_hz;
   out.base = identify(id_trace, idopt);
   // The identification folds reach the core as a measured column; say where it came from.
