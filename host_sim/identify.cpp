@@ -605,8 +605,15 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
   run.status = core.solve(opt.method);
   run.estimate = core.estimate();
   run.diagnostics = core.diagnostics();
-  if (run.status == feedid::Status::ok && opt.select_friction_model)
+  if (run.status == feedid::Status::ok && opt.select_friction_model) {
     run.friction_model = select_friction_models(core, run.estimate);
+  } else {
+    for (int d = 0; d < 2; ++d) {
+      const auto& de = d == 0 ? run.estimate.pos : run.estimate.neg;
+      run.friction_model[static_cast<std::size_t>(d)] = {de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0,
+                                                         "as the core fitted it (no model selection)", 0.0};
+    }
+  }
   return run;
 }
 
