@@ -18,12 +18,6 @@ namespace feedid::host {
 constexpr double kForceLagMin = -5.0;
 constexpr double kForceLagMax = 3.0;
 
-struct LagEstimate {
-  double lag_samples = 0.0;  ///< force lag behind the velocity (periods)
-  double se_samples = 0.0;   ///< its standard error (periods)
-  int evaluations = 0;       ///< identifications run for the search
-  bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
-};
 
 /// The lag that minimises the residual of the identified model over short
 /// blocks of motion (the inertia identity integral(u - F) = m dv is exact only

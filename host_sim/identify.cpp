@@ -89,7 +89,10 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
 /// velocity_lag: the core velocity's lag behind the motion (periods, NaN
 /// unknown); column_lag: the logged velocity column's lag behind the core's
 /// velocity, in which stated lags are given and the lag is reported.
-void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag) {
+/// `found`: a search already run on these signals with another velocity
+/// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
+void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
+                 const LagEstimate* found = nullptr) {
   const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
@@ -97,7 +100,8 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
     lag = opt.force_lag_s / dt + column_lag;
     s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
-    const LagEstimate e = estimate_force_lag(s, auto_config(s, opt));
+    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt));
+    s.lag_search = e;
     if (e.ok) {
       lag = e.lag_samples;
       se = e.se_samples;
@@ -339,7 +343,7 @@ VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const Identi
 
 /// The core's velocity at cut-off fc_hz, then the force lag on it.
 Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
-                         double fc_hz) {
+                         double fc_hz, const LagEstimate* found = nullptr) {
   Signals s = raw;
   derive_velocity(s, fc_hz);
   std::ostringstream o;
@@ -350,7 +354,7 @@ Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyO
     o << "; the velocity column lags position by " << std::setprecision(2) << timing.column << " periods";
   s.velocity_origin = o.str();
   s.core_velocity_lag = timing.core;
-  align_force(s, opt, timing.core, timing.column);
+  align_force(s, opt, timing.core, timing.column, found);
   return s;
 }
 
@@ -421,7 +425,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   std::ostringstream o;
   o << "least block residual of " << choice.candidates << " cut-offs" << (trace.has_velocity && trace.has_position ? " and the velocity column" : "");
   raw.velocity_filter_origin = o.str();
-  return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz);
+  return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
 }
 
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {

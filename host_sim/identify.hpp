@@ -73,6 +73,14 @@ struct IdentifyOptions {
   std::function<void(double)> progress;  ///< fraction done, optional
 };
 
+/// A force lag search's outcome (alignment.hpp, estimate_force_lag).
+struct LagEstimate {
+  double lag_samples = 0.0;  ///< force lag behind the velocity (periods)
+  double se_samples = 0.0;   ///< its standard error (periods)
+  int evaluations = 0;       ///< identifications run for the search
+  bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
+};
+
 /// The signals as the core sees them, one entry per sample.
 struct Signals {
   std::vector<double> t, x, v, u;
@@ -92,6 +100,7 @@ struct Signals {
   /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log
+  LagEstimate lag_search;             ///< the search behind an estimated lag (before any clamp)
   /// Part of the estimated lag beyond the conventions, left out when
   /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
   double lag_beyond_conventions = 0.0;
