@@ -46,9 +46,9 @@ LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
   // jumps from lag to lag made the cost rough (the lag off by 0.3-1 period
   // at 8 kHz and 100 nm, and m by 3 of its standard errors with it).
   DriveParams model = to_drive_params(run.estimate);
-  const BlockMass refit = block_mass(work, model, cfg.velocity_min_m_s, 0.01);
+  const BlockMass refit = block_mass(work, model, cfg.velocity_min_m_s, block_length_s(work));
   if (refit.ok) model.mass_kg = refit.mass_kg;
-  const BlockResidual b = block_residual(work, model, cfg.velocity_min_m_s, 0.01);
+  const BlockResidual b = block_residual(work, model, cfg.velocity_min_m_s, block_length_s(work));
   if (b.blocks == 0) return out;
   out.ssr = b.sum_squares;
   out.blocks = b.blocks;

@@ -268,6 +268,8 @@ namespace {
 double max_step_s(const Signals& s) { return s.sample_rate_hz > 0 ? 5.0 / s.sample_rate_hz : 0.0; }
 }  // namespace
 
+double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
+
 /// Velocity as the core sees it: position through the zero-phase
 /// Butterworth at cut-off fc (at most 0.4 of the rate), then central
 /// differences: no lag, and the encoder's counts averaged over about 1/fc.
@@ -544,6 +546,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.error = o.str();
     return r;
   }
+  r.residual_block_s = block_length_s(s);
   r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
   if (opt.honest_standard_errors && r.status == feedid::Status::ok) {
     const Uncertainty u = widen_standard_errors(r, opt);

@@ -162,7 +162,7 @@ struct IdentifyResult {
   int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
   std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
   double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks
-  double residual_block_s = 0.01;
+  double residual_block_s = 0.01;  ///< block_length_s of the signals
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
@@ -171,6 +171,11 @@ struct IdentifyResult {
 
 /// Velocity (measured or derived) and the pairing convention for a trace.
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt);
+
+/// Length of the blocks behind the block residual and the block-pair mass
+/// (s): 10 ms, or 8 samples where that is longer (a 200 Hz log has two
+/// samples in 10 ms, and its block mass was noise).
+double block_length_s(const Signals& s);
 
 /// Sets s.v to the zero-phase derivative of s.x at cut-off fc_hz (at most
 /// 0.4 of the rate; filters.hpp), stretch by stretch between time gaps.

@@ -22,7 +22,7 @@ const std::string sysid_dir = std::string(FEEDID_SHARED_DIR) + "/data/sysid_team
 
 struct Mechanism {
   const char* prefix;
-  double ks_V, kv_Vs_rad;
+  double ks_V, kv_Vs_rad, ka_Vs2_rad;
 };
 
 class SysId : public ::testing::TestWithParam<Mechanism> {
@@ -37,7 +37,8 @@ class SysId : public ::testing::TestWithParam<Mechanism> {
 // identify runs with nothing told, THEN the Stribeck law is not kept (its
 // fit came out with a negative Coulomb term), both directions fall back to
 // Coulomb + viscous and agree, the viscous term is within 4 % of SysId's kV,
-// and the Coulomb term is positive and within 2 standard errors of kS.
+// the Coulomb term is positive and within 2 standard errors of kS, and
+// the mass's 2.5-standard-error interval holds kA.
 TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   const Mechanism m = GetParam();
   std::vector<std::string> files;
@@ -58,14 +59,18 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   EXPECT_NEAR(sym.viscous_Ns_m, m.kv_Vs_rad, 0.04 * m.kv_Vs_rad) << summary(r);
   EXPECT_GT(sym.coulomb_N, 0.0) << summary(r);
   EXPECT_NEAR(sym.coulomb_N, m.ks_V, 2.0 * sym.coulomb_se) << summary(r);
+  // The mass (kA) comes from the fast steps: 8-sample blocks at 200 Hz.
+  // Its standard error is wide (10-75 %), but the interval holds kA.
+  EXPECT_GT(r.estimate.mass_kg, 0.0) << summary(r);
+  EXPECT_NEAR(r.estimate.mass_kg, m.ka_Vs2_rad, 2.5 * r.estimate.mass_se_kg) << summary(r);
 }
 
 INSTANTIATE_TEST_SUITE_P(Team581, SysId,
-                         ::testing::Values(Mechanism{"compbot_drive_left", 0.060039, 0.22421},
-                                           Mechanism{"compbot_drive_right", 0.060039, 0.22421},
-                                           Mechanism{"test2020bot_drive_left", 0.088986, 0.18647},
-                                           Mechanism{"test2020bot_drive_right", 0.088986, 0.18647},
-                                           Mechanism{"compbot_spu", 0.019184, 0.17836}),
+                         ::testing::Values(Mechanism{"compbot_drive_left", 0.060039, 0.22421, 0.011814},
+                                           Mechanism{"compbot_drive_right", 0.060039, 0.22421, 0.011814},
+                                           Mechanism{"test2020bot_drive_left", 0.088986, 0.18647, 0.0076096},
+                                           Mechanism{"test2020bot_drive_right", 0.088986, 0.18647, 0.0076096},
+                                           Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161}),
                          [](const auto& info) { return std::string(info.param.prefix); });
 
 }  // namespace
