@@ -185,6 +185,12 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   result.trace.source = path;
   result.trace.has_position = false;
   result.trace.has_velocity = false;
+  for (const auto& [name, scale] : {std::pair<const char*, double>{"--position-scale", columns.position_scale},
+                                    {"--force-scale", columns.force_scale}})
+    if (!std::isfinite(scale) || scale == 0.0) {
+      result.error = std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
+      return result;
+    }
 
   const char* data = buf.data();
   const char* data_end = data + buf.size();
@@ -363,9 +369,9 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
         s.t_s = value;
         time_text = text;
       }
-      if (r & kPosition) s.x_m = value;
-      if (r & kVelocity) s.v_m_s = value;
-      if (r & kForce) s.u_N = value;
+      if (r & kPosition) s.x_m = value * columns.position_scale;
+      if (r & kVelocity) s.v_m_s = value * columns.position_scale;
+      if (r & kForce) s.u_N = value * columns.force_scale;
     }
     if (!row_ok) continue;
     if (have_prev && !(s.t_s > prev_time)) {

@@ -18,6 +18,11 @@ struct CsvColumns {
   bool skip_bad_rows = true;
   /// With skipping, more than this share of bad rows is still an error.
   double max_bad_row_share = 0.01;
+  /// Applied as each value is read: position and velocity times
+  /// position_scale (e.g. encoder counts to m), force times force_scale
+  /// (e.g. A to N through torque constant, gear ratio and lead).
+  double position_scale = 1.0;
+  double force_scale = 1.0;
 };
 
 /// Result of reading: ok, or an error message that names file, line and column.

@@ -25,7 +25,7 @@ using diag::Vec;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string fmt(double v, const char* unit) {
+std::string fmt(double v, const std::string& unit) {
   std::ostringstream o;
   o.precision(3);
   o << v << " " << unit;
@@ -580,12 +580,13 @@ void report_offset_ambiguity(const Model& m, const DiagnoseOptions& opt, Diagnos
   const double fcp = m.fit.theta(1), fcn = m.fit.theta(2);
   const double asym = 0.5 * (fcp - fcn), mean_fc = 0.5 * (fcp + fcn);
   if (!(mean_fc > 0) || std::fabs(asym) <= opt.offset_asymmetry_ratio * mean_fc) return;
+  const std::string& N = opt.identify.units.force;
   out.ambiguities.push_back(
       {{"kinds", {"offset", "coulomb_asymmetry"}},
        {"offset_N", asym},
        {"coulomb_difference_N", fcp - fcn},
-       {"note", "Coulomb friction differs by " + fmt(fcp - fcn, "N") + " between directions (" +
-                    fmt(100.0 * std::fabs(asym) / mean_fc, "%") + " of the mean): either an offset of " + fmt(asym, "N") +
+       {"note", "Coulomb friction differs by " + fmt(fcp - fcn, N) + " between directions (" +
+                    fmt(100.0 * std::fabs(asym) / mean_fc, "%") + " of the mean): either an offset of " + fmt(asym, N) +
                     " (gravity, cable drag, a sensor offset) or friction that differs by direction. While the axis "
                     "moves the two are the same term, and at rest the drive holds the friction of its last stroke; "
                     "this trace has no evidence that separates them (a force reading with the axis unloaded would)."}});
@@ -663,27 +664,28 @@ void where_in_frequency(const Observations& obs, const Vec& r, double block_s, s
 
 std::vector<WhereEntry> where_gap_lies(const Observations& obs, const Vec& r, const IdentifyResult& base, double block_s) {
   std::vector<WhereEntry> out;
+  const Units& u = base.units;
   const double v_min = base.config.velocity_min_m_s, vmax = base.config.velocity_max_m_s;
   std::vector<double> v_edges;
   for (int i = 8; i >= 0; --i) v_edges.push_back(-vmax * std::pow(v_min / vmax, i / 8.0));
   v_edges.front() = -kInf;
   for (int i = 0; i <= 8; ++i) v_edges.push_back(vmax * std::pow(v_min / vmax, 1.0 - i / 8.0));
   v_edges.back() = kInf;
-  where_bins(obs, r, "velocity", v_edges, [](const Observation& o) { return o.v; }, "m/s", out);
+  where_bins(obs, r, "velocity", v_edges, [](const Observation& o) { return o.v; }, u.velocity().c_str(), out);
   const diag::TraceExtent e = diag::trace_extent(obs);
   std::vector<double> x_edges, t_edges;
   for (int i = 0; i <= 10; ++i) x_edges.push_back(e.x_lo + e.travel * i / 10.0);
   x_edges.back() += 1e-12;
-  where_bins(obs, r, "position", x_edges, [](const Observation& o) { return o.x; }, "m", out);
+  where_bins(obs, r, "position", x_edges, [](const Observation& o) { return o.x; }, u.position.c_str(), out);
   for (int i = 0; i <= 5; ++i) t_edges.push_back(e.t0 + e.duration * i / 5.0);
   t_edges.back() += 1e-9;
   where_bins(obs, r, "time", t_edges, [](const Observation& o) { return o.t; }, "s", out);
-  where_bins(obs, r, "after_reversal", {0.0, 1e-5, 1e-4, 1e-3, kInf}, [](const Observation& o) { return o.since_reversal; }, "m", out);
+  where_bins(obs, r, "after_reversal", {0.0, 1e-5, 1e-4, 1e-3, kInf}, [](const Observation& o) { return o.since_reversal; }, u.position.c_str(), out);
   std::vector<double> ac;
   for (const auto& o : obs.obs()) ac.push_back(o.accel_change);
   std::nth_element(ac.begin(), ac.begin() + static_cast<std::ptrdiff_t>(ac.size() * 9 / 10), ac.end());
   where_bins(obs, r, "acceleration_change", {0.0, ac[ac.size() * 9 / 10], kInf},
-             [](const Observation& o) { return o.accel_change; }, "m/s^2", out);
+             [](const Observation& o) { return o.accel_change; }, u.acceleration().c_str(), out);
   where_in_frequency(obs, r, block_s, out);
   std::stable_sort(out.begin(), out.end(), [](const WhereEntry& a, const WhereEntry& b) {
     return a.share - a.time_share > b.share - b.time_share;
@@ -908,13 +910,15 @@ nlohmann::json to_json(const DiagnoseResult& r) {
 std::string summary(const DiagnoseResult& r) {
   std::ostringstream o;
   if (!r.error.empty()) return "error: " + r.error + "\n";
+  const std::string& N = r.base.units.force;
+  const char* n = N.c_str();
   char buf[400];
-  std::snprintf(buf, sizeof buf, "held-out gap: RMS %.3g N (noise floor %.3g N, ratio %.2f) over %zu observations\n",
-                r.rms_base_N, r.noise_floor_N, r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0, r.blocks_heldout);
+  std::snprintf(buf, sizeof buf, "held-out gap: RMS %.3g %s (noise floor %.3g %s, ratio %.2f) over %zu observations\n",
+                r.rms_base_N, n, r.noise_floor_N, n, r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0, r.blocks_heldout);
   o << buf;
   if (r.sampling_floor_N > 0) {
-    std::snprintf(buf, sizeof buf, "  the force is point-sampled: acceleration steps within a period add %.3g N RMS to the floor\n",
-                  r.sampling_floor_N);
+    std::snprintf(buf, sizeof buf, "  the force is point-sampled: acceleration steps within a period add %.3g %s RMS to the floor\n",
+                  r.sampling_floor_N, n);
     o << buf;
   }
   if (r.heldout_beyond_identification > 0)
@@ -923,12 +927,12 @@ std::string summary(const DiagnoseResult& r) {
   if (r.position_origin != "measured") o << "position " << r.position_origin << "\n";
   o << "effect: " << r.effect << "\n";
   for (const auto& e : r.effects) {
-    std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g N, closes %.0f %% of the excess (z %.1f)\n",
-                  e.kind.c_str(), e.heldout_rms_N, 100.0 * e.closed_fraction, e.z_statistic);
+    std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f)\n",
+                  e.kind.c_str(), e.heldout_rms_N, n, 100.0 * e.closed_fraction, e.z_statistic);
     o << buf << "    " << e.parameters.dump() << "\n";
   }
   if (r.gap_remains && !r.effects.empty()) {
-    o << "  + unexplained: a gap of " << fmt(r.rms_augmented_N, "N") << " RMS remains";
+    o << "  + unexplained: a gap of " << fmt(r.rms_augmented_N, N) << " RMS remains";
     if (!r.where_left.empty()) o << ", most in " << r.where_left.front().domain << " " << r.where_left.front().range;
     o << "\n";
   }
@@ -941,7 +945,7 @@ std::string summary(const DiagnoseResult& r) {
   }
   o << "candidates at the first step (held-out RMS, z, share of the excess closed):\n";
   for (const auto& c : r.candidates) {
-    std::snprintf(buf, sizeof buf, "  %-22s %8.3g N  z %7.1f  closes %6.1f %%%s%s\n", c.kind.c_str(), c.heldout_rms_N,
+    std::snprintf(buf, sizeof buf, "  %-22s %8.3g %s  z %7.1f  closes %6.1f %%%s%s\n", c.kind.c_str(), c.heldout_rms_N, n,
                   c.z_statistic, 100 * c.closed_fraction, c.significant ? "  significant" : "",
                   c.indistinguishable ? "  indistinguishable from the model's terms" : "");
     o << buf;

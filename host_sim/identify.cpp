@@ -9,6 +9,7 @@
 
 #include "alignment.hpp"
 #include "filters.hpp"
+#include "number_format.hpp"
 #include "uncertainty.hpp"
 
 namespace feedid::host {
@@ -497,6 +498,7 @@ std::vector<std::string> flag_names(uint32_t flags) {
 
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   IdentifyResult r;
+  r.units = opt.units;
   r.rows_skipped = trace.rows_skipped;
   r.rows_repeated = trace.rows_repeated;
   r.skipped_rows = trace.skipped_rows;
@@ -671,12 +673,11 @@ std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Es
 }
 
 
-nlohmann::json model_json(const DriveParams& p) {
+nlohmann::json model_json(const DriveParams& p, const Units& units) {
   auto dir = [](const DirectionFriction& d) {
     return nlohmann::json{{"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s}};
   };
-  return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)},
-          {"units", {{"m", "kg"}, {"sigma", "N s/m"}, {"fc", "N"}, {"fs", "N"}, {"vs", "m/s"}}}};
+  return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)}, {"units", units_json(units)}};
 }
 
 DriveParams model_from_json(const nlohmann::json& j) {
@@ -804,7 +805,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
                            {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
                            {"jackknife", r.se_jackknife}, {"timing", r.se_timing}};
-  j["units"] = {{"m", "kg"}, {"sigma", "N s/m"}, {"fc", "N"}, {"fs", "N"}, {"vs", "m/s"}};
+  j["units"] = units_json(r.units);
   return j;
 }
 
@@ -815,24 +816,28 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
     << feedid::status_name(r.status) << "; " << r.signals.t.size() << " samples, " << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
-  auto line = [&](const char* name, const char* unit, double v, double se, double t, bool ok) {
+  const Units& u = r.units;
+  auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
+    const char* unit = unit_text.c_str();
+    const Rounded x = round_to_se(v, se);  // the digits se justifies
     if (truth)
-      std::snprintf(buf, sizeof buf, "  %-22s %12.6g %-6s +- %-10.3g truth %-11.6g err %+7.3f %%%s\n", name, v, unit, se, t,
-                    t != 0 ? 100.0 * (v / t - 1.0) : 0.0, ok ? "" : "  NOT IDENTIFIABLE");
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s truth %-11.6g err %+7.3f %%%s\n", name, x.value.c_str(), unit,
+                    x.se.c_str(), t, t != 0 ? 100.0 * (v / t - 1.0) : 0.0, ok ? "" : "  NOT IDENTIFIABLE");
     else
-      std::snprintf(buf, sizeof buf, "  %-22s %12.6g %-6s +- %-10.3g%s\n", name, v, unit, se, ok ? "" : "  NOT IDENTIFIABLE");
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s%s\n", name, x.value.c_str(), unit, x.se.c_str(),
+                    ok ? "" : "  NOT IDENTIFIABLE");
     o << buf;
   };
-  line("mass m", "kg", e.mass_kg, e.mass_se_kg, truth ? truth->mass_kg : 0, e.mass_identified());
+  line("mass m", u.mass(), e.mass_kg, e.mass_se_kg, truth ? truth->mass_kg : 0, e.mass_identified());
   for (int d = 0; d < 2; ++d) {
     const auto& de = d == 0 ? e.pos : e.neg;
     const DirectionFriction* td = truth ? (d == 0 ? &truth->pos : &truth->neg) : nullptr;
     const char* s = d == 0 ? "+" : "-";
     std::string n;
-    n = std::string("viscous sigma") + s; line(n.c_str(), "N s/m", de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
-    n = std::string("Coulomb Fc") + s; line(n.c_str(), "N", de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.friction_identified());
-    n = std::string("break-away Fs") + s; line(n.c_str(), "N", de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
-    n = std::string("Stribeck vel. vs") + s; line(n.c_str(), "m/s", de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
+    n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
+    n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.friction_identified());
+    n = std::string("break-away Fs") + s; line(n.c_str(), u.force, de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
+    n = std::string("Stribeck vel. vs") + s; line(n.c_str(), u.velocity(), de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
     if (de.flags) {
       o << "    flags:";
       for (const auto& f : flag_names(de.flags)) o << " " << f;
@@ -842,12 +847,15 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
       o << "    model: " << r.friction_model[static_cast<std::size_t>(d)].reason << "\n";
   }
   const SymmetricFriction sym = symmetric_friction(r);
-  if (sym.agree)
-    o << "  the directions agree within 2 standard errors: symmetric Coulomb " << sym.coulomb_N << " +- " << sym.coulomb_se
-      << " N, viscous " << sym.viscous_Ns_m << " +- " << sym.viscous_se << " N s/m\n";
+  if (sym.agree) {
+    const Rounded fc = round_to_se(sym.coulomb_N, sym.coulomb_se), sg = round_to_se(sym.viscous_Ns_m, sym.viscous_se);
+    o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
+      << u.force << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+  }
   std::snprintf(buf, sizeof buf,
-                "  friction curve R^2 %.5f (+) %.5f (-); RMS force residual %.3g N over %.0f ms blocks; force noise %.3g N\n",
-                e.pos.friction_r2, e.neg.friction_r2, r.residual_rms_N, 1e3 * r.residual_block_s, e.force_noise_N);
+                "  friction curve R^2 %.5f (+) %.5f (-); RMS force residual %.3g %s over %.0f ms blocks; force noise %.3g %s\n",
+                e.pos.friction_r2, e.neg.friction_r2, r.residual_rms_N, u.force.c_str(), 1e3 * r.residual_block_s,
+                e.force_noise_N, u.force.c_str());
   o << buf;
   const auto& g = r.diagnostics;
   o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "

@@ -15,6 +15,7 @@
 #include "drive_sim.hpp"
 #include "feedid/feedid.hpp"
 #include "trace.hpp"
+#include "units.hpp"
 
 namespace feedid::host {
 
@@ -70,6 +71,8 @@ struct IdentifyOptions {
   /// Widen the core's standard errors by the jackknife and the lag's
   /// uncertainty (uncertainty.hpp): two more passes over the data.
   bool honest_standard_errors = true;
+  /// Labels only (units.hpp): the arithmetic is the same for any units.
+  Units units;
   std::function<void(double)> progress;  ///< fraction done, optional
 };
 
@@ -151,6 +154,7 @@ struct IdentifyResult {
   feedid::Estimate<double> estimate{};
   feedid::Diagnostics diagnostics{};
   feedid::Config<double> config{};
+  Units units;  ///< of the input, for every label (IdentifyOptions::units)
   Signals signals;
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::vector<FrictionPoint> friction_curve[2];  ///< [pos, neg]
@@ -299,7 +303,7 @@ std::vector<std::string> flag_names(uint32_t flags);
 
 nlohmann::json to_json(const IdentifyResult& r);
 /// The model part alone: {"m":..,"pos":{..},"neg":{..}} (also the truth format).
-nlohmann::json model_json(const DriveParams& p);
+nlohmann::json model_json(const DriveParams& p, const Units& units = {});
 /// Reads a model written by to_json or model_json; throws std::runtime_error naming the key.
 DriveParams model_from_json(const nlohmann::json& j);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);

@@ -90,12 +90,36 @@ bool read_trace(const std::vector<std::string>& paths, const CsvColumns& cols, C
   return true;
 }
 
-void add_identify_options(CLI::App* c, CsvColumns& cols, IdentifyOptions& o, std::string& method) {
+/// The input's axis and force label (units.hpp).
+struct InputUnits {
+  Axis axis = Axis::linear;
+  std::string force_label;
+  Units units() const { return units_for(axis, force_label); }
+};
+
+/// Columns, scales, units and bad rows: the input options of every command
+/// that reads a trace CSV.
+void add_input_options(CLI::App* c, CsvColumns& cols, InputUnits& u) {
   add_bad_row_option(c, cols);
   c->add_option("--time", cols.time, "CSV column of time (s)")->capture_default_str();
-  c->add_option("--position", cols.position, "CSV column of position (m)")->capture_default_str();
-  c->add_option("--velocity", cols.velocity, "CSV column of velocity (m/s); derived from position if absent")->capture_default_str();
-  c->add_option("--force", cols.force, "CSV column of drive force (N)")->capture_default_str();
+  c->add_option("--position", cols.position, "CSV column of position (m; rad with --axis rotary)")->capture_default_str();
+  c->add_option("--velocity", cols.velocity,
+                "CSV column of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
+  c->add_option("--force", cols.force, "CSV column of drive force (N; N m with --axis rotary)")->capture_default_str();
+  c->add_option("--position-scale", cols.position_scale,
+                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")->capture_default_str();
+  c->add_option("--force-scale", cols.force_scale,
+                "multiplies force as it is read, e.g. N per A (torque constant x gear ratio x 2 pi / lead), or N m per A")
+      ->capture_default_str();
+  c->add_option_function<std::string>("--axis", [&u](const std::string& v) { u.axis = v == "rotary" ? Axis::rotary : Axis::linear; },
+                                      "linear (m, m/s, N, kg; default) or rotary (rad, rad/s, N m, kg m^2)")
+      ->check(CLI::IsMember({"linear", "rotary"}));
+  c->add_option("--force-unit", u.force_label,
+                "unit label of a force input left unscaled, e.g. V or A; mass and viscous units follow (V s^2/rad, V s/rad)");
+}
+
+void add_identify_options(CLI::App* c, CsvColumns& cols, InputUnits& units, IdentifyOptions& o, std::string& method) {
+  add_input_options(c, cols, units);
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
   c->add_option("--alignment", o.alignment,
@@ -107,8 +131,9 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, IdentifyOptions& o, std
   c->add_option("--velocity-filter", o.velocity_filter_hz,
                 "cut-off of the zero-phase filter on position whose derivative the core takes as velocity (Hz); 0 = the cut-off, 100 Hz to 0.4 of the rate, whose model leaves the least block residual")
       ->capture_default_str();
-  c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s); 0 = from the data")->capture_default_str();
-  c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s); 0 = from the data")->capture_default_str();
+  c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s, or rad/s); 0 = from the data")->capture_default_str();
+  c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s, or rad/s); 0 = from the data")
+      ->capture_default_str();
 }
 
 bool write_json(const std::string& path, const nlohmann::json& j) {
@@ -152,6 +177,7 @@ int main(int argc, char** argv) {
   c_sim->add_option("--truth", truth_path, "also write the true parameters as JSON");
 
   CsvColumns cols;
+  InputUnits id_units;
   IdentifyOptions idopt;
   std::vector<std::string> in_path;
   std::string json_path, method = "bands";
@@ -160,7 +186,7 @@ int main(int argc, char** argv) {
   c_id->add_option("--json", json_path, "write the result as JSON");
   std::string id_plot;
   c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
-  add_identify_options(c_id, cols, idopt, method);
+  add_identify_options(c_id, cols, id_units, idopt, method);
 
   SimConfig demo_sim;
   // The built-in default has a 3 N screw-pitch ripple of 5 mm that the
@@ -182,11 +208,8 @@ int main(int argc, char** argv) {
   c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
   c_val->add_option("--in", val_in, "trace CSV to predict; repeat for several recordings")->required();
   c_val->add_option("--json", val_json, "write the result as JSON");
-  c_val->add_option("--time", val_cols.time, "CSV column of time (s)")->capture_default_str();
-  c_val->add_option("--position", val_cols.position, "CSV column of position (m)")->capture_default_str();
-  c_val->add_option("--velocity", val_cols.velocity, "CSV column of velocity (m/s), used if no position")->capture_default_str();
-  c_val->add_option("--force", val_cols.force, "CSV column of force (N)")->capture_default_str();
-  add_bad_row_option(c_val, val_cols);
+  InputUnits val_units;
+  add_input_options(c_val, val_cols, val_units);
   c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
   c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
   c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
@@ -194,6 +217,7 @@ int main(int argc, char** argv) {
   c_val->add_option("--plot", val_plot, "write measured against predicted force as SVG");
 
   CsvColumns dg_cols;
+  InputUnits dg_units;
   DiagnoseOptions dgopt;
   std::vector<std::string> dg_in;
   std::string dg_json, dg_report, dg_method = "bands";
@@ -201,7 +225,7 @@ int main(int argc, char** argv) {
   c_dg->add_option("--in", dg_in, "trace CSV; repeat to pool several recordings (folds stay within each)")->required();
   c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
   c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
-  add_identify_options(c_dg, dg_cols, dgopt.identify, dg_method);
+  add_identify_options(c_dg, dg_cols, dg_units, dgopt.identify, dg_method);
   c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
   c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
 
@@ -264,6 +288,7 @@ int main(int argc, char** argv) {
       CsvResult csv;
       if (!read_trace(in_path, cols, csv)) return 2;
       idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
+      idopt.units = id_units.units();
       Progress p("identify");
       if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
       const IdentifyResult r = identify(csv.trace, idopt);
@@ -285,9 +310,11 @@ int main(int argc, char** argv) {
       const DriveParams model = model_from_json(mj);
       CsvResult csv;
       if (!read_trace(val_in, val_cols, csv)) return 2;
+      valopt.units = val_units.units();
       const ValidateResult r = validate(model, csv.trace, valopt);
-      std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g N\n",
-                  r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N);
+      std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
+                  r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
+                  r.units.force.c_str());
       if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
       if (!val_plot.empty()) {
         std::string err;
@@ -305,6 +332,7 @@ int main(int argc, char** argv) {
       if (!read_trace(dg_in, dg_cols, csv)) return 2;
       Progress p("diagnose");
       if (csv.trace.samples.size() > 500000) dgopt.progress = std::ref(p);
+      dgopt.identify.units = dg_units.units();
       const DiagnoseResult r = diagnose(csv.trace, dgopt);
       if (!dg_json.empty() && !write_json(dg_json, to_json(r))) return 1;
       if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }

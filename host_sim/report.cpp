@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "number_format.hpp"
 #include "svg_plot.hpp"
 
 namespace feedid::host {
@@ -37,26 +38,19 @@ std::string sig3(double v) {
   return b;
 }
 
-/// v +- se with the digits the standard error justifies: two significant
-/// digits of se, v rounded to the same place.
+/// v &plusmn; se with the digits the standard error justifies (round_to_se).
 std::string with_se(double v, double se) {
   if (!(se > 0) || !std::isfinite(se)) return sig3(v);
-  const int place = static_cast<int>(std::floor(std::log10(se))) - 1;  // last digit kept, as a power of ten
-  char b[64];
-  if (place >= 0) {
-    const double q = std::pow(10.0, place);
-    std::snprintf(b, sizeof b, "%.0f &plusmn; %.0f", std::round(v / q) * q, std::round(se / q) * q);
-  } else {
-    std::snprintf(b, sizeof b, "%.*f &plusmn; %.*f", -place, v, -place, se);
-  }
-  return b;
+  const Rounded r = round_to_se(v, se);
+  return r.value + " &plusmn; " + r.se;
 }
 
-/// Unit of a diagnosis parameter from its SI name's suffix.
-std::string unit_of(const std::string& key) {
-  const std::pair<const char*, const char*> suffixes[] = {{"_Ns_m", "N s/m"}, {"_hz", "Hz"}, {"_kg", "kg"},
-                                                          {"_rad", "rad"}, {"_N", "N"}, {"_s", "s"}, {"_m", "m"}};
-  if (key == "c2") return "N s&sup2;/m&sup2;";
+/// Unit of a diagnosis parameter from its SI name's suffix, in the
+/// axis's units (a rotary axis's "_N" is N m, its "_m" rad).
+std::string unit_of(const std::string& key, const Units& u) {
+  const std::pair<const char*, std::string> suffixes[] = {{"_Ns_m", u.viscous()}, {"_hz", "Hz"}, {"_kg", u.mass()},
+                                                          {"_rad", "rad"}, {"_N", u.force}, {"_s", "s"}, {"_m", u.position}};
+  if (key == "c2") return u.force + " s^2/" + u.position + "^2";
   for (const auto& [suffix, unit] : suffixes) {
     const std::string sfx = suffix;
     if (key.size() > sfx.size() && key.compare(key.size() - sfx.size(), sfx.size(), sfx) == 0) return unit;
@@ -64,11 +58,11 @@ std::string unit_of(const std::string& key) {
   return "";
 }
 
-std::string parameters_html(const nlohmann::json& p) {
+std::string parameters_html(const nlohmann::json& p, const Units& u) {
   std::string o;
   for (auto it = p.begin(); p.is_object() && it != p.end(); ++it) {
     if (!it.value().is_number()) continue;
-    o += (o.empty() ? "" : ", ") + html(it.key()) + " = " + sig3(it.value().get<double>()) + " " + unit_of(it.key());
+    o += (o.empty() ? "" : ", ") + html(it.key()) + " = " + sig3(it.value().get<double>()) + " " + html(unit_of(it.key(), u));
   }
   return o;
 }
@@ -97,7 +91,7 @@ std::string residual_panels(const DiagnoseResult& r, const std::vector<double>& 
     p.id = id + std::to_string(panel);
     p.title = panel == 0 ? "base model" : "with " + effects;
     p.x = {xlabel, false};
-    p.y = {"residual, 5 ms observation mean (N)", false, lo, hi};
+    p.y = {"residual, 5 ms observation mean (" + r.base.units.force + ")", false, lo, hi};
     p.series.push_back(scatter("", x, panel == 0 ? before : after, panel == 0 ? "#7f7f7f" : "#d62728"));
     p.width_px = 470;
     p.height_px = 330;
@@ -109,19 +103,21 @@ std::string residual_panels(const DiagnoseResult& r, const std::vector<double>& 
 
 std::string verdict_html(const DiagnoseResult& r) {
   std::ostringstream o;
+  const Units& u = r.base.units;
+  const std::string N = " " + html(u.force);
   o << "<table>\n<tr><th>verdict</th><td><b>" << html(r.effect) << "</b></td></tr>\n";
   for (const auto& e : r.effects)
-    o << "<tr><th>" << html(e.kind) << "</th><td>" << parameters_html(e.parameters) << "<br>held-out RMS after adding it "
-      << sig3(e.heldout_rms_N) << " N; closes " << sig3(100 * e.closed_fraction) << " % of the excess; z " << sig3(e.z_statistic)
+    o << "<tr><th>" << html(e.kind) << "</th><td>" << parameters_html(e.parameters, u) << "<br>held-out RMS after adding it "
+      << sig3(e.heldout_rms_N) << N << "; closes " << sig3(100 * e.closed_fraction) << " % of the excess; z " << sig3(e.z_statistic)
       << "</td></tr>\n";
   if (r.gap_remains && !r.effects.empty())
-    o << "<tr><th>unexplained</th><td>a gap of " << sig3(r.rms_augmented_N) << " N RMS remains"
+    o << "<tr><th>unexplained</th><td>a gap of " << sig3(r.rms_augmented_N) << N << " RMS remains"
       << (r.where_left.empty() ? "" : ", most in " + html(r.where_left.front().domain + " " + r.where_left.front().range))
       << "</td></tr>\n";
   for (const auto& a : r.ambiguities) o << "<tr><th>ambiguous</th><td>" << html(a.value("note", std::string())) << "</td></tr>\n";
-  o << "<tr><th>held-out RMS, base model</th><td>" << sig3(r.rms_base_N) << " N</td></tr>\n";
-  o << "<tr><th>noise floor</th><td>" << sig3(r.noise_floor_N) << " N white";
-  if (r.sampling_floor_N > 0) o << ", " << sig3(r.sampling_floor_N) << " N from point-sampled force at acceleration steps";
+  o << "<tr><th>held-out RMS, base model</th><td>" << sig3(r.rms_base_N) << N << "</td></tr>\n";
+  o << "<tr><th>noise floor</th><td>" << sig3(r.noise_floor_N) << N << " white";
+  if (r.sampling_floor_N > 0) o << ", " << sig3(r.sampling_floor_N) << N << " from point-sampled force at acceleration steps";
   o << "</td></tr>\n<tr><th>observations</th><td>" << r.blocks_identification << " identification, " << r.blocks_heldout
     << " held out";
   if (r.heldout_beyond_identification > 0)
@@ -132,6 +128,7 @@ std::string verdict_html(const DiagnoseResult& r) {
 
 std::string where_and_candidates_html(const DiagnoseResult& r) {
   std::ostringstream o;
+  const Units& u = r.base.units;
   o << "<h2>Where the base model's residual lies</h2>\n<p>Share of the held-out residual energy against share of "
        "held-out time.</p>\n<table>\n<tr><th>domain</th><th>range</th><th>energy</th><th>time</th></tr>\n";
   for (const auto& w : r.where)
@@ -141,10 +138,10 @@ std::string where_and_candidates_html(const DiagnoseResult& r) {
        "folds and judged on the held-out folds.</p>\n<table>\n<tr><th>effect</th><th>held-out RMS</th><th>closes</th>"
        "<th>z</th><th>judgement</th><th>parameters</th></tr>\n";
   for (const auto& c : r.candidates)
-    o << "<tr><td>" << html(c.kind) << "</td><td>" << sig3(c.heldout_rms_N) << " N</td><td>" << sig3(100 * c.closed_fraction)
+    o << "<tr><td>" << html(c.kind) << "</td><td>" << sig3(c.heldout_rms_N) << " " << html(u.force) << "</td><td>" << sig3(100 * c.closed_fraction)
       << " %</td><td>" << sig3(c.z_statistic) << "</td><td>"
       << (c.indistinguishable ? "indistinguishable" : c.significant ? "significant" : "not significant")
-      << (c.note.empty() ? "" : "<br><small>" + html(c.note) + "</small>") << "</td><td>" << parameters_html(c.parameters)
+      << (c.note.empty() ? "" : "<br><small>" + html(c.note) + "</small>") << "</td><td>" << parameters_html(c.parameters, u)
       << "</td></tr>\n";
   o << "</table>\n";
   return o.str();
@@ -152,19 +149,21 @@ std::string where_and_candidates_html(const DiagnoseResult& r) {
 
 std::string base_model_html(const IdentifyResult& b) {
   const auto& e = b.estimate;
+  const Units& u = b.units;
   std::ostringstream o;
   o << "<h2>Base model (identification folds)</h2>\n<table>\n<tr><th>parameter</th><th>v &gt; 0</th><th>v &lt; 0</th>"
        "<th>unit</th></tr>\n";
-  o << "<tr><td>mass m</td><td colspan=\"2\">" << with_se(e.mass_kg, e.mass_se_kg) << "</td><td>kg</td></tr>\n";
-  auto row = [&](const char* name, const char* unit, auto value, auto se) {
+  o << "<tr><td>mass m</td><td colspan=\"2\">" << with_se(e.mass_kg, e.mass_se_kg) << "</td><td>" << html(u.mass())
+    << "</td></tr>\n";
+  auto row = [&](const char* name, const std::string& unit, auto value, auto se) {
     o << "<tr><td>" << name << "</td><td>" << with_se(value(e.pos), se(e.pos)) << "</td><td>"
-      << with_se(value(e.neg), se(e.neg)) << "</td><td>" << unit << "</td></tr>\n";
+      << with_se(value(e.neg), se(e.neg)) << "</td><td>" << html(unit) << "</td></tr>\n";
   };
   using D = feedid::DirectionEstimate<double>;
-  row("viscous &sigma;", "N s/m", [](const D& d) { return d.viscous_Ns_m; }, [](const D& d) { return d.viscous_se; });
-  row("Coulomb F<sub>c</sub>", "N", [](const D& d) { return d.coulomb_N; }, [](const D& d) { return d.coulomb_se; });
-  row("break-away F<sub>s</sub>", "N", [](const D& d) { return d.breakaway_N; }, [](const D& d) { return d.breakaway_se; });
-  row("Stribeck v<sub>s</sub>", "m/s", [](const D& d) { return d.stribeck_velocity_m_s; },
+  row("viscous &sigma;", u.viscous(), [](const D& d) { return d.viscous_Ns_m; }, [](const D& d) { return d.viscous_se; });
+  row("Coulomb F<sub>c</sub>", u.force, [](const D& d) { return d.coulomb_N; }, [](const D& d) { return d.coulomb_se; });
+  row("break-away F<sub>s</sub>", u.force, [](const D& d) { return d.breakaway_N; }, [](const D& d) { return d.breakaway_se; });
+  row("Stribeck v<sub>s</sub>", u.velocity(), [](const D& d) { return d.stribeck_velocity_m_s; },
       [](const D& d) { return d.stribeck_velocity_se; });
   o << "</table>\n";
   return o.str();
@@ -175,8 +174,8 @@ std::string base_model_html(const IdentifyResult& b) {
 PlotSpec friction_curve_plot(const IdentifyResult& r) {
   PlotSpec p;
   p.title = "Friction curve: measured band means and identified model";
-  p.x = {"speed |v| (m/s)", true};
-  p.y = {"friction magnitude (N)", false};
+  p.x = {"speed |v| (" + r.units.velocity() + ")", true};
+  p.y = {"friction magnitude (" + r.units.force + ")", false};
   const DriveParams m = to_drive_params(r.estimate);
   const char* colors[2] = {"#1f77b4", "#ff7f0e"};
   for (int d = 0; d < 2; ++d) {
@@ -222,8 +221,8 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
     << html(source) << " --report " << html(dir) << "</code>. docs/diagnosis.md explains every quantity.</p>\n";
   o << "<h2>Verdict</h2>\n" << verdict_html(r) << where_and_candidates_html(r);
   o << "<h2>Friction curve</h2>\n" << render_svg(curve);
-  o << "<h2>Held-out residual over velocity</h2>\n" << residual_panels(r, r.block_v, "velocity (m/s)", "v");
-  o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (m)", "x");
+  o << "<h2>Held-out residual over velocity</h2>\n" << residual_panels(r, r.block_v, "velocity (" + r.base.units.velocity() + ")", "v");
+  o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (" + r.base.units.position + ")", "x");
   o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t");
   o << base_model_html(r.base) << "</body>\n</html>\n";
   std::ofstream f(dir + "/report.html");
@@ -237,7 +236,7 @@ bool write_force_plot_svg(const ValidateResult& r, const std::string& path, cons
   PlotSpec p;
   p.title = title;
   p.x = {"time (s)", false};
-  p.y = {"force (N)", false};
+  p.y = {"force (" + r.units.force + ")", false};
   PlotSeries meas;
   meas.label = "measured";
   meas.x = r.t;
@@ -262,7 +261,8 @@ bool write_force_plot_svg(const ValidateResult& r, const std::string& path, cons
   p.series = {meas, pred, e};
   p.width_px = 1000;
   char buf[160];
-  std::snprintf(buf, sizeof buf, "relative error %.3f %% (decimated by the protocol), RMS %.3g N", r.relative_error_pct, r.rms_error_N);
+  std::snprintf(buf, sizeof buf, "relative error %.3f %% (decimated by the protocol), RMS %.3g %s", r.relative_error_pct,
+                r.rms_error_N, r.units.force.c_str());
   p.note = buf;
   return write_svg(path, p, error);
 }

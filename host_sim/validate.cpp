@@ -41,6 +41,7 @@ ValidateResult validate(const DriveParams& model, const Trace& trace, const Vali
   if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
     throw std::invalid_argument(trace.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   ValidateResult r;
+  r.units = opt.units;
   r.velocity_origin = trace.has_position ? "position, zero-phase Butterworth + central differences"
                                          : "velocity column, zero-phase Butterworth; acceleration by central differences";
   std::vector<double> v, a;
@@ -99,7 +100,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
             {"decimate", opt.decimate},
             {"anti_alias", "zero-phase 4th-order Butterworth at 0.8 x new Nyquist"}}},
           {"velocity", r.velocity_origin},
-          {"model", model_json(model)}};
+          {"model", model_json(model, r.units)},
+          {"units", units_json(r.units)}};
 }
 
 }  // namespace feedid::host

@@ -9,6 +9,7 @@
 
 #include "drive_sim.hpp"
 #include "trace.hpp"
+#include "units.hpp"
 
 namespace feedid::host {
 
@@ -16,6 +17,7 @@ struct ValidateOptions {
   double filter_hz = 100.0;   ///< zero-phase Butterworth cut-off on position (Hz)
   int decimate = 10;          ///< keep every n-th sample after anti-alias filtering (1 = none)
   int drop_first = 49;        ///< samples dropped at the start (filter edge), as in the protocol
+  Units units;                ///< labels only (units.hpp)
 };
 
 struct ValidateResult {
@@ -26,6 +28,7 @@ struct ValidateResult {
   std::size_t samples_used = 0;
   std::vector<double> t, u, u_hat, v;    ///< the decimated series (for plots)
   std::string velocity_origin;
+  Units units;  ///< ValidateOptions::units
 };
 
 /// Velocity and acceleration as the EMPS protocol obtains them: the position
