@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "trace_rows.hpp"
+
 namespace feedid::host {
 namespace {
 
@@ -147,50 +149,13 @@ CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns) {
   return parse_trace_csv(buf, path, columns);
 }
 
-CsvResult read_trace_csvs(const std::vector<std::string>& paths, const CsvColumns& columns) {
-  if (paths.size() == 1) return read_trace_csv(paths.front(), columns);
-  CsvResult all;
-  all.trace.has_position = all.trace.has_velocity = true;
-  for (const std::string& path : paths) {
-    CsvResult one = read_trace_csv(path, columns);
-    if (!one.ok) return one;
-    Trace& t = all.trace;
-    TraceRun run;
-    run.source = path;
-    run.first = t.samples.size();
-    run.samples = one.trace.samples.size();
-    run.time_shift_s = t.samples.empty() ? 0.0 : t.samples.back().t_s + Trace::kRunGap_s - one.trace.samples.front().t_s;
-    run.rows_skipped = one.trace.rows_skipped;
-    run.rows_repeated = one.trace.rows_repeated;
-    for (TraceSample s : one.trace.samples) {
-      s.t_s += run.time_shift_s;
-      t.samples.push_back(s);
-    }
-    // A column must be in every file for the pooled trace to have it.
-    t.has_position = t.has_position && one.trace.has_position;
-    t.has_velocity = t.has_velocity && one.trace.has_velocity;
-    t.rows_skipped += one.trace.rows_skipped;
-    t.rows_repeated += one.trace.rows_repeated;
-    for (auto& why : one.trace.skipped_rows)
-      if (t.skipped_rows.size() < 5) t.skipped_rows.push_back(why);
-    t.source += (t.source.empty() ? "" : " + ") + path;
-    t.runs.push_back(run);
-  }
-  all.ok = true;
-  return all;
-}
-
 CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;
   result.trace.source = path;
   result.trace.has_position = false;
   result.trace.has_velocity = false;
-  for (const auto& [name, scale] : {std::pair<const char*, double>{"--position-scale", columns.position_scale},
-                                    {"--force-scale", columns.force_scale}})
-    if (!std::isfinite(scale) || scale == 0.0) {
-      result.error = std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
-      return result;
-    }
+  result.error = scale_error(columns);
+  if (!result.error.empty()) return result;
 
   const char* data = buf.data();
   const char* data_end = data + buf.size();
@@ -199,8 +164,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     data += 3;
   }
   LineCursor cursor{data, data_end};
-  const std::string where_prefix = path + ":";
-  auto at = [&](std::size_t line) { return where_prefix + std::to_string(line) + ": "; };
+  RowRules rules(columns, result.trace, path + ":", "line");
 
   // --- header: first non-blank line --------------------------------------
   const char* hb = nullptr;
@@ -268,20 +232,20 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   for (Wanted& w : wanted) {
     w.index = find_column(*w.name);
     if (w.index == -2) {
-      result.error = at(header_line) + "column " + quoted(*w.name) + " (" + w.role_name +
+      result.error = rules.at(header_line) + "column " + quoted(*w.name) + " (" + w.role_name +
                      ") appears more than once; header has: " + header_list();
       return result;
     }
   }
   for (const Wanted& w : {wanted[0], wanted[3]}) {
     if (w.index < 0) {
-      result.error = at(header_line) + "missing column " + quoted(*w.name) + " (" + w.role_name +
+      result.error = rules.at(header_line) + "missing column " + quoted(*w.name) + " (" + w.role_name +
                      "); header has: " + header_list();
       return result;
     }
   }
   if (wanted[1].index < 0 && wanted[2].index < 0) {
-    result.error = at(header_line) + "missing column " + quoted(columns.position) +
+    result.error = rules.at(header_line) + "missing column " + quoted(columns.position) +
                    " (position) and " + quoted(columns.velocity) +
                    " (velocity); need at least one; header has: " + header_list();
     return result;
@@ -298,24 +262,9 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   // --- data rows -----------------------------------------------------------
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
-
-  std::string_view prev_time_text;
-  std::size_t prev_time_line = 0;
-  double prev_time = 0.0;
-  bool have_prev = false;
-
-  Trace& tr = result.trace;
-  std::size_t rows = 0;
-  // A bad row: skipped and counted, or (skip_bad_rows false) the error.
-  auto bad_row = [&](std::string why) {
-    if (!columns.skip_bad_rows) {
-      result.error = std::move(why);
-      samples.clear();
-      return false;
-    }
-    ++tr.rows_skipped;
-    if (tr.skipped_rows.size() < 5) tr.skipped_rows.push_back(std::move(why));
-    return true;
+  auto stop = [&] {
+    result.error = rules.error();
+    return result;
   };
   std::string_view prev_row;
 
@@ -324,45 +273,41 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   while (cursor.next(lb, le)) {
     if (is_blank(lb, le, sep)) continue;
     const std::size_t line = cursor.line;
-    ++rows;
+    rules.count_row();
     const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
-    if (have_prev && row_text == prev_row) {  // the logger wrote the same sample twice
-      ++tr.rows_repeated;
+    if (!samples.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
+      rules.repeated();
       continue;
     }
     split(lb, le, sep, fields);
     if (fields.size() != ncols) {
-      if (!bad_row(at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size())))
-        return result;
+      if (!rules.bad(rules.at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size())))
+        return stop();
       continue;
     }
     bool row_ok = true;
     TraceSample s;
     std::string_view time_text;
-    for (std::size_t i = 0; i < ncols; ++i) {
+    for (std::size_t i = 0; i < ncols && row_ok; ++i) {
       const unsigned r = roles[i];
       if (r == 0u) continue;
       const std::string_view text = trim_field(fields[i].first, fields[i].second);
-      if (text.empty()) {
-        row_ok = false;
-        if (!bad_row(at(line) + "column " + quoted(names[i]) + ": empty value")) return result;
-        break;
-      }
+      std::string why;
       // `text` starts with a non-space character, so strtod skips nothing and
       // stops no later than the separator / line end that bounds the field
       // (the buffer is NUL-terminated, so it cannot run off the end).
       char* endp = nullptr;
       errno = 0;
-      const double value = std::strtod(text.data(), &endp);
-      if (endp != text.data() + text.size()) {
+      const double value = text.empty() ? 0.0 : std::strtod(text.data(), &endp);
+      if (text.empty())
+        why = ": empty value";
+      else if (endp != text.data() + text.size())
+        why = ": " + quoted(text) + " is not a number";
+      else if (!std::isfinite(value))
+        why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
+      if (!why.empty()) {
         row_ok = false;
-        if (!bad_row(at(line) + "column " + quoted(names[i]) + ": " + quoted(text) + " is not a number")) return result;
-        break;
-      }
-      if (!std::isfinite(value)) {
-        row_ok = false;
-        const std::string why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
-        if (!bad_row(at(line) + "column " + quoted(names[i]) + why)) return result;
+        if (!rules.bad(rules.at(line) + "column " + quoted(names[i]) + why)) return stop();
         break;
       }
       if (r & kTime) {
@@ -374,33 +319,11 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
       if (r & kForce) s.u_N = value * columns.force_scale;
     }
     if (!row_ok) continue;
-    if (have_prev && !(s.t_s > prev_time)) {
-      if (!bad_row(at(line) + "column " + quoted(*wanted[0].name) + ": time " + quoted(time_text) +
-                   " is not greater than previous " + quoted(prev_time_text) + " on line " +
-                   std::to_string(prev_time_line) + " (time must increase)"))
-        return result;
-      continue;
-    }
-    prev_row = row_text;
-    prev_time = s.t_s;
-    prev_time_text = time_text;
-    prev_time_line = line;
-    have_prev = true;
-    samples.push_back(s);
+    const std::size_t kept = samples.size();
+    if (!rules.take(s, time_text, line)) return stop();
+    if (samples.size() > kept) prev_row = row_text;
   }
-
-  if (tr.rows_skipped > 0 && static_cast<double>(tr.rows_skipped) > columns.max_bad_row_share * static_cast<double>(rows)) {
-    result.error = path + ": " + std::to_string(tr.rows_skipped) + " of " + std::to_string(rows) +
-                   " rows are bad, more than " + std::to_string(static_cast<int>(100 * columns.max_bad_row_share + 0.5)) +
-                   " %; the first: " + tr.skipped_rows.front();
-    for (std::size_t i = 1; i < tr.skipped_rows.size(); ++i) result.error += "; " + tr.skipped_rows[i];
-    samples.clear();
-    return result;
-  }
-  if (samples.empty()) {
-    result.error = path + ": header only, no data rows";
-    return result;
-  }
+  if (!rules.finish(path)) return stop();
   result.ok = true;
   return result;
 }

@@ -47,11 +47,6 @@ CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);
 /// The same for text already in memory; `source` names it in messages.
 CsvResult parse_trace_csv(const std::string& text, const std::string& source, const CsvColumns& columns);
 
-/// Several recordings as one trace of consecutive runs (Trace::runs): each
-/// file is read as above; run i's times are shifted to start kRunGap_s after
-/// run i-1 ends. An error in any file is the error. One path: as read_trace_csv.
-CsvResult read_trace_csvs(const std::vector<std::string>& paths, const CsvColumns& columns);
-
 /// Writes t,x,v,u with full precision. Returns false with `error` set on failure.
 bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error);
 

@@ -8,7 +8,7 @@
 
 #include "bench.hpp"
 #include "coverage.hpp"
-#include "csv_trace.hpp"
+#include "trace_files.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
@@ -74,7 +74,7 @@ void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
 
 /// Reads a trace CSV; prints the error, or a note of the rows left out.
 bool read_trace(const std::vector<std::string>& paths, const CsvColumns& cols, CsvResult& out) {
-  out = read_trace_csvs(paths, cols);
+  out = read_trace_files(paths, cols);
   const std::string path = out.trace.source;
   if (!out.ok) {
     std::fprintf(stderr, "error: %s\n", out.error.c_str());
@@ -101,11 +101,11 @@ struct InputUnits {
 /// that reads a trace CSV.
 void add_input_options(CLI::App* c, CsvColumns& cols, InputUnits& u) {
   add_bad_row_option(c, cols);
-  c->add_option("--time", cols.time, "CSV column of time (s)")->capture_default_str();
-  c->add_option("--position", cols.position, "CSV column of position (m; rad with --axis rotary)")->capture_default_str();
+  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s)")->capture_default_str();
+  c->add_option("--position", cols.position, "CSV column or .mat variable of position (m; rad with --axis rotary)")->capture_default_str();
   c->add_option("--velocity", cols.velocity,
-                "CSV column of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
-  c->add_option("--force", cols.force, "CSV column of drive force (N; N m with --axis rotary)")->capture_default_str();
+                "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
+  c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
   c->add_option("--position-scale", cols.position_scale,
                 "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")->capture_default_str();
   c->add_option("--force-scale", cols.force_scale,
@@ -182,7 +182,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> in_path;
   std::string json_path, method = "bands";
   auto* c_id = app.add_subcommand("identify", "identify the nine parameters from a trace CSV");
-  c_id->add_option("--in", in_path, "trace CSV (header row; SI units); repeat to pool several recordings into one model")->required();
+  c_id->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model")->required();
   c_id->add_option("--json", json_path, "write the result as JSON");
   std::string id_plot;
   c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
@@ -206,7 +206,7 @@ int main(int argc, char** argv) {
   ValidateOptions valopt;
   auto* c_val = app.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
   c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
-  c_val->add_option("--in", val_in, "trace CSV to predict; repeat for several recordings")->required();
+  c_val->add_option("--in", val_in, "trace CSV or .mat to predict; repeat for several recordings")->required();
   c_val->add_option("--json", val_json, "write the result as JSON");
   InputUnits val_units;
   add_input_options(c_val, val_cols, val_units);
@@ -222,7 +222,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> dg_in;
   std::string dg_json, dg_report, dg_method = "bands";
   auto* c_dg = app.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
-  c_dg->add_option("--in", dg_in, "trace CSV; repeat to pool several recordings (folds stay within each)")->required();
+  c_dg->add_option("--in", dg_in, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)")->required();
   c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
   c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
   add_identify_options(c_dg, dg_cols, dg_units, dgopt.identify, dg_method);

@@ -1,6 +1,6 @@
 // Several recordings, one model (issue 11). GIVEN one trace written as two
 // files, the second with its clock restarted at 0 and its position offset by
-// 1 m, WHEN both are read with read_trace_csvs (what `--in a --in b` does),
+// 1 m, WHEN both are read with read_trace_files (what `--in a --in b` does),
 // THEN the runs are listed, no stage joins the two files (position and time
 // jumps do not leak into velocity or sections), and the pooled model equals
 // the one from the single file.
@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "csv_trace.hpp"
+#include "trace_files.hpp"
 #include "diagnose.hpp"
 #include "identify.hpp"
 #include "test_support.hpp"
@@ -37,7 +37,7 @@ TEST(PooledRuns, TwoFilesOfOneTraceGiveItsModel) {
   ASSERT_TRUE(host::write_trace_csv(pa, a, error)) << error;
   ASSERT_TRUE(host::write_trace_csv(pb, b, error)) << error;
 
-  const host::CsvResult pooled = host::read_trace_csvs({pa, pb}, host::CsvColumns{});
+  const host::CsvResult pooled = host::read_trace_files({pa, pb}, host::CsvColumns{});
   ASSERT_TRUE(pooled.ok) << pooled.error;
   ASSERT_EQ(pooled.trace.runs.size(), 2u);
   EXPECT_EQ(pooled.trace.runs[1].first, half);

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "csv_trace.hpp"
+#include "trace_files.hpp"
 #include "identify.hpp"
 
 namespace {
@@ -44,7 +44,7 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   std::vector<std::string> files;
   for (const char* test : {"slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd"})
     files.push_back(sysid_dir + "/" + m.prefix + "_" + test + ".csv");
-  const CsvResult in = read_trace_csvs(files, CsvColumns{});
+  const CsvResult in = read_trace_files(files, CsvColumns{});
   ASSERT_TRUE(in.ok) << in.error;
   const IdentifyResult r = identify(in.trace, IdentifyOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;

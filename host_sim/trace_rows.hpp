@@ -1,0 +1,104 @@
+// The rules every trace reader applies to its rows, written once for the
+// CSV and the MATLAB readers: a row that cannot be read, or whose time does
+// not increase, is skipped and counted with where and why (or, strict, is
+// the error); a row that repeats the one before exactly is counted and left
+// out, never kept as a zero-length interval; more than a set share of bad
+// rows is an error. Host only.
+#pragma once
+#include <cmath>
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "csv_trace.hpp"
+#include "trace.hpp"
+
+namespace feedid::host {
+
+/// "" or why the scales cannot be applied (zero or not finite).
+inline std::string scale_error(const CsvColumns& c) {
+  for (const auto& [name, scale] : {std::pair<const char*, double>{"--position-scale", c.position_scale},
+                                    {"--force-scale", c.force_scale}})
+    if (!std::isfinite(scale) || scale == 0.0)
+      return std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
+  return "";
+}
+
+class RowRules {
+ public:
+  /// where_prefix starts every message ("file.csv:"); row_word names a row
+  /// in them ("line" for a text file, "row" for a matrix).
+  RowRules(const CsvColumns& columns, Trace& trace, std::string where_prefix, const char* row_word)
+      : columns_(columns), trace_(trace), where_prefix_(std::move(where_prefix)), row_word_(row_word) {}
+
+  /// "file.csv:12: ", the start of a message about row `row`.
+  std::string at(std::size_t row) const { return where_prefix_ + std::to_string(row) + ": "; }
+
+  /// Every row offered, read or not (the share of bad rows is of these).
+  void count_row() { ++rows_; }
+
+  /// A row that could not be read; `why` names file, row and column.
+  /// False: stop reading, error() says why (--bad-rows error).
+  bool bad(std::string why) {
+    if (!columns_.skip_bad_rows) {
+      error_ = std::move(why);
+      trace_.samples.clear();
+      return false;
+    }
+    ++trace_.rows_skipped;
+    if (trace_.skipped_rows.size() < 5) trace_.skipped_rows.push_back(std::move(why));
+    return true;
+  }
+
+  /// A row the logger wrote twice: counted, left out.
+  void repeated() { ++trace_.rows_repeated; }
+
+  /// Row `row`, read whole: kept if its time increases, else a bad row.
+  /// `time_text` is the time as written, for the message.
+  bool take(const TraceSample& s, std::string_view time_text, std::size_t row) {
+    if (have_prev_ && !(s.t_s > prev_time_)) {
+      return bad(at(row) + "column '" + columns_.time + "': time '" + std::string(time_text) +
+                 "' is not greater than previous '" + prev_time_text_ + "' on " + row_word_ + " " +
+                 std::to_string(prev_row_) + " (time must increase)");
+    }
+    prev_time_ = s.t_s;
+    prev_time_text_.assign(time_text);  // reuses its capacity: no allocation per row
+    prev_row_ = row;
+    have_prev_ = true;
+    trace_.samples.push_back(s);
+    return true;
+  }
+
+  /// After the last row: true, or false with error() set (more than the
+  /// allowed share of bad rows; no rows at all).
+  bool finish(const std::string& path) {
+    if (trace_.rows_skipped > 0 &&
+        static_cast<double>(trace_.rows_skipped) > columns_.max_bad_row_share * static_cast<double>(rows_)) {
+      error_ = path + ": " + std::to_string(trace_.rows_skipped) + " of " + std::to_string(rows_) +
+               " rows are bad, more than " + std::to_string(static_cast<int>(100 * columns_.max_bad_row_share + 0.5)) +
+               " %; the first: " + trace_.skipped_rows.front();
+      for (std::size_t i = 1; i < trace_.skipped_rows.size(); ++i) error_ += "; " + trace_.skipped_rows[i];
+      trace_.samples.clear();
+      return false;
+    }
+    if (trace_.samples.empty()) {
+      error_ = path + ": no data rows";
+      return false;
+    }
+    return true;
+  }
+
+  const std::string& error() const { return error_; }
+
+ private:
+  const CsvColumns& columns_;
+  Trace& trace_;
+  std::string where_prefix_;
+  const char* row_word_;
+  std::size_t rows_ = 0, prev_row_ = 0;
+  bool have_prev_ = false;
+  double prev_time_ = 0.0;
+  std::string prev_time_text_, error_;
+};
+
+}  // namespace feedid::host
