@@ -89,7 +89,7 @@ verdict "emulated Cortex-M4 run (PASS line, exit status 0)" $rc
 echo "--- the same under -icount shift=0,sleep=off (1 instruction = 1 ns of virtual time)"
 rc=0
 run_qemu "$build/qemu-icount.log" -icount shift=0,sleep=off || rc=$?
-grep -E '^(servo|cost|  push|  solve|  hand-off|stack|timed|PASS|FAIL)' "$build/qemu-icount.log" || cat "$build/qemu-icount.log"
+grep -E '^(servo|cost|  push|  solve|  hand-off|  feedforward|stack|timed|PASS|FAIL)' "$build/qemu-icount.log" || cat "$build/qemu-icount.log"
 verdict "emulated run with instruction counting (PASS line, exit status 0)" $rc
 
 # --- 5. footprint ---------------------------------------------------------------------

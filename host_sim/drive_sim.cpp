@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -474,6 +475,61 @@ class HeldForceLog {
 };
 }  // namespace
 
+// Cascade: v_cmd = v_ref + kp (x_ref - x_meas);
+//          u = kv (v_cmd - v_meas) + I + m a_ref + u_extra, I += ki e dt,
+// clamped to the force limit with conditional integration (anti-windup).
+// The feed-forward m a_ref uses a_ref averaged over the hold interval,
+// (v_ref(t_k+1) - v_ref(t_k)) / dt: the held force then delivers exactly the
+// reference velocity change, also for ramps shorter than one period.
+CascadeController::CascadeController(const ControllerParams& kc, double mass_kg)
+    : kp_(kc.position_gain_1_s),
+      kv_(2.0 * kPi * kc.velocity_bandwidth_hz * mass_kg),
+      ki_(kv_ * 2.0 * kPi * kc.velocity_integral_hz),
+      u_max_(kc.force_limit_N),
+      m_ff_(kc.acceleration_feedforward ? mass_kg : 0.0),
+      dt_(1.0 / kc.servo_rate_hz) {}
+
+double CascadeController::command(const PathPoint& r, const PathPoint& r_next, double x_meas, double v_meas,
+                                  double u_extra) {
+  const double a_ff = (r_next.v_m_s - r.v_m_s) / dt_;
+  const double v_cmd = r.v_m_s + kp_ * (r.x_m - x_meas);
+  const double e = v_cmd - v_meas;
+  const double u_raw = kv_ * e + integral_ + m_ff_ * a_ff + u_extra;
+  const double u = std::clamp(u_raw, -u_max_, u_max_);
+  const bool winding = (u_raw > u_max_ && e > 0.0) || (u_raw < -u_max_ && e < 0.0);
+  if (!winding) integral_ += ki_ * e * dt_;
+  return u;
+}
+
+struct ServoAxis::Impl {
+  // The plant keeps references into cfg: built from the member, not the argument.
+  explicit Impl(const SimConfig& c) : cfg(c), plant(cfg.drive, cfg.effects, cfg.extra_force), control(cfg.controller, cfg.drive.mass_kg) {}
+  SimConfig cfg;
+  Plant plant;
+  CascadeController control;
+  double x_meas_prev = 0.0;
+  bool first = true;
+};
+
+ServoAxis::ServoAxis(const SimConfig& cfg) : impl_((validate(cfg), std::make_unique<Impl>(cfg))) {}
+ServoAxis::~ServoAxis() = default;
+ServoAxis::ServoAxis(ServoAxis&&) noexcept = default;
+
+TraceSample ServoAxis::step(double t, const PathPoint& r, const PathPoint& r_next, double u_extra) {
+  Impl& a = *impl_;
+  const double dt = 1.0 / a.cfg.controller.servo_rate_hz;
+  const double x_meas = quantise(a.plant.x(), a.cfg.sensors.encoder_resolution_m);
+  const double v_meas = a.first ? 0.0 : (x_meas - a.x_meas_prev) / dt;
+  a.first = false;
+  a.x_meas_prev = x_meas;
+  const double u = a.control.command(r, r_next, x_meas, v_meas, u_extra);
+  const double h = dt / a.cfg.plant_substeps;
+  for (int j = 0; j < a.cfg.plant_substeps; ++j) a.plant.step(t + j * h, h, u);
+  return TraceSample{t, x_meas, v_meas, u};
+}
+
+double ServoAxis::position_m() const { return impl_->plant.x(); }
+
 const char* plant_name(PlantKind p) { return p == PlantKind::open_loop ? "open" : "closed"; }
 
 PlantKind parse_plant(const std::string& s) {
@@ -492,11 +548,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   const double h = dt / cfg.plant_substeps;
   const double q = cfg.sensors.encoder_resolution_m;
 
-  // Velocity PI: kv = 2 pi f_bw m (N s/m), ki = kv 2 pi f_i (N/m).
-  const double kp = kc.position_gain_1_s;
-  const double kv = 2.0 * kPi * kc.velocity_bandwidth_hz * m;
-  const double ki = kv * 2.0 * kPi * kc.velocity_integral_hz;
-  const double u_max = kc.force_limit_N;
+  CascadeController control(kc, m);
 
   // Samples at t_k = k dt for k dt <= duration (with a tolerance of 1e-9 dt).
   const auto n_samples =
@@ -532,7 +584,6 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   trace.samples.reserve(n_samples);
 
   const std::size_t progress_every = std::max<std::size_t>(1, (n_samples + 99) / 100);
-  double integral = 0.0;  // PI integrator state (N)
   double x_meas_prev = 0.0;
   PathPoint r_next = path.at(0.0);  // reference at t_k, carried from tick to tick
 
@@ -544,23 +595,9 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
     const double v_meas = k == 0 ? 0.0 : (x_meas - x_meas_prev) / dt;
     x_meas_prev = x_meas;
 
-    // Cascade: v_cmd = v_ref + kp (x_ref - x_meas);
-    //          u = kv (v_cmd - v_meas) + I + m a_ref, I += ki e dt.
-    // Feedforward m * a_ref with a_ref averaged over the hold interval,
-    // (v_ref(t_k+1) - v_ref(t_k)) / dt: the held force then delivers exactly
-    // the reference velocity change, also for ramps shorter than one period.
     const PathPoint r = r_next;
     r_next = path.at(static_cast<double>(k + 1) * dt);
-    const double a_ff = (r_next.v_m_s - r.v_m_s) / dt;
-    const double v_cmd = r.v_m_s + kp * (r.x_m - x_meas);
-    const double e = v_cmd - v_meas;
-    const double ff = kc.acceleration_feedforward ? m * a_ff : 0.0;
-    const double u_raw = kv * e + integral + ff;
-    const double u = std::clamp(u_raw, -u_max, u_max);
-    // Anti-windup (conditional integration): freeze the integrator while
-    // saturated and the error would drive further into saturation.
-    const bool winding = (u_raw > u_max && e > 0.0) || (u_raw < -u_max && e < 0.0);
-    if (!winding) integral += ki * e * dt;
+    const double u = control.command(r, r_next, x_meas, v_meas, 0.0);
 
     // Noise draws in a fixed order so a seed gives one trace.
     const double w_meas = normal(rng) * cfg.sensors.force_noise_N;

@@ -7,6 +7,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -178,6 +179,39 @@ struct SimConfig {
   ExtraForce extra_force{}; ///< optional, see above
   Effects effects{};        ///< sim-to-real effects, all off by default
   LoggingParams logging{};  ///< how force and velocity are recorded
+};
+
+/// The cascaded position / velocity controller of the simulated drive, one
+/// servo period at a time (drive_sim.cpp states the law).
+class CascadeController {
+ public:
+  CascadeController(const ControllerParams& kc, double mass_kg);
+  /// The held force (N) for the period starting at reference r, given the
+  /// next period's reference (for the acceleration feed-forward), the
+  /// measured position and velocity, and an extra feed-forward u_extra (N).
+  double command(const PathPoint& r, const PathPoint& r_next, double x_meas, double v_meas, double u_extra);
+
+ private:
+  double kp_, kv_, ki_, u_max_, m_ff_, dt_;
+  double integral_ = 0.0;  ///< PI integrator state (N)
+};
+
+/// One closed-loop axis (plant, encoder, controller of SimConfig) advanced
+/// a servo period at a time toward any reference: the circle test drives
+/// two. No noise, delay or logging conventions: the plant's own response.
+class ServoAxis {
+ public:
+  explicit ServoAxis(const SimConfig& cfg);  ///< throws std::invalid_argument as simulate does
+  ~ServoAxis();
+  ServoAxis(ServoAxis&&) noexcept;
+  /// Measure, command toward r (+ u_extra, N), advance the plant over the
+  /// period. Returns t, measured position and velocity, and the command.
+  TraceSample step(double t, const PathPoint& r, const PathPoint& r_next, double u_extra);
+  double position_m() const;  ///< true (unquantised) position
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// Simulate and return the recorded trace (t, x, v, u) at the servo rate.

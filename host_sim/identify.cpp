@@ -460,6 +460,22 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   return c;
 }
 
+feedid::Estimate<double> to_estimate(const DriveParams& p) {
+  feedid::Estimate<double> e;
+  e.mass_kg = p.mass_kg;
+  auto dir = [](const DirectionFriction& f) {
+    feedid::DirectionEstimate<double> d;
+    d.viscous_Ns_m = f.viscous_Ns_m;
+    d.coulomb_N = f.coulomb_N;
+    d.breakaway_N = f.breakaway_N;
+    d.stribeck_velocity_m_s = f.stribeck_velocity_m_s;
+    return d;
+  };
+  e.pos = dir(p.pos);
+  e.neg = dir(p.neg);
+  return e;
+}
+
 DriveParams to_drive_params(const feedid::Estimate<double>& e) {
   DriveParams p;
   p.mass_kg = e.mass_kg;

@@ -294,6 +294,9 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
 
 /// The identified model as simulator parameters (same equations, one place).
 DriveParams to_drive_params(const feedid::Estimate<double>& e);
+/// The parameters as a core estimate (no standard errors or flags), for the
+/// core's model functions (friction_magnitude, feedforward).
+feedid::Estimate<double> to_estimate(const DriveParams& p);
 
 /// Force the model predicts for velocity v and acceleration a (N).
 double predict_force(const DriveParams& p, double v_m_s, double a_m_s2);

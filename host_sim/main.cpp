@@ -7,15 +7,17 @@
 #include <iostream>
 
 #include "bench.hpp"
+#include "blind_bench.hpp"
+#include "circle.hpp"
 #include "coverage.hpp"
-#include "trace_files.hpp"
+#include "compensate.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
 #include "progress.hpp"
-#include "blind_bench.hpp"
-#include "sim_cli.hpp"
 #include "report.hpp"
+#include "sim_cli.hpp"
+#include "trace_files.hpp"
 #include "validate.hpp"
 
 using namespace feedid::host;
@@ -229,6 +231,32 @@ int main(int argc, char** argv) {
   c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
   c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
 
+  CompensateOptions comp;
+  std::string comp_model, comp_out, comp_format = "json";
+  auto* c_comp = app.add_subcommand("compensate", "friction compensation a drive can load: a speed -> friction table per direction and the Coulomb + viscous form, from an identified model");
+  c_comp->add_option("--model", comp_model, "model JSON from identify")->required();
+  c_comp->add_option("--points", comp.points, "breakpoints per direction, speed 0 included (CNCs take about 20)")
+      ->capture_default_str()->check(CLI::Range(2, 1000));
+  c_comp->add_option("--format", comp_format, "json or csv")->check(CLI::IsMember({"json", "csv"}))->capture_default_str();
+  c_comp->add_option("--out", comp_out, "file to write (default: standard output)");
+  c_comp->add_option("--max-speed", comp.max_speed_m_s, "top of the table (m/s); default: the model's velocity_max_m_s");
+  c_comp->add_option("--force-scale", comp.force_scale,
+                     "N per drive unit, as identify's --force-scale (e.g. N per A); the table is also given in that unit")
+      ->capture_default_str();
+  c_comp->add_option("--force-unit", comp.force_unit, "label of the drive unit, e.g. A or %");
+
+  CircleOptions circle;
+  auto* c_circle = app.add_subcommand("circle", "closed-loop circle test on two simulated axes: quadrant glitches without, with the identified, and with +-20 % wrong friction compensation");
+  c_circle->add_option("--radius", circle.radius_m, "circle radius (m)")->capture_default_str();
+  c_circle->add_option("--feed", circle.feed_m_s, "path speed (m/s)")->capture_default_str();
+  c_circle->add_option("--rate", circle.rate_hz, "servo rate of both axes (Hz)")->capture_default_str();
+  c_circle->add_option("--wrong", circle.wrong_fraction, "the sensitivity runs scale every friction magnitude by 1 +- this")
+      ->capture_default_str();
+  c_circle->add_option("--model", circle.model_paths,
+                       "compensation model JSON from identify: X, then Y; default: the simulated drives, identified on the spot");
+  c_circle->add_option("--json", circle.json_path, "write runs.{none,identified,wrong_plus,wrong_minus}.{glitch_um,rms_um} as JSON");
+  c_circle->add_option("--plot", circle.plot_path, "write the polar radial-error plot as SVG");
+
   BlindOptions blind;
   auto* c_blind = app.add_subcommand("blind-bench", "diagnose many simulated traces whose effect is withheld, and score the verdicts");
   add_blind_bench_options(c_blind, blind);
@@ -344,6 +372,8 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
+    if (*c_comp) return run_compensate(comp_model, comp_out, comp_format, comp);
+    if (*c_circle) return run_circle_command(circle);
     if (*c_bench) return run_bench(bo);
     if (*c_cov) {
       Progress p("coverage");

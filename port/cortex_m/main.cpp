@@ -356,6 +356,19 @@ int main() {
     (void)g_queue.pop(item);
   }
   const uint32_t handoff_ticks = board::counter_now() - t0;
+  // Friction feed-forward from the estimate (the exp of the Stribeck dip
+  // included), at each sample's velocity as the reference.
+  const feedid::EstimateFriction<float> model{g_axis.estimate()};
+  const feedid::FeedforwardConfig<float> ff{0.0005f, g_axis.estimate().mass_kg};
+  volatile float ff_sink = 0.0f;  // keeps the loop from being optimised away
+  t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, sample_at(k).velocity_m_s, 0.1f);
+  const uint32_t feedforward_ticks = board::counter_now() - t0;
+  // The same near the Stribeck velocity, where the exp is evaluated in full.
+  const float vs = g_axis.estimate().pos.stribeck_velocity_m_s > 0.0f ? g_axis.estimate().pos.stribeck_velocity_m_s : 0.002f;
+  t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, vs * (1.0f + 1e-5f * float(k & 63u)), 0.1f);
+  const uint32_t feedforward_vs_ticks = board::counter_now() - t0;
   out << "cost (25 MHz counter ticks; a loop of " << 2 * calibration_turns << " instructions took " << calibration
       << " ticks = ";
   out.real(ipt, 4) << " instructions per tick; exact under qemu -icount shift=0 (" << instructions_per_tick
@@ -372,6 +385,10 @@ int main() {
   print_cost(out, "solve(paper)", float(paper_solve), ipt);
   print_cost(out, "hand-off per sample (ISR offer + push_from_isr + task pop)",
              float(handoff_ticks) / float(trace::count), ipt);
+  print_cost(out, "feedforward() per call, at the trace's velocities (sample read included)",
+             float(feedforward_ticks) / float(trace::count), ipt);
+  print_cost(out, "feedforward() per call, at v = vs (the Stribeck exp in full)",
+             float(feedforward_vs_ticks) / float(trace::count), ipt);
   out << "stack high-water mark: " << stack_used_bytes() << " B of "
       << uint32_t(reinterpret_cast<uintptr_t>(&__stack_top) - reinterpret_cast<uintptr_t>(&__stack_bottom))
       << " B\n";
