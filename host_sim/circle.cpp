@@ -136,8 +136,13 @@ CircleResult run_circle(const CircleOptions& opt) {
     throw std::invalid_argument("--radius, --feed and --rate must be positive");
   if (!opt.model_paths.empty() && opt.model_paths.size() != 2)
     throw std::invalid_argument("--model: give two (X, then Y), or none to identify the simulated drives");
+  if (!opt.models.empty() && opt.models.size() != 2) throw std::invalid_argument("models: give two (X, then Y)");
   CircleResult out;
   for (int a = 0; a < 2; ++a) {
+    if (!opt.models.empty()) {
+      out.models[a] = opt.models[static_cast<std::size_t>(a)];
+      continue;
+    }
     if (opt.model_paths.empty()) {
       out.models[a] = identified_on_the_spot(opt.drives[a], opt.rate_hz);
       continue;
@@ -177,7 +182,7 @@ nlohmann::json to_json(const CircleResult& r, const CircleOptions& opt) {
                           "axis reversal (0 and 180 degrees: X reverses; 90 and 270: Y), over the second full turn"}};
 }
 
-bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const std::string& path, std::string& error) {
+PlotSpec circle_plot(const CircleResult& r, const CircleOptions& opt) {
   double worst = 0.0;
   for (const auto& run : r.runs)
     for (double e : run.radial_error_um) worst = std::max(worst, std::fabs(e));
@@ -216,7 +221,11 @@ bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const st
   std::snprintf(note, sizeof note, "largest glitch: none %.3g um, identified %.3g um (%.0f %% lower)",
                 max_glitch(r.runs[0]), max_glitch(r.runs[1]), 100.0 * r.glitch_reduction);
   p.note = note;
-  return write_svg(path, p, error);
+  return p;
+}
+
+bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const std::string& path, std::string& error) {
+  return write_svg(path, circle_plot(r, opt), error);
 }
 
 int run_circle_command(const CircleOptions& opt) {

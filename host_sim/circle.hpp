@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "drive_sim.hpp"
+#include "svg_plot.hpp"
 
 namespace feedid::host {
 
@@ -23,6 +24,8 @@ struct CircleOptions {
   /// Compensation models (from identify JSON); empty: each axis's own drive,
   /// identified on the spot from a simulated speed-ladder trace.
   std::vector<std::string> model_paths;
+  /// Compensation models given directly (X, Y); used before model_paths.
+  std::vector<DriveParams> models;
   std::string json_path, plot_path;
   CircleOptions();
 };
@@ -44,6 +47,7 @@ struct CircleResult {
 CircleResult run_circle(const CircleOptions& opt);
 nlohmann::json to_json(const CircleResult& r, const CircleOptions& opt);
 /// The radial error of every run on a polar plot (error magnified).
+PlotSpec circle_plot(const CircleResult& r, const CircleOptions& opt);
 bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const std::string& path, std::string& error);
 /// `feedid circle`: runs, prints the table, writes JSON and plot; the exit code.
 int run_circle_command(const CircleOptions& opt);

@@ -1,5 +1,6 @@
 #include "report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -7,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "circle.hpp"
+#include "compensate.hpp"
 #include "number_format.hpp"
 #include "svg_plot.hpp"
 
@@ -205,6 +208,52 @@ bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, 
   return write_svg(path, friction_curve_plot(r), error);
 }
 
+namespace {
+/// What to load into the drive: the 20-point table of the base model, and a
+/// circle test with two axes that are this drive, compensated by its model
+/// exactly and 20 % off (docs/compensation.md).
+std::string compensation_html(const IdentifyResult& b) {
+  const Units& u = b.units;
+  const DriveParams model = to_drive_params(b.estimate);
+  const double top = b.config.velocity_max_m_s;
+  if (!(top > 0)) return "";
+  const CompensationTable t = make_compensation_table(model, top, 20);
+  std::ostringstream o;
+  o << "<h2>Friction compensation</h2>\n<p>The table <code>feedid compensate --model id.json --points 20</code> "
+       "writes from the base model: breakpoints where the curve bends, largest interpolation error "
+    << sig3(t.max_interpolation_error_N) << " " << html(u.force) << ". Magnitudes; the drive adds +F moving "
+       "positive and &minus;F moving negative.</p>\n<table>\n<tr><th>#</th><th>speed v &gt; 0 ("
+    << html(u.velocity()) << ")</th><th>friction (" << html(u.force) << ")</th><th>speed v &lt; 0 (" << html(u.velocity())
+    << ")</th><th>friction (" << html(u.force) << ")</th></tr>\n";
+  for (std::size_t k = 0; k < t.dir[0].size() && k < t.dir[1].size(); ++k)
+    o << "<tr><td>" << k + 1 << "</td><td>" << sig3(t.dir[0][k].speed_m_s) << "</td><td>" << sig3(t.dir[0][k].force_N)
+      << "</td><td>" << sig3(t.dir[1][k].speed_m_s) << "</td><td>" << sig3(t.dir[1][k].force_N) << "</td></tr>\n";
+  o << "</table>\n";
+  if (!u.linear_si()) return o.str() + "<p>(The circle test needs a linear axis in m and N.)</p>\n";
+  CircleOptions c;
+  c.drives = {model, model};
+  c.models = {model, model};
+  CircleResult cr;
+  try {
+    cr = run_circle(c);
+  } catch (const std::exception& e) {
+    return o.str() + "<p>Circle test not run: " + html(e.what()) + "</p>\n";
+  }
+  PlotSpec p = circle_plot(cr, c);
+  p.id = "circle";
+  o << "<p>Circle test (<code>feedid circle</code>): two axes that are this drive, radius "
+    << sig3(c.radius_m * 1e3) << " mm at " << sig3(c.feed_m_s * 1e3)
+    << " mm/s, compensated by the base model exactly and with every friction magnitude 20 % off. It shows what the "
+       "model is worth if the drive follows it; on the machine the gain is smaller.</p>\n<table>\n"
+       "<tr><th>compensation</th><th>largest quadrant glitch</th><th>RMS radial error</th></tr>\n";
+  for (const auto& run : cr.runs)
+    o << "<tr><td>" << html(run.name) << "</td><td>" << sig3(*std::max_element(run.glitch_um.begin(), run.glitch_um.end()))
+      << " &micro;m</td><td>" << sig3(run.rms_um) << " &micro;m</td></tr>\n";
+  o << "</table>\n" << render_svg(p);
+  return o.str();
+}
+}  // namespace
+
 bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
                             std::string& error) {
   std::error_code ec;
@@ -224,7 +273,7 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
   o << "<h2>Held-out residual over velocity</h2>\n" << residual_panels(r, r.block_v, "velocity (" + r.base.units.velocity() + ")", "v");
   o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (" + r.base.units.position + ")", "x");
   o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t");
-  o << base_model_html(r.base) << "</body>\n</html>\n";
+  o << base_model_html(r.base) << compensation_html(r.base) << "</body>\n</html>\n";
   std::ofstream f(dir + "/report.html");
   if (!f) { error = dir + "/report.html: cannot write"; return false; }
   f << o.str();
