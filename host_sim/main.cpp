@@ -74,9 +74,29 @@ void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
       ->check(CLI::IsMember({"skip", "error"}));
 }
 
-/// Reads a trace CSV; prints the error, or a note of the rows left out.
-bool read_trace(const std::vector<std::string>& paths, const CsvColumns& cols, CsvResult& out) {
-  out = read_trace_files(paths, cols);
+/// The input options beside the columns: axis and force label (units.hpp), and a list of recordings.
+struct InputOptions {
+  Axis axis = Axis::linear;
+  std::string force_label;
+  std::string in_list;  ///< --in-list: recordings with their own options (read_input_list)
+  Units units() const { return units_for(axis, force_label); }
+};
+
+/// Reads the traces (--in, then --in-list); prints the error, or a note of
+/// the rows left out.
+bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, const CsvColumns& cols, CsvResult& out) {
+  std::vector<TraceInput> inputs;
+  for (const auto& p : paths) inputs.push_back({p, cols});
+  std::string error;
+  if (!in.in_list.empty() && !read_input_list(in.in_list, cols, inputs, error)) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    return false;
+  }
+  if (inputs.empty()) {
+    std::fprintf(stderr, "error: no recording: give --in FILE (repeatable) or --in-list FILE\n");
+    return false;
+  }
+  out = read_trace_files(inputs);
   const std::string path = out.trace.source;
   if (!out.ok) {
     std::fprintf(stderr, "error: %s\n", out.error.c_str());
@@ -92,17 +112,13 @@ bool read_trace(const std::vector<std::string>& paths, const CsvColumns& cols, C
   return true;
 }
 
-/// The input's axis and force label (units.hpp).
-struct InputUnits {
-  Axis axis = Axis::linear;
-  std::string force_label;
-  Units units() const { return units_for(axis, force_label); }
-};
-
 /// Columns, scales, units and bad rows: the input options of every command
 /// that reads a trace CSV.
-void add_input_options(CLI::App* c, CsvColumns& cols, InputUnits& u) {
+void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   add_bad_row_option(c, cols);
+  c->add_option("--in-list", u.in_list,
+                "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. position-scale=.. "
+                "force-scale=..] to override the options for that file");
   c->add_option("--time", cols.time, "CSV column or .mat variable of time (s)")->capture_default_str();
   c->add_option("--position", cols.position, "CSV column or .mat variable of position (m; rad with --axis rotary)")->capture_default_str();
   c->add_option("--velocity", cols.velocity,
@@ -120,7 +136,7 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputUnits& u) {
                 "unit label of a force input left unscaled, e.g. V or A; mass and viscous units follow (V s^2/rad, V s/rad)");
 }
 
-void add_identify_options(CLI::App* c, CsvColumns& cols, InputUnits& units, IdentifyOptions& o, std::string& method) {
+void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method) {
   add_input_options(c, cols, units);
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
@@ -179,12 +195,12 @@ int main(int argc, char** argv) {
   c_sim->add_option("--truth", truth_path, "also write the true parameters as JSON");
 
   CsvColumns cols;
-  InputUnits id_units;
+  InputOptions id_units;
   IdentifyOptions idopt;
   std::vector<std::string> in_path;
   std::string json_path, method = "bands";
   auto* c_id = app.add_subcommand("identify", "identify the nine parameters from a trace CSV");
-  c_id->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model")->required();
+  c_id->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model");
   c_id->add_option("--json", json_path, "write the result as JSON");
   std::string id_plot;
   c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
@@ -208,9 +224,9 @@ int main(int argc, char** argv) {
   ValidateOptions valopt;
   auto* c_val = app.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
   c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
-  c_val->add_option("--in", val_in, "trace CSV or .mat to predict; repeat for several recordings")->required();
+  c_val->add_option("--in", val_in, "trace CSV or .mat to predict; repeat for several recordings");
   c_val->add_option("--json", val_json, "write the result as JSON");
-  InputUnits val_units;
+  InputOptions val_units;
   add_input_options(c_val, val_cols, val_units);
   c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
   c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
@@ -219,12 +235,12 @@ int main(int argc, char** argv) {
   c_val->add_option("--plot", val_plot, "write measured against predicted force as SVG");
 
   CsvColumns dg_cols;
-  InputUnits dg_units;
+  InputOptions dg_units;
   DiagnoseOptions dgopt;
   std::vector<std::string> dg_in;
   std::string dg_json, dg_report, dg_method = "bands";
   auto* c_dg = app.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
-  c_dg->add_option("--in", dg_in, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)")->required();
+  c_dg->add_option("--in", dg_in, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)");
   c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
   c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
   add_identify_options(c_dg, dg_cols, dg_units, dgopt.identify, dg_method);
@@ -314,7 +330,7 @@ int main(int argc, char** argv) {
     }
     if (*c_id) {
       CsvResult csv;
-      if (!read_trace(in_path, cols, csv)) return 2;
+      if (!read_trace(in_path, id_units, cols, csv)) return 2;
       idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
       idopt.units = id_units.units();
       Progress p("identify");
@@ -337,7 +353,7 @@ int main(int argc, char** argv) {
       }
       const DriveParams model = model_from_json(mj);
       CsvResult csv;
-      if (!read_trace(val_in, val_cols, csv)) return 2;
+      if (!read_trace(val_in, val_units, val_cols, csv)) return 2;
       valopt.units = val_units.units();
       const ValidateResult r = validate(model, csv.trace, valopt);
       std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
@@ -357,7 +373,7 @@ int main(int argc, char** argv) {
         return 2;
       }
       CsvResult csv;
-      if (!read_trace(dg_in, dg_cols, csv)) return 2;
+      if (!read_trace(dg_in, dg_units, dg_cols, csv)) return 2;
       Progress p("diagnose");
       if (csv.trace.samples.size() > 500000) dgopt.progress = std::ref(p);
       dgopt.identify.units = dg_units.units();

@@ -3,6 +3,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "mat_trace.hpp"
 
@@ -15,11 +19,63 @@ CsvResult read_trace_file(const std::string& path, const CsvColumns& columns) {
 }
 
 CsvResult read_trace_files(const std::vector<std::string>& paths, const CsvColumns& columns) {
-  if (paths.size() == 1) return read_trace_file(paths.front(), columns);
+  std::vector<TraceInput> inputs;
+  for (const auto& p : paths) inputs.push_back({p, columns});
+  return read_trace_files(inputs);
+}
+
+bool read_input_list(const std::string& list_path, const CsvColumns& defaults, std::vector<TraceInput>& out,
+                     std::string& error) {
+  std::ifstream f(list_path);
+  if (!f) {
+    error = list_path + ": cannot open the list of recordings";
+    return false;
+  }
+  const std::filesystem::path folder = std::filesystem::path(list_path).parent_path();
+  std::string line;
+  for (std::size_t n = 1; std::getline(f, line); ++n) {
+    std::istringstream words(line);
+    std::string path, kv;
+    if (!(words >> path) || path[0] == '#') continue;
+    TraceInput in{std::filesystem::path(path).is_absolute() ? path : (folder / path).string(), defaults};
+    while (words >> kv) {
+      const auto eq = kv.find('=');
+      const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
+      const auto where = list_path + ":" + std::to_string(n) + ": ";
+      if (eq == std::string::npos || value.empty()) {
+        error = where + "'" + kv + "' is not key=value";
+        return false;
+      }
+      if (key == "time") in.columns.time = value;
+      else if (key == "position") in.columns.position = value;
+      else if (key == "velocity") in.columns.velocity = value;
+      else if (key == "force") in.columns.force = value;
+      else if (key == "position-scale" || key == "force-scale") {
+        char* end = nullptr;
+        const double x = std::strtod(value.c_str(), &end);
+        if (end != value.c_str() + value.size()) {
+          error = where + key + " '" + value + "' is not a number";
+          return false;
+        }
+        (key == "force-scale" ? in.columns.force_scale : in.columns.position_scale) = x;
+      } else {
+        error = where + "unknown key '" + key + "' (time, position, velocity, force, position-scale, force-scale)";
+        return false;
+      }
+    }
+    out.push_back(in);
+  }
+  if (out.empty()) error = list_path + ": no recordings listed";
+  return !out.empty();
+}
+
+CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
+  if (inputs.size() == 1) return read_trace_file(inputs.front().path, inputs.front().columns);
   CsvResult all;
   all.trace.has_position = all.trace.has_velocity = true;
-  for (const std::string& path : paths) {
-    CsvResult one = read_trace_file(path, columns);
+  for (const TraceInput& input : inputs) {
+    const std::string& path = input.path;
+    CsvResult one = read_trace_file(path, input.columns);
     if (!one.ok) return one;
     Trace& t = all.trace;
     TraceRun run;

@@ -12,9 +12,26 @@ namespace feedid::host {
 /// other through read_trace_csv; the same columns, scales and row rules.
 CsvResult read_trace_file(const std::string& path, const CsvColumns& columns);
 
+/// One recording and how to read it.
+struct TraceInput {
+  std::string path;
+  CsvColumns columns;
+};
+
 /// Several recordings as one trace of consecutive runs (Trace::runs): each
-/// file is read as above; run i's times are shifted to start kRunGap_s after
-/// run i-1 ends. An error in any file is the error. One path: as read_trace_file.
+/// file is read as above with its own columns and scales; run i's times are
+/// shifted to start kRunGap_s after run i-1 ends. An error in any file is
+/// the error. One input: as read_trace_file.
+CsvResult read_trace_files(const std::vector<TraceInput>& inputs);
+/// The same columns and scales for every file.
 CsvResult read_trace_files(const std::vector<std::string>& paths, const CsvColumns& columns);
+
+/// A list of recordings (--in-list): one per line, `path [key=value ...]`,
+/// where a key overrides one input option for that file: time, position,
+/// velocity, force (column or variable names), position-scale, force-scale.
+/// Blank lines and lines starting with # are skipped; a relative path is
+/// taken from the list file's folder. False with `error` naming the line.
+bool read_input_list(const std::string& list_path, const CsvColumns& defaults, std::vector<TraceInput>& out,
+                     std::string& error);
 
 }  // namespace feedid::host

@@ -58,3 +58,53 @@ TEST(PooledRuns, TwoFilesOfOneTraceGiveItsModel) {
 
 }  // namespace
 }  // namespace feedid::test
+
+namespace feedid::host {
+namespace {
+
+std::string write_file(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// --in-list: each recording with its own columns and scales, pooled as runs.
+TEST(InputList, EachFileKeepsItsOwnColumnsAndScales) {
+  write_file("feedid_list_a.csv", "t,x,v,u\n0,0,0,1\n0.001,1e-6,1e-3,2\n");
+  write_file("feedid_list_b.csv", "time,pos_um,force_A\n0,0,1\n0.001,1,2\n");  // um and A
+  const std::string list = write_file("feedid_runs.txt",
+                                      "# two recordings of one axis\n"
+                                      "feedid_list_a.csv\n"
+                                      "\n"
+                                      "feedid_list_b.csv time=time position=pos_um force=force_A position-scale=1e-6 "
+                                      "force-scale=2.5\n");
+  CsvColumns defaults;
+  std::vector<TraceInput> inputs;
+  std::string error;
+  ASSERT_TRUE(read_input_list(list, defaults, inputs, error)) << error;
+  ASSERT_EQ(inputs.size(), 2u);
+  const CsvResult r = read_trace_files(inputs);
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.trace.runs.size(), 2u);
+  const TraceSample& b1 = r.trace.samples[r.trace.runs[1].first + 1];
+  EXPECT_DOUBLE_EQ(b1.x_m, 1e-6);  // 1 um
+  EXPECT_DOUBLE_EQ(b1.u_N, 5.0);   // 2 A at 2.5 N/A
+  EXPECT_FALSE(r.trace.has_velocity) << "the second file has no velocity column";
+}
+
+TEST(InputList, ErrorsNameTheLine) {
+  std::vector<TraceInput> inputs;
+  std::string error;
+  const std::string bad_key = write_file("feedid_runs_bad.txt", "a.csv\nb.csv gain=3\n");
+  EXPECT_FALSE(read_input_list(bad_key, CsvColumns{}, inputs, error));
+  EXPECT_NE(error.find(":2: unknown key 'gain'"), std::string::npos) << error;
+  const std::string bad_number = write_file("feedid_runs_num.txt", "a.csv force-scale=two\n");
+  EXPECT_FALSE(read_input_list(bad_number, CsvColumns{}, inputs, error));
+  EXPECT_NE(error.find(":1: force-scale 'two' is not a number"), std::string::npos) << error;
+  inputs.clear();
+  EXPECT_FALSE(read_input_list(write_file("feedid_runs_empty.txt", "# nothing\n"), CsvColumns{}, inputs, error));
+  EXPECT_NE(error.find("no recordings"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace feedid::host
