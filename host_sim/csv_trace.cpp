@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <memory>
 #include <string_view>
 #include <vector>
 
@@ -149,76 +151,45 @@ CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns) {
   return parse_trace_csv(buf, path, columns);
 }
 
-CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
-  CsvResult result;
-  result.trace.source = path;
-  result.trace.has_position = false;
-  result.trace.has_velocity = false;
-  result.error = scale_error(columns);
-  if (!result.error.empty()) return result;
+namespace {
 
-  const char* data = buf.data();
-  const char* data_end = data + buf.size();
-  if (buf.size() >= 3 && static_cast<unsigned char>(data[0]) == 0xEF &&
-      static_cast<unsigned char>(data[1]) == 0xBB && static_cast<unsigned char>(data[2]) == 0xBF) {
-    data += 3;
-  }
-  LineCursor cursor{data, data_end};
-  RowRules rules(columns, result.trace, path + ":", "line");
-
-  // --- header: first non-blank line --------------------------------------
-  const char* hb = nullptr;
-  const char* he = nullptr;
-  bool have_header = false;
-  while (cursor.next(hb, he)) {
-    if (!is_blank(hb, he, '\0')) {
-      have_header = true;
-      break;
-    }
-  }
-  if (!have_header) {
-    result.error = path + ": empty file (no header row)";
-    return result;
-  }
-  const std::size_t header_line = cursor.line;
-  const std::string_view header_text(hb, static_cast<std::size_t>(he - hb));
+/// What the header says: separator, column names, and which role each
+/// column plays (only columns with a role are parsed).
+struct CsvLayout {
   char sep = ',';
-  if (header_text.find(',') == std::string_view::npos) {
-    if (header_text.find(';') != std::string_view::npos) {
-      sep = ';';
-    } else if (header_text.find('\t') != std::string_view::npos) {
-      sep = '\t';
-    }
-  }
-
-  std::vector<std::pair<const char*, const char*>> fields;
-  split(hb, he, sep, fields);
   std::vector<std::string> names;
-  names.reserve(fields.size());
-  for (const auto& f : fields) names.emplace_back(trim_field(f.first, f.second));
-  const std::size_t ncols = names.size();
+  std::vector<unsigned> roles;
+  bool has_position = false, has_velocity = false;
+};
 
-  auto header_list = [&] {
-    std::string s;
-    for (std::size_t i = 0; i < ncols; ++i) {
-      if (i) s += ", ";
-      s += names[i];
-    }
-    return s;
-  };
-  // Index of `name` in the header, -1 if absent, -2 if it appears twice.
-  auto find_column = [&](const std::string& name) -> long {
-    if (name.empty()) return -1;
-    long found = -1;
-    for (std::size_t i = 0; i < ncols; ++i) {
-      if (names[i] == name) {
-        if (found >= 0) return -2;
-        found = static_cast<long>(i);
-      }
-    }
-    return found;
-  };
+std::string header_list(const std::vector<std::string>& names) {
+  std::string s;
+  for (std::size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
+  return s;
+}
 
+/// Index of `name` in the header, -1 if absent, -2 if it appears twice.
+long find_column(const std::vector<std::string>& names, const std::string& name) {
+  if (name.empty()) return -1;
+  long found = -1;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) {
+      if (found >= 0) return -2;
+      found = static_cast<long>(i);
+    }
+  return found;
+}
+
+/// The header line [hb, he) against the wanted columns: the layout, or an
+/// error naming the line, the column and what the header has.
+bool parse_header(const char* hb, const char* he, const std::string& at_header, const CsvColumns& columns, CsvLayout& out,
+                  std::string& error) {
+  const std::string_view header_text(hb, static_cast<std::size_t>(he - hb));
+  if (header_text.find(',') == std::string_view::npos)
+    out.sep = header_text.find(';') != std::string_view::npos ? ';' : header_text.find('\t') != std::string_view::npos ? '\t' : ',';
+  std::vector<std::pair<const char*, const char*>> fields;
+  split(hb, he, out.sep, fields);
+  for (const auto& f : fields) out.names.emplace_back(trim_field(f.first, f.second));
   struct Wanted {
     const std::string* name;
     const char* role_name;
@@ -230,103 +201,212 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
                       {&columns.velocity, "velocity", kVelocity, -1},
                       {&columns.force, "force", kForce, -1}};
   for (Wanted& w : wanted) {
-    w.index = find_column(*w.name);
+    w.index = find_column(out.names, *w.name);
     if (w.index == -2) {
-      result.error = rules.at(header_line) + "column " + quoted(*w.name) + " (" + w.role_name +
-                     ") appears more than once; header has: " + header_list();
-      return result;
+      error = at_header + "column " + quoted(*w.name) + " (" + w.role_name + ") appears more than once; header has: " +
+              header_list(out.names);
+      return false;
     }
   }
-  for (const Wanted& w : {wanted[0], wanted[3]}) {
+  for (const Wanted& w : {wanted[0], wanted[3]})
     if (w.index < 0) {
-      result.error = rules.at(header_line) + "missing column " + quoted(*w.name) + " (" + w.role_name +
-                     "); header has: " + header_list();
-      return result;
+      error = at_header + "missing column " + quoted(*w.name) + " (" + w.role_name + "); header has: " + header_list(out.names);
+      return false;
     }
-  }
   if (wanted[1].index < 0 && wanted[2].index < 0) {
-    result.error = rules.at(header_line) + "missing column " + quoted(columns.position) +
-                   " (position) and " + quoted(columns.velocity) +
-                   " (velocity); need at least one; header has: " + header_list();
+    error = at_header + "missing column " + quoted(columns.position) + " (position) and " + quoted(columns.velocity) +
+            " (velocity); need at least one; header has: " + header_list(out.names);
+    return false;
+  }
+  out.has_position = wanted[1].index >= 0;
+  out.has_velocity = wanted[2].index >= 0;
+  out.roles.assign(out.names.size(), 0u);
+  for (const Wanted& w : wanted)
+    if (w.index >= 0) out.roles[static_cast<std::size_t>(w.index)] |= w.role;
+  return true;
+}
+
+enum class RowRead { kept, skipped, stop };
+
+/// One data row [lb, le) (not blank; the buffer NUL-terminated after it)
+/// through the row rules: kept, skipped (bad or repeated), or stop (the
+/// error, in rules.error()). prev_row: the last kept row's text.
+RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_view prev_row, const CsvLayout& lay,
+                 const CsvColumns& columns, RowRules& rules, std::vector<std::pair<const char*, const char*>>& fields,
+                 TraceSample& s) {
+  rules.count_row();
+  const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
+  if (!prev_row.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
+    rules.repeated();
+    return RowRead::skipped;
+  }
+  split(lb, le, lay.sep, fields);
+  const std::size_t ncols = lay.names.size();
+  if (fields.size() != ncols)
+    return rules.bad(rules.at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size()))
+               ? RowRead::skipped
+               : RowRead::stop;
+  s = TraceSample{};
+  std::string_view time_text;
+  for (std::size_t i = 0; i < ncols; ++i) {
+    const unsigned r = lay.roles[i];
+    if (r == 0u) continue;
+    const std::string_view text = trim_field(fields[i].first, fields[i].second);
+    // `text` starts with a non-space character, so strtod skips nothing and
+    // stops no later than the separator / line end that bounds the field
+    // (the buffer is NUL-terminated, so it cannot run off the end).
+    char* endp = nullptr;
+    errno = 0;
+    const double value = text.empty() ? 0.0 : std::strtod(text.data(), &endp);
+    std::string why;
+    if (text.empty())
+      why = ": empty value";
+    else if (endp != text.data() + text.size())
+      why = ": " + quoted(text) + " is not a number";
+    else if (!std::isfinite(value))
+      why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
+    if (!why.empty())
+      return rules.bad(rules.at(line) + "column " + quoted(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
+    if (r & kTime) {
+      s.t_s = value;
+      time_text = text;
+    }
+    if (r & kPosition) s.x_m = value * columns.position_scale;
+    if (r & kVelocity) s.v_m_s = value * columns.position_scale;
+    if (r & kForce) s.u_N = value * columns.force_scale;
+  }
+  return rules.take(s, time_text, line) ? RowRead::kept : RowRead::stop;
+}
+
+/// Skips a UTF-8 byte-order mark.
+const char* after_bom(const char* b, const char* e) {
+  return e - b >= 3 && static_cast<unsigned char>(b[0]) == 0xEF && static_cast<unsigned char>(b[1]) == 0xBB &&
+                 static_cast<unsigned char>(b[2]) == 0xBF
+             ? b + 3
+             : b;
+}
+
+}  // namespace
+
+CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
+  CsvResult result;
+  result.trace.source = path;
+  result.trace.has_position = false;
+  result.trace.has_velocity = false;
+  result.error = scale_error(columns);
+  if (!result.error.empty()) return result;
+  LineCursor cursor{after_bom(buf.data(), buf.data() + buf.size()), buf.data() + buf.size()};
+  RowRules rules(columns, result.trace, path + ":", "line");
+
+  const char* b = nullptr;
+  const char* e = nullptr;
+  bool have_header = false;
+  while (!have_header && cursor.next(b, e)) have_header = !is_blank(b, e, '\0');
+  if (!have_header) {
+    result.error = path + ": empty file (no header row)";
     return result;
   }
-  result.trace.has_position = wanted[1].index >= 0;
-  result.trace.has_velocity = wanted[2].index >= 0;
+  CsvLayout lay;
+  if (!parse_header(b, e, rules.at(cursor.line), columns, lay, result.error)) return result;
+  result.trace.has_position = lay.has_position;
+  result.trace.has_velocity = lay.has_velocity;
 
-  // Roles per column index; only columns with a role are parsed.
-  std::vector<unsigned> roles(ncols, 0u);
-  for (const Wanted& w : wanted) {
-    if (w.index >= 0) roles[static_cast<std::size_t>(w.index)] |= w.role;
-  }
-
-  // --- data rows -----------------------------------------------------------
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
-  auto stop = [&] {
+  std::vector<std::pair<const char*, const char*>> fields;
+  std::string_view prev_row;
+  TraceSample s;
+  while (cursor.next(b, e)) {
+    if (is_blank(b, e, lay.sep)) continue;
+    const RowRead r = read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
+    if (r == RowRead::stop) {
+      result.error = rules.error();
+      return result;
+    }
+    if (r == RowRead::kept) prev_row = std::string_view(b, static_cast<std::size_t>(e - b));
+  }
+  if (!rules.finish(path)) {
     result.error = rules.error();
     return result;
-  };
-  std::string_view prev_row;
-
-  const char* lb = nullptr;
-  const char* le = nullptr;
-  while (cursor.next(lb, le)) {
-    if (is_blank(lb, le, sep)) continue;
-    const std::size_t line = cursor.line;
-    rules.count_row();
-    const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
-    if (!samples.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
-      rules.repeated();
-      continue;
-    }
-    split(lb, le, sep, fields);
-    if (fields.size() != ncols) {
-      if (!rules.bad(rules.at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size())))
-        return stop();
-      continue;
-    }
-    bool row_ok = true;
-    TraceSample s;
-    std::string_view time_text;
-    for (std::size_t i = 0; i < ncols && row_ok; ++i) {
-      const unsigned r = roles[i];
-      if (r == 0u) continue;
-      const std::string_view text = trim_field(fields[i].first, fields[i].second);
-      std::string why;
-      // `text` starts with a non-space character, so strtod skips nothing and
-      // stops no later than the separator / line end that bounds the field
-      // (the buffer is NUL-terminated, so it cannot run off the end).
-      char* endp = nullptr;
-      errno = 0;
-      const double value = text.empty() ? 0.0 : std::strtod(text.data(), &endp);
-      if (text.empty())
-        why = ": empty value";
-      else if (endp != text.data() + text.size())
-        why = ": " + quoted(text) + " is not a number";
-      else if (!std::isfinite(value))
-        why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
-      if (!why.empty()) {
-        row_ok = false;
-        if (!rules.bad(rules.at(line) + "column " + quoted(names[i]) + why)) return stop();
-        break;
-      }
-      if (r & kTime) {
-        s.t_s = value;
-        time_text = text;
-      }
-      if (r & kPosition) s.x_m = value * columns.position_scale;
-      if (r & kVelocity) s.v_m_s = value * columns.position_scale;
-      if (r & kForce) s.u_N = value * columns.force_scale;
-    }
-    if (!row_ok) continue;
-    const std::size_t kept = samples.size();
-    if (!rules.take(s, time_text, line)) return stop();
-    if (samples.size() > kept) prev_row = row_text;
   }
-  if (!rules.finish(path)) return stop();
   result.ok = true;
   return result;
 }
+
+struct CsvStream::Impl {
+  std::ifstream file;
+  CsvColumns columns;
+  Trace counts;  ///< no samples kept: RowRules' counters and skipped rows
+  RowRules rules;
+  CsvLayout layout;
+  std::string line, prev_row;
+  std::size_t line_no = 0, kept = 0;
+  std::vector<std::pair<const char*, const char*>> fields;
+  Impl(const std::string& path, const CsvColumns& c)
+      : file(path, std::ios::binary), columns(c), rules(columns, counts, path + ":", "line") {}
+};
+
+CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_(std::make_unique<Impl>(path, columns)) {
+  Impl& m = *impl_;
+  source_ = path;
+  error_ = scale_error(columns);
+  if (!error_.empty()) return;
+  if (!m.file) {
+    error_ = path + ": cannot open: " + errno_text(errno);
+    return;
+  }
+  while (std::getline(m.file, m.line)) {
+    ++m.line_no;
+    const char* b = m.line.data();
+    if (m.line_no == 1) b = after_bom(b, b + m.line.size());
+    if (is_blank(b, m.line.data() + m.line.size(), '\0')) continue;
+    if (parse_header(b, m.line.data() + m.line.size(), m.rules.at(m.line_no), columns, m.layout, error_)) {
+      has_position_ = m.layout.has_position;
+      has_velocity_ = m.layout.has_velocity;
+      ok_ = true;
+    }
+    return;
+  }
+  error_ = path + ": empty file (no header row)";
+}
+
+CsvStream::~CsvStream() = default;
+
+bool CsvStream::next(TraceSample& s) {
+  if (!ok_) return false;
+  Impl& m = *impl_;
+  while (std::getline(m.file, m.line)) {
+    ++m.line_no;
+    const char* b = m.line.data();
+    const char* e = b + m.line.size();
+    if (is_blank(b, e, m.layout.sep)) continue;
+    const RowRead r = read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
+    if (r == RowRead::stop) {
+      error_ = m.rules.error();
+      ok_ = false;
+      return false;
+    }
+    if (r == RowRead::kept) {
+      ++m.kept;
+      m.counts.samples.clear();  // RowRules keeps each row; the stream hands it on instead
+      m.prev_row.assign(b, e);   // reuses its capacity
+      return true;
+    }
+  }
+  // End of the file: no rows, or too many bad ones, is an error.
+  if (m.kept == 0) {
+    error_ = source_ + ": no data rows";
+  } else {
+    m.counts.samples.push_back(s);  // finish() checks the share; it needs to know rows were kept
+    if (!m.rules.finish(source_)) error_ = m.rules.error();
+  }
+  ok_ = false;
+  return false;
+}
+
+std::size_t CsvStream::rows_skipped() const { return impl_->counts.rows_skipped; }
+std::size_t CsvStream::rows_repeated() const { return impl_->counts.rows_repeated; }
+const std::vector<std::string>& CsvStream::skipped_rows() const { return impl_->counts.skipped_rows; }
 
 bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error) {
   errno = 0;

@@ -1,5 +1,6 @@
 // Reading and writing traces as CSV. Host only.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,33 @@ struct CsvResult {
 CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);
 /// The same for text already in memory; `source` names it in messages.
 CsvResult parse_trace_csv(const std::string& text, const std::string& source, const CsvColumns& columns);
+
+/// A CSV read row by row in constant memory (feedid monitor, logs of any
+/// length): the same header, row rules and messages as read_trace_csv, but
+/// no sample is kept. After construction, ok() or error(); then next()
+/// until it returns false, and error() says whether that was the end of
+/// the file (empty) or an error (a strict bad row, or more than the allowed
+/// share of bad rows).
+class CsvStream {
+ public:
+  CsvStream(const std::string& path, const CsvColumns& columns);
+  ~CsvStream();
+  bool ok() const { return ok_; }
+  const std::string& error() const { return error_; }
+  bool has_position() const { return has_position_; }
+  bool has_velocity() const { return has_velocity_; }
+  /// The next kept row; false at the end or on an error.
+  bool next(TraceSample& s);
+  std::size_t rows_skipped() const;
+  std::size_t rows_repeated() const;
+  const std::vector<std::string>& skipped_rows() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string source_, error_;
+  bool ok_ = false, has_position_ = false, has_velocity_ = false;
+};
 
 /// Writes t,x,v,u with full precision. Returns false with `error` set on failure.
 bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error);

@@ -117,7 +117,20 @@ void validate_effects(const SimConfig& c) {
   if (e.wander_force_N > 0.0) require_positive(e.wander_time_constant_s, "effects.wander_time_constant_s", "s");
 }
 
+void validate_change(const SimConfig& c) {
+  const ServiceChange& ch = c.change;
+  if (!ch.on()) return;
+  if (c.plant != PlantKind::closed_loop)
+    throw std::invalid_argument("--change-time: a change in service is simulated by the closed-loop plant only");
+  for (const auto& [v, name] : {std::pair<double, const char*>{ch.coulomb_fraction, "--change-coulomb-fraction"},
+                                {ch.viscous_fraction, "--change-viscous-fraction"},
+                                {ch.mass_fraction, "--change-mass-fraction"}})
+    if (!(v > -1.0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be > -1 (a fraction)");
+  if (ch.direction < -1 || ch.direction > 1) throw std::invalid_argument("--change-direction must be pos, neg or both");
+}
+
 void validate(const SimConfig& c) {
+  validate_change(c);
   require_positive(c.drive.mass_kg, "drive.mass_kg", "kg");
   validate_friction(c.drive.pos, "pos");
   validate_friction(c.drive.neg, "neg");
@@ -193,7 +206,8 @@ struct State {
 
 class Plant {
  public:
-  Plant(const DriveParams& d, const Effects& e, const ExtraForce& extra) : d_(d), e_(e), extra_(extra) {
+  Plant(const DriveParams& d, const Effects& e, const ExtraForce& extra, const ServiceChange& change)
+      : d_(d), e_(e), extra_(extra), change_(change) {
     plain_friction_ = e.drift_fraction == 0.0 && e.position_friction_N == 0.0 && e.quadratic_c2_Ns2_m2 == 0.0 &&
                       e.presliding_force_N == 0.0;
     loads_ = e.offset_N != 0.0 || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
@@ -301,7 +315,7 @@ class Plant {
   // Friction while sliding in direction dir_ (continued through v = 0 for the
   // RK stages, like branch_friction).
   double friction(double t, double x, double v) const {
-    const DirectionFriction& f = dir_ > 0.0 ? d_.pos : d_.neg;
+    const DirectionFriction f = side(dir_, t);
     if (plain_friction_) return branch_friction(f, dir_, v);
     const double r = v / f.stribeck_velocity_m_s;
     const double ed = drift(t);
@@ -317,7 +331,7 @@ class Plant {
   // Largest net force (N) the motor side withstands at rest when pushed in
   // direction s: the sliding friction at v -> 0 in that direction.
   double static_band(double t, double x, double s) const {
-    const DirectionFriction& f = s > 0.0 ? d_.pos : d_.neg;
+    const DirectionFriction f = side(s, t);
     if (plain_friction_) return f.coulomb_N + f.breakaway_N;
     double band = f.coulomb_N * (1.0 + 0.3 * drift(t)) + f.breakaway_N + position_friction(x);
     if (e_.presliding_force_N > 0.0) {
@@ -325,6 +339,21 @@ class Plant {
       band -= 2.0 * e_.presliding_force_N * presliding_decay(r);
     }
     return std::max(0.0, band);
+  }
+
+  // Friction of direction s at time t, with the change in service from its time on.
+  DirectionFriction side(double s, double t) const {
+    DirectionFriction f = s > 0.0 ? d_.pos : d_.neg;
+    if (change_.on() && t >= change_.time_s && (change_.direction == 0 || change_.direction * s > 0.0)) {
+      f.coulomb_N *= 1.0 + change_.coulomb_fraction;
+      f.viscous_Ns_m *= 1.0 + change_.viscous_fraction;
+    }
+    return f;
+  }
+
+  // Motor-side mass at time t (the change in service scales it).
+  double mass1(double t) const {
+    return change_.on() && t >= change_.time_s ? m1_ * (1.0 + change_.mass_fraction) : m1_;
   }
 
   // Time derivative of the state while sliding in direction dir_ (or with the
@@ -336,7 +365,7 @@ class Plant {
       if (loads_) f -= load(t, s.x);
       if (two_mass_) f -= spring(s);
       d.x = s.v;
-      d.v = f / m1_;
+      d.v = f / mass1(t);
     }
     if (two_mass_) {
       d.x2 = s.v2;
@@ -408,6 +437,7 @@ class Plant {
   bool two_mass_ = false;       ///< compliant plant
   bool locked_ = false;         ///< motor held at rest while the load moves (inside rk4 only)
   double m1_ = 0.0, m2_ = 0.0;  ///< motor-side and load mass (kg)
+  const ServiceChange& change_;
   double k_ = 0.0, c_ = 0.0;    ///< spring (N/m) and damper (N s/m)
   double held_load_ = 0.0;      ///< wandering disturbance of this servo period (N)
   State s_{};
@@ -503,7 +533,7 @@ double CascadeController::command(const PathPoint& r, const PathPoint& r_next, d
 
 struct ServoAxis::Impl {
   // The plant keeps references into cfg: built from the member, not the argument.
-  explicit Impl(const SimConfig& c) : cfg(c), plant(cfg.drive, cfg.effects, cfg.extra_force), control(cfg.controller, cfg.drive.mass_kg) {}
+  explicit Impl(const SimConfig& c) : cfg(c), plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change), control(cfg.controller, cfg.drive.mass_kg) {}
   SimConfig cfg;
   Plant plant;
   CascadeController control;
@@ -558,7 +588,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   std::normal_distribution<double> normal(0.0, 1.0);
 
   MotionPath path(cfg.motion, cfg.seed);
-  Plant plant(cfg.drive, cfg.effects, cfg.extra_force);
+  Plant plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change);
 
   // Delay of the recorded force: u_rec[k] = u(t_k - delay), linear between
   // the applied samples (history kept only when a delay is set).

@@ -161,6 +161,19 @@ double load_force(const Effects& e, double t_s, double x_m);
 /// the catalogue. Empty when none is on.
 std::vector<std::string> active_effects(const Effects& e);
 
+/// A change in service at one instant (friction health, `feedid monitor`):
+/// from time_s on, the Coulomb and viscous friction of the chosen
+/// direction(s) and the plant's mass are scaled by (1 + fraction). The
+/// controller keeps its nominal mass. Closed-loop plant only.
+struct ServiceChange {
+  double time_s = -1.0;           ///< < 0: no change (s)
+  double coulomb_fraction = 0.0;  ///< Fc x (1 + this), > -1
+  double viscous_fraction = 0.0;  ///< sigma x (1 + this), > -1
+  double mass_fraction = 0.0;     ///< m x (1 + this), > -1
+  int direction = 0;              ///< +1: positive only, -1: negative only, 0: both
+  bool on() const { return time_s >= 0.0; }
+};
+
 /// Which plant makes the trace: the closed-loop drive of this file, or the
 /// independent open-loop inverse dynamics of open_loop_plant.hpp.
 enum class PlantKind { closed_loop, open_loop };
@@ -179,6 +192,7 @@ struct SimConfig {
   ExtraForce extra_force{}; ///< optional, see above
   Effects effects{};        ///< sim-to-real effects, all off by default
   LoggingParams logging{};  ///< how force and velocity are recorded
+  ServiceChange change{};   ///< a step change in service, off by default
 };
 
 /// The cascaded position / velocity controller of the simulated drive, one

@@ -191,6 +191,7 @@ int main(int argc, char** argv) {
   auto* c_sim = app.add_subcommand("simulate", "simulate a closed-loop feed drive and write a trace CSV (t,x,v,u)");
   add_sim_options(c_sim, sim);
   add_effect_options(c_sim, sim.effects);
+  add_change_options(c_sim, sim.change);
   c_sim->add_option("--out", out_path, "trace CSV to write")->required();
   c_sim->add_option("--truth", truth_path, "also write the true parameters as JSON");
 

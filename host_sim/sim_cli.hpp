@@ -45,6 +45,18 @@ inline void add_effect_options(CLI::App* c, Effects& e) {
   c->add_option("--wander-time-constant", e.wander_time_constant_s, "correlation time of the wandering force (s)")->group(g)->capture_default_str();
 }
 
+/// A change in service (`simulate --change-time ...`; drive_sim.hpp, ServiceChange).
+inline void add_change_options(CLI::App* c, ServiceChange& ch) {
+  const char* g = "Change in service (friction health; closed-loop plant)";
+  c->add_option("--change-time", ch.time_s, "time of a step change in the drive (s); off when negative")->group(g)->capture_default_str();
+  c->add_option("--change-coulomb-fraction", ch.coulomb_fraction, "Coulomb friction x (1 + this) from --change-time")->group(g)->capture_default_str();
+  c->add_option("--change-viscous-fraction", ch.viscous_fraction, "viscous friction x (1 + this) from --change-time")->group(g)->capture_default_str();
+  c->add_option("--change-mass-fraction", ch.mass_fraction, "plant mass x (1 + this) from --change-time")->group(g)->capture_default_str();
+  c->add_option_function<std::string>("--change-direction", [&ch](const std::string& v) { ch.direction = v == "pos" ? 1 : v == "neg" ? -1 : 0; },
+                                      "direction whose friction changes: pos, neg or both (default)")
+      ->group(g)->check(CLI::IsMember({"pos", "neg", "both"}));
+}
+
 /// Options of `blind-bench`.
 inline void add_blind_bench_options(CLI::App* c, BlindOptions& o) {
   c->add_option("--cases", o.cases, "number of traces (labels cycle through none, the 8 effects, unexplained)")->capture_default_str();

@@ -253,3 +253,64 @@ TEST(CsvTrace, MissingFileIsAnError) {
 }
 
 }  // namespace
+
+namespace feedid::host {
+namespace {
+
+std::vector<TraceSample> stream_all(CsvStream& st) {
+  std::vector<TraceSample> out;
+  TraceSample s;
+  while (st.next(s)) out.push_back(s);
+  return out;
+}
+
+// The stream reads row by row with the reader's rules: the same samples,
+// the same counts, the same errors.
+TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
+  std::string text = "\xEF\xBB\xBFt;x;v;u\n";
+  for (int k = 0; k < 400; ++k) text += std::to_string(k * 1e-3) + ";" + std::to_string(k * 1e-6) + ";0.001;" + std::to_string(k) + "\n";
+  text += "0.4;bad;0;0\n";                          // skipped, named
+  text += "0.4005;4e-4;0.001;400\n0.4005;4e-4;0.001;400\n";  // repeated
+  text += "\n0.401;4.1e-4;0.001;401\n";
+  const std::string path = ::testing::TempDir() + "feedid_stream.csv";
+  std::ofstream(path) << text;
+  const CsvResult whole = read_trace_csv(path, CsvColumns{});
+  ASSERT_TRUE(whole.ok) << whole.error;
+  CsvStream st(path, CsvColumns{});
+  const std::vector<TraceSample> rows = stream_all(st);
+  EXPECT_TRUE(st.error().empty()) << st.error();
+  ASSERT_EQ(rows.size(), whole.trace.samples.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k].t_s, whole.trace.samples[k].t_s);
+    EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
+  }
+  EXPECT_EQ(st.rows_skipped(), 1u);
+  EXPECT_EQ(st.rows_repeated(), 1u);
+  EXPECT_EQ(st.skipped_rows().front(), whole.trace.skipped_rows.front());
+}
+
+TEST(CsvStream, ErrorsAsTheReaderGivesThem) {
+  const std::string dir = ::testing::TempDir();
+  std::ofstream(dir + "feedid_stream_hdr.csv") << "t,x,u\n";
+  CsvStream header_only(dir + "feedid_stream_hdr.csv", CsvColumns{});
+  EXPECT_TRUE(stream_all(header_only).empty());
+  EXPECT_NE(header_only.error().find("no data rows"), std::string::npos) << header_only.error();
+
+  std::ofstream(dir + "feedid_stream_col.csv") << "t,x,v\n0,0,0\n";
+  CsvStream missing(dir + "feedid_stream_col.csv", CsvColumns{});
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("missing column 'u'"), std::string::npos) << missing.error();
+
+  std::ofstream(dir + "feedid_stream_strict.csv") << "t,x,u\n0,0,0\n0,1,1\n";
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  CsvStream st(dir + "feedid_stream_strict.csv", strict);
+  EXPECT_EQ(stream_all(st).size(), 1u);
+  EXPECT_NE(st.error().find("time must increase"), std::string::npos) << st.error();
+
+  CsvStream absent(dir + "feedid_no_such_file.csv", CsvColumns{});
+  EXPECT_FALSE(absent.ok());
+}
+
+}  // namespace
+}  // namespace feedid::host
