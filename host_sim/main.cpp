@@ -14,6 +14,7 @@
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
+#include "monitor.hpp"
 #include "progress.hpp"
 #include "report.hpp"
 #include "sim_cli.hpp"
@@ -180,6 +181,35 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
   return 0;
 }
 
+int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
+                const std::string& plot_path, MonitorOptions opt) {
+  if (!in.in_list.empty()) {
+    std::fprintf(stderr, "error: monitor reads one log (--in); --in-list is for identify, validate and diagnose\n");
+    return 2;
+  }
+  CsvStream stream(path, cols);
+  if (!stream.ok()) {
+    std::fprintf(stderr, "error: %s\n", stream.error().c_str());
+    return 2;
+  }
+  opt.identify.units = in.units();
+  opt.progress = [](double t) { std::fprintf(stderr, "\rmonitor: %.0f s read", t); };
+  const MonitorResult r = monitor(stream, opt);
+  std::fprintf(stderr, "\n");
+  std::cout << trend_table(r);
+  if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
+  std::string err;
+  if (!plot_path.empty() && !write_trend_svg(r, plot_path, err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  if (!r.error.empty()) {
+    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+    return 2;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -247,6 +277,21 @@ int main(int argc, char** argv) {
   add_identify_options(c_dg, dg_cols, dg_units, dgopt.identify, dg_method);
   c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
   c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
+
+  MonitorOptions mon;
+  CsvColumns mon_cols;
+  InputOptions mon_units;
+  std::string mon_in, mon_json, mon_plot;
+  auto* c_mon = app.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
+  c_mon->add_option("--in", mon_in, "log CSV, read row by row")->required();
+  c_mon->add_option("--json", mon_json, "write epochs and alarms as JSON");
+  c_mon->add_option("--plot", mon_plot, "write each parameter's trend with +-2 se bands and the alarms as SVG");
+  c_mon->add_option("--epoch-s", mon.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
+  c_mon->add_option("--reference-epochs", mon.detector.reference_epochs, "epochs pooled into each parameter's reference")
+      ->capture_default_str()->check(CLI::Range(3, 16));
+  c_mon->add_option("--threshold", mon.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
+      ->capture_default_str();
+  add_input_options(c_mon, mon_cols, mon_units);
 
   CompensateOptions comp;
   std::string comp_model, comp_out, comp_format = "json";
@@ -389,6 +434,7 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
+    if (*c_mon) return run_monitor(mon_in, mon_units, mon_cols, mon_json, mon_plot, mon);
     if (*c_comp) return run_compensate(comp_model, comp_out, comp_format, comp);
     if (*c_circle) return run_circle_command(circle);
     if (*c_bench) return run_bench(bo);

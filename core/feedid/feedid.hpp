@@ -11,5 +11,6 @@
 
 #include "feedid/estimator.hpp"
 #include "feedid/feedforward.hpp"
+#include "feedid/monitor.hpp"
 #include "feedid/statistics.hpp"
 #include "feedid/types.hpp"
