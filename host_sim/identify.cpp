@@ -795,6 +795,10 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
                 {"position_quantum_m", r.signals.position_quantum_m},
                 {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+  if (r.streamed)
+    j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
+                             "errors from a jackknife over ten groups of 60 s blocks dealt round-robin, and the timing "
+                             "term measured on the first 60 s; no block refit of m";
   if (!r.runs.empty()) {
     nlohmann::json runs = nlohmann::json::array();
     for (const TraceRun& run : r.runs)
@@ -830,7 +834,9 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   const auto& e = r.estimate;
   char buf[256];
   o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
-    << feedid::status_name(r.status) << "; " << r.signals.t.size() << " samples, " << r.duration_s << " s at "
+    << feedid::status_name(r.status) << "; "
+    << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
+    << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
   const Units& u = r.units;
   auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
@@ -868,10 +874,16 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
       << u.force << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
   }
-  std::snprintf(buf, sizeof buf,
-                "  friction curve R^2 %.5f (+) %.5f (-); RMS force residual %.3g %s over %.0f ms blocks; force noise %.3g %s\n",
-                e.pos.friction_r2, e.neg.friction_r2, r.residual_rms_N, u.force.c_str(), 1e3 * r.residual_block_s,
-                e.force_noise_N, u.force.c_str());
+  std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
+  o << buf;
+  if (r.streamed) {
+    o << "block residual not computed (streamed); ";
+  } else {
+    std::snprintf(buf, sizeof buf, "RMS force residual %.3g %s over %.0f ms blocks; ", r.residual_rms_N, u.force.c_str(),
+                  1e3 * r.residual_block_s);
+    o << buf;
+  }
+  std::snprintf(buf, sizeof buf, "force noise %.3g %s\n", e.force_noise_N, u.force.c_str());
   o << buf;
   const auto& g = r.diagnostics;
   o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "

@@ -171,6 +171,9 @@ struct IdentifyResult {
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
   double duration_s = 0.0;
+  /// Streamed (identify_stream.hpp): conventions from the head, the core's
+  /// own standard errors, no jackknife or block refit.
+  bool streamed = false;
 };
 
 /// Velocity (measured or derived) and the pairing convention for a trace.

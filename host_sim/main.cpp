@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -14,6 +15,7 @@
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
 #include "identify.hpp"
+#include "identify_stream.hpp"
 #include "monitor.hpp"
 #include "progress.hpp"
 #include "report.hpp"
@@ -181,6 +183,17 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
   return 0;
 }
 
+/// Whether identify streams: asked, or one CSV above 512 MB (loading it
+/// would take several times its size in memory).
+bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool asked) {
+  if (paths.size() != 1 || !in.in_list.empty()) return false;
+  const std::string& p = paths.front();
+  if (p.size() >= 4 && (p.substr(p.size() - 4) == ".mat" || p.substr(p.size() - 4) == ".MAT")) return false;
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(p, ec);
+  return asked || (!ec && size > (512ull << 20));
+}
+
 int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
                 const std::string& plot_path, MonitorOptions opt) {
   if (!in.in_list.empty()) {
@@ -235,6 +248,10 @@ int main(int argc, char** argv) {
   c_id->add_option("--json", json_path, "write the result as JSON");
   std::string id_plot;
   c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
+  bool id_stream = false;
+  c_id->add_flag("--stream", id_stream,
+                 "read the CSV row by row in bounded memory (automatic above 512 MB): conventions from its first 60 s, "
+                 "the core's own standard errors");
   add_identify_options(c_id, cols, id_units, idopt, method);
 
   SimConfig demo_sim;
@@ -375,10 +392,19 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*c_id) {
-      CsvResult csv;
-      if (!read_trace(in_path, id_units, cols, csv)) return 2;
       idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
       idopt.units = id_units.units();
+      if (streams(in_path, id_units, id_stream)) {
+        CsvStream stream(in_path.front(), cols);
+        if (!stream.ok()) { std::fprintf(stderr, "error: %s\n", stream.error().c_str()); return 2; }
+        std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
+        idopt.progress = [](double t) { std::fprintf(stderr, "\ridentify: %.0f s read", t); };
+        const IdentifyResult r = identify_stream(stream, in_path.front(), idopt);
+        std::fprintf(stderr, "\n");
+        return report_identify(r, json_path, nullptr);
+      }
+      CsvResult csv;
+      if (!read_trace(in_path, id_units, cols, csv)) return 2;
       Progress p("identify");
       if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
       const IdentifyResult r = identify(csv.trace, idopt);

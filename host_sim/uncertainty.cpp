@@ -33,6 +33,13 @@ int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Metho
     if (run.status == feedid::Status::invalid_config) return 0;
     cores.push_back(std::move(run.core));
   }
+  return jackknife_over(cores, method, se);
+}
+
+}  // namespace
+
+int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Method method, std::array<double, 9>& se) {
+  const int k = static_cast<int>(cores.size());
   std::vector<std::array<double, 9>> theta;
   auto pooled = std::make_unique<Stats>();
   for (int leave = 0; leave < k; ++leave) {
@@ -52,6 +59,8 @@ int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Metho
   }
   return used;
 }
+
+namespace {
 
 /// Sensitivity of the parameters to the lag (one more identification, half
 /// a period away, on the side the pairing rule can reach) times its uncertainty.
@@ -95,13 +104,21 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
   Uncertainty u;
   u.model_se = standard_errors(r.estimate);
   const Signals& s = r.signals;
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se);
+  u.timing_se = timing_standard_errors(s, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
+  apply_standard_errors(r.estimate, u);
+  return u;
+}
+
+std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                                             const std::array<double, 9>& theta, double& lag_se_periods) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
   const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated;
-  const double lag_se = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
-  r.lag_se_periods = lag_se;
-  u.timing_se = timing_se(s, r.config, opt.method, parameters(r.estimate), lag_se);
-  feedid::Estimate<double>& e = r.estimate;
+  lag_se_periods = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
+  return timing_se(s, cfg, method, theta, lag_se_periods);
+}
+
+void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
   const auto f = se_fields(e);
   const std::array<bool, 9> resolved = {e.mass_identified(),
                                         e.pos.friction_identified(), e.pos.friction_identified(),
@@ -118,7 +135,6 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
     d->flags |= feedid::detail::stribeck_uncertainty_flags(*d);
   }
   if (e.mass_identified()) e.mass_flags |= feedid::detail::mass_uncertainty_flags(e.mass_kg, e.mass_se_kg);
-  return u;
 }
 
 }  // namespace feedid::host

@@ -12,6 +12,8 @@
 // docs/method.md derives both; `feedid coverage` checks them. Host only.
 #pragma once
 #include <array>
+#include <memory>
+#include <vector>
 
 #include "identify.hpp"
 
@@ -45,5 +47,23 @@ struct Uncertainty {
 /// (the core's own where the jackknife could not run) and re-applies the
 /// core's identifiability rules to them.
 Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt);
+
+/// Each parameter's timing term: its sensitivity to the force lag (one
+/// identification of s at a probe lag) times the lag's uncertainty, which
+/// goes to lag_se_periods (0 for a stated lag).
+std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                                             const std::array<double, 9>& theta, double& lag_se_periods);
+
+/// Delete-one-group jackknife over cores that each saw one group of the
+/// data: sqrt((K-1)/K sum (theta_-i - mean)^2), theta_-i solved from the
+/// pooled statistics of the others. `se` gets it; returns the solves that
+/// succeeded (0 when fewer than half did).
+int jackknife_over(const std::vector<std::unique_ptr<Core>>& groups, feedid::Method method, std::array<double, 9>& se);
+
+/// The rule of widen_standard_errors, applied to an estimate: resolved
+/// parameters take sqrt(jackknife^2 + timing^2) (the core's own when
+/// chunks_used is 0), unresolved keep at least the core's; then the
+/// identifiability flags those standard errors imply.
+void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u);
 
 }  // namespace feedid::host
