@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 
 #include "bench.hpp"
 #include "blind_bench.hpp"
@@ -223,299 +224,365 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
   return 0;
 }
 
+/// The diagnosis page, if a folder was given; the exit code.
+int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source) {
+  if (dir.empty()) return 0;
+  std::string err;
+  if (!write_diagnosis_report(r, dir, source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+  std::printf("report: %s/report.html\n", dir.c_str());
+  return 0;
+}
+
+/// One subcommand: its options (add) and what it does (run).
+struct Command {
+  CLI::App* app = nullptr;
+  virtual ~Command() = default;
+  virtual void add(CLI::App& parent) = 0;
+  virtual int run() = 0;
+};
+
+struct SimulateCommand : Command {
+  SimConfig sim;
+  std::string out_path, truth_path;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("simulate", "simulate a closed-loop feed drive and write a trace CSV (t,x,v,u)");
+    add_sim_options(app, sim);
+    add_effect_options(app, sim.effects);
+    add_change_options(app, sim.change);
+    app->add_option("--out", out_path, "trace CSV to write")->required();
+    app->add_option("--truth", truth_path, "also write the true parameters as JSON");
+  }
+  int run() override {
+    const Trace t = run_simulation(sim);
+    std::string err;
+    if (!write_trace_csv(out_path, t, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+    if (!truth_path.empty()) {
+      nlohmann::json tj = model_json(sim.drive);
+      tj["effects"] = effects_json(sim.effects, sim.drive);
+      if (!write_json(truth_path, tj)) return 1;
+    }
+    std::printf("wrote %s: %zu samples, %.3g s at %.6g Hz\n", out_path.c_str(), t.samples.size(), sim.motion.duration_s,
+                sim.controller.servo_rate_hz);
+    return 0;
+  }
+};
+
+struct IdentifyCommand : Command {
+  CsvColumns cols;
+  InputOptions input;
+  IdentifyOptions opt;
+  std::vector<std::string> in_path;
+  std::string json_path, method = "bands", plot_path;
+  bool stream = false;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("identify", "identify the nine parameters from a trace CSV");
+    app->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model");
+    app->add_option("--json", json_path, "write the result as JSON");
+    app->add_option("--friction-plot", plot_path, "write the friction curve (measured band means and model) as SVG");
+    app->add_flag("--stream", stream,
+                  "read the CSV row by row in bounded memory (automatic above 512 MB): conventions from its first 60 s, "
+                  "jackknife standard errors over 60 s blocks");
+    add_identify_options(app, cols, input, opt, method);
+  }
+  int run() override {
+    opt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
+    opt.units = input.units();
+    if (streams(in_path, input, stream)) return run_streamed();
+    CsvResult csv;
+    if (!read_trace(in_path, input, cols, csv)) return 2;
+    Progress p("identify");
+    if (csv.trace.samples.size() > 2000000) opt.progress = std::ref(p);
+    const IdentifyResult r = identify(csv.trace, opt);
+    const int rc = report_identify(r, json_path, nullptr);
+    if (rc == 0 && !plot_path.empty()) {
+      std::string err;
+      if (!write_friction_curve_svg(r, plot_path, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+    }
+    return rc;
+  }
+  int run_streamed() {
+    CsvStream in(in_path.front(), cols);
+    if (!in.ok()) { std::fprintf(stderr, "error: %s\n", in.error().c_str()); return 2; }
+    std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
+    opt.progress = [](double t) { std::fprintf(stderr, "\ridentify: %.0f s read", t); };
+    const IdentifyResult r = identify_stream(in, in_path.front(), opt);
+    std::fprintf(stderr, "\n");
+    return report_identify(r, json_path, nullptr);
+  }
+};
+
+struct ValidateCommand : Command {
+  std::vector<std::string> in_path;
+  std::string model_path, json_path, plot_path;
+  CsvColumns cols;
+  InputOptions input;
+  ValidateOptions opt;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
+    app->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
+    app->add_option("--in", in_path, "trace CSV or .mat to predict; repeat for several recordings");
+    app->add_option("--json", json_path, "write the result as JSON");
+    add_input_options(app, cols, input);
+    app->add_option("--filter", opt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
+    app->add_option("--decimate", opt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
+    app->add_option("--drop-first", opt.drop_first, "samples dropped at the start")->capture_default_str();
+    app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
+  }
+  int run() override {
+    std::ifstream mf(model_path);
+    if (!mf) { std::fprintf(stderr, "error: %s: cannot open\n", model_path.c_str()); return 2; }
+    nlohmann::json mj;
+    try { mf >> mj; } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
+      return 2;
+    }
+    const DriveParams model = model_from_json(mj);
+    CsvResult csv;
+    if (!read_trace(in_path, input, cols, csv)) return 2;
+    opt.units = input.units();
+    const ValidateResult r = validate(model, csv.trace, opt);
+    std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
+                r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
+                r.units.force.c_str());
+    if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
+    std::string err;
+    if (!plot_path.empty() && !write_force_plot_svg(r, plot_path, "Cross-test: " + csv.trace.source, err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    return 0;
+  }
+};
+
+struct DiagnoseCommand : Command {
+  CsvColumns cols;
+  InputOptions input;
+  DiagnoseOptions opt;
+  std::vector<std::string> in_path;
+  std::string json_path, report_dir, method = "bands";
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
+    app->add_option("--in", in_path, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)");
+    app->add_option("--json", json_path, "write the diagnosis as JSON");
+    app->add_option("--report", report_dir, "write pictures and a report page to this folder");
+    add_identify_options(app, cols, input, opt.identify, method);
+    app->add_option("--folds", opt.folds, "time folds; odd ones are held out")->capture_default_str();
+    app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
+  }
+  int run() override {
+    if (method != "bands") {
+      std::fprintf(stderr, "error: diagnose --method %s: the diagnosis refits the bands model's terms and has no "
+                           "other method; use identify --method %s for that estimate\n", method.c_str(), method.c_str());
+      return 2;
+    }
+    CsvResult csv;
+    if (!read_trace(in_path, input, cols, csv)) return 2;
+    Progress p("diagnose");
+    if (csv.trace.samples.size() > 500000) opt.progress = std::ref(p);
+    opt.identify.units = input.units();
+    const DiagnoseResult r = diagnose(csv.trace, opt);
+    if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
+    if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
+    std::cout << summary(r);
+    return write_report(r, report_dir, csv.trace.source);
+  }
+};
+
+struct MonitorCommand : Command {
+  MonitorOptions opt;
+  CsvColumns cols;
+  InputOptions input;
+  std::string in_path, json_path, plot_path;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
+    app->add_option("--in", in_path, "log CSV, read row by row")->required();
+    app->add_option("--json", json_path, "write epochs and alarms as JSON");
+    app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
+    app->add_option("--epoch-s", opt.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
+    app->add_option("--reference-epochs", opt.detector.reference_epochs, "epochs pooled into each parameter's reference")
+        ->capture_default_str()->check(CLI::Range(3, 16));
+    app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
+        ->capture_default_str();
+    add_input_options(app, cols, input);
+  }
+  int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, opt); }
+};
+
+struct CompensateCommand : Command {
+  CompensateOptions opt;
+  std::string model_path, out_path, format = "json";
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("compensate", "friction compensation a drive can load: a speed -> friction table per direction and the Coulomb + viscous form, from an identified model");
+    app->add_option("--model", model_path, "model JSON from identify")->required();
+    app->add_option("--points", opt.points, "breakpoints per direction, speed 0 included (CNCs take about 20)")
+        ->capture_default_str()->check(CLI::Range(2, 1000));
+    app->add_option("--format", format, "json or csv")->check(CLI::IsMember({"json", "csv"}))->capture_default_str();
+    app->add_option("--out", out_path, "file to write (default: standard output)");
+    app->add_option("--max-speed", opt.max_speed_m_s, "top of the table (m/s); default: the model's velocity_max_m_s");
+    app->add_option("--force-scale", opt.force_scale,
+                    "N per drive unit, as identify's --force-scale (e.g. N per A); the table is also given in that unit")
+        ->capture_default_str();
+    app->add_option("--force-unit", opt.force_unit, "label of the drive unit, e.g. A or %");
+  }
+  int run() override { return run_compensate(model_path, out_path, format, opt); }
+};
+
+struct CircleCommand : Command {
+  CircleOptions opt;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("circle", "closed-loop circle test on two simulated axes: quadrant glitches without, with the identified, and with +-20 % wrong friction compensation");
+    app->add_option("--radius", opt.radius_m, "circle radius (m)")->capture_default_str();
+    app->add_option("--feed", opt.feed_m_s, "path speed (m/s)")->capture_default_str();
+    app->add_option("--rate", opt.rate_hz, "servo rate of both axes (Hz)")->capture_default_str();
+    app->add_option("--wrong", opt.wrong_fraction, "the sensitivity runs scale every friction magnitude by 1 +- this")
+        ->capture_default_str();
+    app->add_option("--model", opt.model_paths,
+                    "compensation model JSON from identify: X, then Y; default: the simulated drives, identified on the spot");
+    app->add_option("--json", opt.json_path, "write runs.{none,identified,wrong_plus,wrong_minus}.{glitch_um,rms_um} as JSON");
+    app->add_option("--plot", opt.plot_path, "write the polar radial-error plot as SVG");
+  }
+  int run() override { return run_circle_command(opt); }
+};
+
+struct BlindBenchCommand : Command {
+  BlindOptions opt;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("blind-bench", "diagnose many simulated traces whose effect is withheld, and score the verdicts");
+    add_blind_bench_options(app, opt);
+  }
+  int run() override {
+    Progress p("blind-bench");
+    if (opt.quiet) opt.progress = std::ref(p);
+    return run_blind_bench(opt);
+  }
+};
+
+struct CoverageCommand : Command {
+  CoverageOptions opt;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("coverage", "Monte Carlo over drives, force logs and velocity filters: do estimate +- 1.96 se hold the truth 95 % of the time? RMSE against batch LM (docs/coverage.md)");
+    app->add_option("--seeds", opt.seeds, "traces per drive and force convention")->capture_default_str();
+    app->add_option("--first-seed", opt.first_seed, "seed of the first trace")->capture_default_str();
+    app->add_option("--duration", opt.duration_s, "length of each trace (s)")->capture_default_str();
+    app->add_option("--lm-every", opt.lm_every, "run batch LM on every n-th seed (0 = never)")->capture_default_str();
+    app->add_option("--threads", opt.threads, "worker threads")->capture_default_str();
+    app->add_option("--json", opt.json_path, "write every trace's errors and standard errors as JSON");
+    app->add_option("--markdown", opt.markdown_path, "write the tables as Markdown");
+  }
+  int run() override {
+    Progress p("coverage");
+    opt.progress = std::ref(p);
+    return run_coverage(opt);
+  }
+};
+
+struct BenchCommand : Command {
+  BenchOptions bo;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("bench", "streaming core against batch LM, a genetic algorithm and RLS on the same traces (docs/benchmarks.md)");
+    CLI::App* c = app;
+    c->add_option("--json", bo.json_path, "write the results as JSON");
+    c->add_option("--plot-dir", bo.plot_dir, "write SVG figures into this folder");
+    c->add_flag("--core-only", bo.core_only, "push --samples simulated samples through the core and solve (no file I/O)");
+    c->add_option("--samples", bo.samples, "core-only: samples to push")->capture_default_str();
+    c->add_option("--precision", bo.precision, "core-only: float or double")->capture_default_str();
+    c->add_flag("--quick", bo.quick, "two short traces, small GA budget");
+    c->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios");
+    c->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
+    c->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
+    c->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");
+    c->add_option("--max-samples", bo.max_samples, "scaling: longest trace (samples)")->capture_default_str();
+    c->add_option("--ga-max-samples", bo.ga_max_samples, "scaling: longest trace the GA runs on")->capture_default_str();
+    c->add_option("--methods", bo.methods, "comma-separated subset of streaming,batch_lm,ga,rls");
+    c->add_option("--repeats", bo.repeats, "timing: fastest of this many runs")->capture_default_str();
+    c->add_option("--ga-population", bo.ga_population, "GA population")->capture_default_str();
+    c->add_option("--ga-generations", bo.ga_generations, "GA generations")->capture_default_str();
+    c->add_option("--filter-hz", bo.filter_hz, "batch_lm, ga: zero-phase Butterworth cut-off before differencing (Hz); 0 = none")->capture_default_str();
+    c->add_flag("--lm-naive-start", bo.lm_naive_start, "batch_lm: textbook start (Fs = 0.2 Fc, vs = median speed)");
+  }
+  int run() override { return run_bench(bo); }
+};
+
+struct DemoCommand : Command {
+  SimConfig sim;
+  std::string json_path, report_dir;
+  DemoCommand() {
+    // The built-in default has a 3 N screw-pitch ripple of 5 mm that the
+    // model does not know, so the diagnosis has something to find.
+    sim.effects.ripple_amplitude_N = 3.0;
+    sim.effects.ripple_period_m = 0.005;
+  }
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("demo", "built-in default: simulate a drive (with a 3 N, 5 mm position ripple), identify it, diagnose it, compare with the truth");
+    add_sim_options(app, sim);
+    add_effect_options(app, sim.effects);
+    app->add_option("--json", json_path, "write the identification result as JSON");
+    app->add_option("--report", report_dir, "write the diagnosis pictures and page to this folder");
+  }
+  int run() override {
+    std::printf("== simulate: %.3g kg drive, %.6g Hz, %.3g s, encoder %.3g m, force noise %.3g N (seed %llu)\n",
+                sim.drive.mass_kg, sim.controller.servo_rate_hz, sim.motion.duration_s, sim.sensors.encoder_resolution_m,
+                sim.sensors.force_noise_N, static_cast<unsigned long long>(sim.seed));
+    const std::vector<std::string> fx = active_effects(sim.effects);
+    std::printf("   unmodelled effects in the simulated drive (hidden from identify/diagnose): ");
+    for (const auto& e : fx) std::printf("%s ", e.c_str());
+    std::printf("%s\n   truth: %s\n", fx.empty() ? "none" : "", effects_json(sim.effects, sim.drive).dump().c_str());
+    const Trace t = run_simulation(sim);
+    std::printf("== identify (streaming core, double; the unmodelled effect biases some parameters):\n");
+    const int rc = report_identify(identify(t, IdentifyOptions{}), json_path, &sim.drive);
+    if (rc != 0) return rc;
+    std::printf("== diagnose (base model on even time folds, judged on the odd ones):\n");
+    const DiagnoseResult d = diagnose(t, DiagnoseOptions{});
+    if (!d.error.empty()) { std::fprintf(stderr, "error: %s\n", d.error.c_str()); return 2; }
+    std::cout << summary(d);
+    if (d.has_augmented_model) print_against_truth(d, sim.drive);
+    return write_report(d, report_dir, "feedid demo");
+  }
+  static void print_against_truth(const DiagnoseResult& d, const DriveParams& t) {
+    const DriveParams& a = d.augmented_model;
+    std::printf("== the model with %s added (joint fit on the identification folds), against the truth:\n", d.effect.c_str());
+    auto row = [](const char* n, const char* unit, double v, double tv) {
+      std::printf("  %-22s %12.6g %-6s truth %-11.6g err %+7.3f %%\n", n, v, unit, tv, 100.0 * (v / tv - 1.0));
+    };
+    row("mass m", "kg", a.mass_kg, t.mass_kg);
+    for (int dir = 0; dir < 2; ++dir) {
+      const DirectionFriction& x = dir == 0 ? a.pos : a.neg;
+      const DirectionFriction& y = dir == 0 ? t.pos : t.neg;
+      const std::string sg = dir == 0 ? "+" : "-";
+      row(("viscous sigma" + sg).c_str(), "N s/m", x.viscous_Ns_m, y.viscous_Ns_m);
+      row(("Coulomb Fc" + sg).c_str(), "N", x.coulomb_N, y.coulomb_N);
+      row(("break-away Fs" + sg).c_str(), "N", x.breakaway_N, y.breakaway_N);
+      row(("Stribeck vel. vs" + sg).c_str(), "m/s", x.stribeck_velocity_m_s, y.stribeck_velocity_m_s);
+    }
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"feedid: identify a feed drive's mass and Stribeck friction from a trace, and diagnose the sim-to-real gap"};
   app.require_subcommand(1);
-
-  SimConfig sim;
-  std::string out_path, truth_path;
-  auto* c_sim = app.add_subcommand("simulate", "simulate a closed-loop feed drive and write a trace CSV (t,x,v,u)");
-  add_sim_options(c_sim, sim);
-  add_effect_options(c_sim, sim.effects);
-  add_change_options(c_sim, sim.change);
-  c_sim->add_option("--out", out_path, "trace CSV to write")->required();
-  c_sim->add_option("--truth", truth_path, "also write the true parameters as JSON");
-
-  CsvColumns cols;
-  InputOptions id_units;
-  IdentifyOptions idopt;
-  std::vector<std::string> in_path;
-  std::string json_path, method = "bands";
-  auto* c_id = app.add_subcommand("identify", "identify the nine parameters from a trace CSV");
-  c_id->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model");
-  c_id->add_option("--json", json_path, "write the result as JSON");
-  std::string id_plot;
-  c_id->add_option("--friction-plot", id_plot, "write the friction curve (measured band means and model) as SVG");
-  bool id_stream = false;
-  c_id->add_flag("--stream", id_stream,
-                 "read the CSV row by row in bounded memory (automatic above 512 MB): conventions from its first 60 s, "
-                 "the core's own standard errors");
-  add_identify_options(c_id, cols, id_units, idopt, method);
-
-  SimConfig demo_sim;
-  // The built-in default has a 3 N screw-pitch ripple of 5 mm that the
-  // model does not know, so the diagnosis has something to find.
-  demo_sim.effects.ripple_amplitude_N = 3.0;
-  demo_sim.effects.ripple_period_m = 0.005;
-  std::string demo_json, demo_report;
-  auto* c_demo = app.add_subcommand("demo", "built-in default: simulate a drive (with a 3 N, 5 mm position ripple), identify it, diagnose it, compare with the truth");
-  add_sim_options(c_demo, demo_sim);
-  add_effect_options(c_demo, demo_sim.effects);
-  c_demo->add_option("--json", demo_json, "write the identification result as JSON");
-  c_demo->add_option("--report", demo_report, "write the diagnosis pictures and page to this folder");
-
-  std::vector<std::string> val_in;
-  std::string model_path, val_json;
-  CsvColumns val_cols;
-  ValidateOptions valopt;
-  auto* c_val = app.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
-  c_val->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
-  c_val->add_option("--in", val_in, "trace CSV or .mat to predict; repeat for several recordings");
-  c_val->add_option("--json", val_json, "write the result as JSON");
-  InputOptions val_units;
-  add_input_options(c_val, val_cols, val_units);
-  c_val->add_option("--filter", valopt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
-  c_val->add_option("--decimate", valopt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
-  c_val->add_option("--drop-first", valopt.drop_first, "samples dropped at the start")->capture_default_str();
-  std::string val_plot;
-  c_val->add_option("--plot", val_plot, "write measured against predicted force as SVG");
-
-  CsvColumns dg_cols;
-  InputOptions dg_units;
-  DiagnoseOptions dgopt;
-  std::vector<std::string> dg_in;
-  std::string dg_json, dg_report, dg_method = "bands";
-  auto* c_dg = app.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
-  c_dg->add_option("--in", dg_in, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)");
-  c_dg->add_option("--json", dg_json, "write the diagnosis as JSON");
-  c_dg->add_option("--report", dg_report, "write pictures and a report page to this folder");
-  add_identify_options(c_dg, dg_cols, dg_units, dgopt.identify, dg_method);
-  c_dg->add_option("--folds", dgopt.folds, "time folds; odd ones are held out")->capture_default_str();
-  c_dg->add_option("--block", dgopt.block_s, "residual block length (s)")->capture_default_str();
-
-  MonitorOptions mon;
-  CsvColumns mon_cols;
-  InputOptions mon_units;
-  std::string mon_in, mon_json, mon_plot;
-  auto* c_mon = app.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
-  c_mon->add_option("--in", mon_in, "log CSV, read row by row")->required();
-  c_mon->add_option("--json", mon_json, "write epochs and alarms as JSON");
-  c_mon->add_option("--plot", mon_plot, "write each parameter's trend with +-2 se bands and the alarms as SVG");
-  c_mon->add_option("--epoch-s", mon.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
-  c_mon->add_option("--reference-epochs", mon.detector.reference_epochs, "epochs pooled into each parameter's reference")
-      ->capture_default_str()->check(CLI::Range(3, 16));
-  c_mon->add_option("--threshold", mon.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
-      ->capture_default_str();
-  add_input_options(c_mon, mon_cols, mon_units);
-
-  CompensateOptions comp;
-  std::string comp_model, comp_out, comp_format = "json";
-  auto* c_comp = app.add_subcommand("compensate", "friction compensation a drive can load: a speed -> friction table per direction and the Coulomb + viscous form, from an identified model");
-  c_comp->add_option("--model", comp_model, "model JSON from identify")->required();
-  c_comp->add_option("--points", comp.points, "breakpoints per direction, speed 0 included (CNCs take about 20)")
-      ->capture_default_str()->check(CLI::Range(2, 1000));
-  c_comp->add_option("--format", comp_format, "json or csv")->check(CLI::IsMember({"json", "csv"}))->capture_default_str();
-  c_comp->add_option("--out", comp_out, "file to write (default: standard output)");
-  c_comp->add_option("--max-speed", comp.max_speed_m_s, "top of the table (m/s); default: the model's velocity_max_m_s");
-  c_comp->add_option("--force-scale", comp.force_scale,
-                     "N per drive unit, as identify's --force-scale (e.g. N per A); the table is also given in that unit")
-      ->capture_default_str();
-  c_comp->add_option("--force-unit", comp.force_unit, "label of the drive unit, e.g. A or %");
-
-  CircleOptions circle;
-  auto* c_circle = app.add_subcommand("circle", "closed-loop circle test on two simulated axes: quadrant glitches without, with the identified, and with +-20 % wrong friction compensation");
-  c_circle->add_option("--radius", circle.radius_m, "circle radius (m)")->capture_default_str();
-  c_circle->add_option("--feed", circle.feed_m_s, "path speed (m/s)")->capture_default_str();
-  c_circle->add_option("--rate", circle.rate_hz, "servo rate of both axes (Hz)")->capture_default_str();
-  c_circle->add_option("--wrong", circle.wrong_fraction, "the sensitivity runs scale every friction magnitude by 1 +- this")
-      ->capture_default_str();
-  c_circle->add_option("--model", circle.model_paths,
-                       "compensation model JSON from identify: X, then Y; default: the simulated drives, identified on the spot");
-  c_circle->add_option("--json", circle.json_path, "write runs.{none,identified,wrong_plus,wrong_minus}.{glitch_um,rms_um} as JSON");
-  c_circle->add_option("--plot", circle.plot_path, "write the polar radial-error plot as SVG");
-
-  BlindOptions blind;
-  auto* c_blind = app.add_subcommand("blind-bench", "diagnose many simulated traces whose effect is withheld, and score the verdicts");
-  add_blind_bench_options(c_blind, blind);
-
-  CoverageOptions cov;
-  auto* c_cov = app.add_subcommand("coverage", "Monte Carlo over drives, force logs and velocity filters: do estimate +- 1.96 se hold the truth 95 % of the time? RMSE against batch LM (docs/coverage.md)");
-  c_cov->add_option("--seeds", cov.seeds, "traces per drive and force convention")->capture_default_str();
-  c_cov->add_option("--first-seed", cov.first_seed, "seed of the first trace")->capture_default_str();
-  c_cov->add_option("--duration", cov.duration_s, "length of each trace (s)")->capture_default_str();
-  c_cov->add_option("--lm-every", cov.lm_every, "run batch LM on every n-th seed (0 = never)")->capture_default_str();
-  c_cov->add_option("--threads", cov.threads, "worker threads")->capture_default_str();
-  c_cov->add_option("--json", cov.json_path, "write every trace's errors and standard errors as JSON");
-  c_cov->add_option("--markdown", cov.markdown_path, "write the tables as Markdown");
-
-  BenchOptions bo;
-  auto* c_bench = app.add_subcommand("bench", "streaming core against batch LM, a genetic algorithm and RLS on the same traces (docs/benchmarks.md)");
-  c_bench->add_option("--json", bo.json_path, "write the results as JSON");
-  c_bench->add_option("--plot-dir", bo.plot_dir, "write SVG figures into this folder");
-  c_bench->add_flag("--core-only", bo.core_only, "push --samples simulated samples through the core and solve (no file I/O)");
-  c_bench->add_option("--samples", bo.samples, "core-only: samples to push")->capture_default_str();
-  c_bench->add_option("--precision", bo.precision, "core-only: float or double")->capture_default_str();
-  c_bench->add_flag("--quick", bo.quick, "two short traces, small GA budget");
-  c_bench->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios");
-  c_bench->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
-  c_bench->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
-  c_bench->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");
-  c_bench->add_option("--max-samples", bo.max_samples, "scaling: longest trace (samples)")->capture_default_str();
-  c_bench->add_option("--ga-max-samples", bo.ga_max_samples, "scaling: longest trace the GA runs on")->capture_default_str();
-  c_bench->add_option("--methods", bo.methods, "comma-separated subset of streaming,batch_lm,ga,rls");
-  c_bench->add_option("--repeats", bo.repeats, "timing: fastest of this many runs")->capture_default_str();
-  c_bench->add_option("--ga-population", bo.ga_population, "GA population")->capture_default_str();
-  c_bench->add_option("--ga-generations", bo.ga_generations, "GA generations")->capture_default_str();
-  c_bench->add_option("--filter-hz", bo.filter_hz, "batch_lm, ga: zero-phase Butterworth cut-off before differencing (Hz); 0 = none")->capture_default_str();
-  c_bench->add_flag("--lm-naive-start", bo.lm_naive_start, "batch_lm: textbook start (Fs = 0.2 Fc, vs = median speed)");
-
+  std::vector<std::unique_ptr<Command>> commands;
+  commands.push_back(std::make_unique<SimulateCommand>());
+  commands.push_back(std::make_unique<IdentifyCommand>());
+  commands.push_back(std::make_unique<DemoCommand>());
+  commands.push_back(std::make_unique<ValidateCommand>());
+  commands.push_back(std::make_unique<DiagnoseCommand>());
+  commands.push_back(std::make_unique<MonitorCommand>());
+  commands.push_back(std::make_unique<CompensateCommand>());
+  commands.push_back(std::make_unique<CircleCommand>());
+  commands.push_back(std::make_unique<BlindBenchCommand>());
+  commands.push_back(std::make_unique<CoverageCommand>());
+  commands.push_back(std::make_unique<BenchCommand>());
+  for (auto& c : commands) c->add(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-
   try {
-    if (*c_sim) {
-      const Trace t = run_simulation(sim);
-      std::string err;
-      if (!write_trace_csv(out_path, t, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-      if (!truth_path.empty()) {
-        nlohmann::json tj = model_json(sim.drive);
-        tj["effects"] = effects_json(sim.effects, sim.drive);
-        if (!write_json(truth_path, tj)) return 1;
-      }
-      std::printf("wrote %s: %zu samples, %.3g s at %.6g Hz\n", out_path.c_str(), t.samples.size(),
-                  sim.motion.duration_s, sim.controller.servo_rate_hz);
-      return 0;
-    }
-    if (*c_id) {
-      idopt.method = method == "paper" ? feedid::Method::paper : feedid::Method::bands;
-      idopt.units = id_units.units();
-      if (streams(in_path, id_units, id_stream)) {
-        CsvStream stream(in_path.front(), cols);
-        if (!stream.ok()) { std::fprintf(stderr, "error: %s\n", stream.error().c_str()); return 2; }
-        std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
-        idopt.progress = [](double t) { std::fprintf(stderr, "\ridentify: %.0f s read", t); };
-        const IdentifyResult r = identify_stream(stream, in_path.front(), idopt);
-        std::fprintf(stderr, "\n");
-        return report_identify(r, json_path, nullptr);
-      }
-      CsvResult csv;
-      if (!read_trace(in_path, id_units, cols, csv)) return 2;
-      Progress p("identify");
-      if (csv.trace.samples.size() > 2000000) idopt.progress = std::ref(p);
-      const IdentifyResult r = identify(csv.trace, idopt);
-      const int rc = report_identify(r, json_path, nullptr);
-      if (rc == 0 && !id_plot.empty()) {
-        std::string err;
-        if (!write_friction_curve_svg(r, id_plot, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-      }
-      return rc;
-    }
-    if (*c_val) {
-      std::ifstream mf(model_path);
-      if (!mf) { std::fprintf(stderr, "error: %s: cannot open\n", model_path.c_str()); return 2; }
-      nlohmann::json mj;
-      try { mf >> mj; } catch (const std::exception& e) {
-        std::fprintf(stderr, "error: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
-        return 2;
-      }
-      const DriveParams model = model_from_json(mj);
-      CsvResult csv;
-      if (!read_trace(val_in, val_units, val_cols, csv)) return 2;
-      valopt.units = val_units.units();
-      const ValidateResult r = validate(model, csv.trace, valopt);
-      std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
-                  r.relative_error_pct, valopt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
-                  r.units.force.c_str());
-      if (!val_json.empty() && !write_json(val_json, to_json(r, model, valopt))) return 1;
-      if (!val_plot.empty()) {
-        std::string err;
-        if (!write_force_plot_svg(r, val_plot, "Cross-test: " + csv.trace.source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-      }
-      return 0;
-    }
-    if (*c_dg) {
-      if (dg_method != "bands") {
-        std::fprintf(stderr, "error: diagnose --method %s: the diagnosis refits the bands model's terms and has no "
-                             "other method; use identify --method %s for that estimate\n", dg_method.c_str(), dg_method.c_str());
-        return 2;
-      }
-      CsvResult csv;
-      if (!read_trace(dg_in, dg_units, dg_cols, csv)) return 2;
-      Progress p("diagnose");
-      if (csv.trace.samples.size() > 500000) dgopt.progress = std::ref(p);
-      dgopt.identify.units = dg_units.units();
-      const DiagnoseResult r = diagnose(csv.trace, dgopt);
-      if (!dg_json.empty() && !write_json(dg_json, to_json(r))) return 1;
-      if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
-      std::cout << summary(r);
-      if (!dg_report.empty()) {
-        std::string err;
-        if (!write_diagnosis_report(r, dg_report, csv.trace.source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-        std::printf("report: %s/report.html\n", dg_report.c_str());
-      }
-      return 0;
-    }
-    if (*c_mon) return run_monitor(mon_in, mon_units, mon_cols, mon_json, mon_plot, mon);
-    if (*c_comp) return run_compensate(comp_model, comp_out, comp_format, comp);
-    if (*c_circle) return run_circle_command(circle);
-    if (*c_bench) return run_bench(bo);
-    if (*c_cov) {
-      Progress p("coverage");
-      cov.progress = std::ref(p);
-      return run_coverage(cov);
-    }
-    if (*c_blind) {
-      Progress p("blind-bench");
-      if (blind.quiet) blind.progress = std::ref(p);
-      return run_blind_bench(blind);
-    }
-    if (*c_demo) {
-      std::printf("== simulate: %.3g kg drive, %.6g Hz, %.3g s, encoder %.3g m, force noise %.3g N (seed %llu)\n",
-                  demo_sim.drive.mass_kg, demo_sim.controller.servo_rate_hz, demo_sim.motion.duration_s,
-                  demo_sim.sensors.encoder_resolution_m, demo_sim.sensors.force_noise_N,
-                  static_cast<unsigned long long>(demo_sim.seed));
-      const std::vector<std::string> fx = active_effects(demo_sim.effects);
-      std::printf("   unmodelled effects in the simulated drive (hidden from identify/diagnose): ");
-      for (const auto& e : fx) std::printf("%s ", e.c_str());
-      std::printf("%s\n   truth: %s\n", fx.empty() ? "none" : "", effects_json(demo_sim.effects, demo_sim.drive).dump().c_str());
-      const Trace t = run_simulation(demo_sim);
-      std::printf("== identify (streaming core, double; the unmodelled effect biases some parameters):\n");
-      const int rc = report_identify(identify(t, idopt), demo_json, &demo_sim.drive);
-      if (rc != 0) return rc;
-      std::printf("== diagnose (base model on even time folds, judged on the odd ones):\n");
-      const DiagnoseResult d = diagnose(t, DiagnoseOptions{});
-      if (!d.error.empty()) { std::fprintf(stderr, "error: %s\n", d.error.c_str()); return 2; }
-      std::cout << summary(d);
-      if (d.has_augmented_model) {
-        const DriveParams& a = d.augmented_model;
-        const DriveParams& t = demo_sim.drive;
-        std::printf("== the model with %s added (joint fit on the identification folds), against the truth:\n", d.effect.c_str());
-        auto row = [](const char* n, const char* unit, double v, double tv) {
-          std::printf("  %-22s %12.6g %-6s truth %-11.6g err %+7.3f %%\n", n, v, unit, tv, 100.0 * (v / tv - 1.0));
-        };
-        row("mass m", "kg", a.mass_kg, t.mass_kg);
-        for (int dir = 0; dir < 2; ++dir) {
-          const DirectionFriction& x = dir == 0 ? a.pos : a.neg;
-          const DirectionFriction& y = dir == 0 ? t.pos : t.neg;
-          const std::string sg = dir == 0 ? "+" : "-";
-          row(("viscous sigma" + sg).c_str(), "N s/m", x.viscous_Ns_m, y.viscous_Ns_m);
-          row(("Coulomb Fc" + sg).c_str(), "N", x.coulomb_N, y.coulomb_N);
-          row(("break-away Fs" + sg).c_str(), "N", x.breakaway_N, y.breakaway_N);
-          row(("Stribeck vel. vs" + sg).c_str(), "m/s", x.stribeck_velocity_m_s, y.stribeck_velocity_m_s);
-        }
-      }
-      if (!demo_report.empty()) {
-        std::string err;
-        if (!write_diagnosis_report(d, demo_report, "feedid demo", err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-        std::printf("report: %s/report.html\n", demo_report.c_str());
-      }
-      return 0;
-    }
+    for (auto& c : commands)
+      if (*c->app) return c->run();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
