@@ -15,7 +15,9 @@
 // standard errors say, every z is scaled down by it, so the false-alarm rate
 // holds on data whose standard errors are optimistic. f (1 %) is the
 // smallest change worth a standard deviation. Each z is clipped at
-// k + h/2, so no single epoch can raise an alarm. A parameter an
+// k + 0.6 h, so no single epoch can raise an alarm and two strong ones can;
+// and the run that crossed must itself show a change beyond the floor and
+// two standard errors. A parameter an
 // epoch's motion cannot carry (flagged not identifiable) is skipped in that
 // epoch: neither compared nor accumulated. After an alarm the parameter
 // takes a new reference from the next epochs.
@@ -167,17 +169,33 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
       return false;
     }
     const T s = port::max(t.scale * port::sqrt(se * se + t.ref_se * t.ref_se), cfg_.relative_floor * port::abs(t.ref));
-    // Clipped: one epoch alone cannot cross the threshold (z - k <= h / 2),
-    // so an alarm needs at least two epochs that agree; an epoch whose fit
-    // went astray with too small a standard error is not enough.
-    const T z_max = cfg_.allowance + T(0.5) * cfg_.threshold;
+    // Clipped: one epoch alone cannot cross the threshold (z - k <= 0.6 h),
+    // so an alarm needs at least two epochs that agree (an epoch whose fit
+    // went astray with too small a standard error is not enough), and two
+    // strong ones do (1.2 h).
+    const T z_max = cfg_.allowance + T(0.6) * cfg_.threshold;
     const T z = port::clamp((x - t.ref) / s, -z_max, z_max);
     advance(t.up, t.run_up, z - cfg_.allowance, x, se, t0);
     advance(t.down, t.run_down, -z - cfg_.allowance, x, se, t0);
-    if (t.up > cfg_.threshold) t.last_side = 1;
-    else if (t.down > cfg_.threshold) t.last_side = -1;
-    else return false;
-    return true;
+    return crossed(t, t.up, t.run_up, 1) || crossed(t, t.down, t.run_down, -1);
+  }
+
+  /// A side above the threshold is an alarm only if the run it accumulated
+  /// shows a change itself: its pooled mean beyond the floor and two of its
+  /// standard errors from the reference. Two stray epochs a few epochs
+  /// apart can push the sum over while the run's mean has not moved (a
+  /// sine log: sigma- "changed" by 0.27 +- 0.15 N s/m of 720); such a run
+  /// is dropped and the side starts again.
+  bool crossed(Track& t, T& cusum, Run& run, int8_t side) const {
+    if (!(cusum > cfg_.threshold)) return false;
+    const T change = run.wx / run.w - t.ref;
+    const T change_se = t.scale * port::sqrt(T(1) / run.w + t.ref_se * t.ref_se);
+    if (port::abs(change) > port::max(T(2) * change_se, cfg_.relative_floor * port::abs(t.ref))) {
+      t.last_side = side;
+      return true;
+    }
+    cusum = T(0);
+    return false;
   }
 
   static void advance(T& cusum, Run& run, T increment, T x, T se, T t0) {
