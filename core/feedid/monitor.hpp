@@ -101,7 +101,7 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
         alarm_[alarms_] = make_alarm(i);
         alarm_[alarms_++].raised_t_s = t_end_s;
         ++fresh;
-        tracks_[i] = Track{};  // a new reference from the next epochs
+        tracks_[i] = Track{};  // a fresh reference from the next epochs
       }
     }
     return Status::ok;
@@ -199,7 +199,7 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
   }
 
   static void advance(T& cusum, Run& run, T increment, T x, T se, T t0) {
-    if (cusum <= T(0)) run = Run{t0, T(0), T(0), 0};  // a new run starts with this epoch
+    if (cusum <= T(0)) run = Run{t0, T(0), T(0), 0};  // a fresh run starts with this epoch
     cusum = port::max(T(0), cusum + increment);
     const T w = T(1) / (se * se);
     run.w += w;
