@@ -104,6 +104,8 @@ CircleRun run_once(const CircleOptions& opt, const std::string& name, const std:
       axes[a].step(t, r, r_next, u_ff);
     }
   }
+  if (run.angle_rad.size() < 360)
+    throw std::invalid_argument("--rate " + std::to_string(opt.rate_hz) + " Hz samples the measured turn fewer than 360 times");
   // Glitch: the largest departure from the turn's median radius just after
   // each reversal (X at 0 and 180 degrees, Y at 90 and 270), where friction
   // changes sign and the loop lags behind it.

@@ -80,7 +80,9 @@ double model_friction(const DriveParams& m, int dir, double speed_m_s) {
 }
 
 CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points) {
-  if (points < 2) throw std::invalid_argument("--points " + std::to_string(points) + ": a table needs at least 2 points");
+  if (points < 2 || points > kMaxTablePoints)
+    throw std::invalid_argument("--points " + std::to_string(points) + ": a table has 2 to " +
+                                std::to_string(kMaxTablePoints) + " points");
   if (!(max_speed_m_s > 0) || !std::isfinite(max_speed_m_s))
     throw std::invalid_argument("max speed " + std::to_string(max_speed_m_s) + " m/s: must be positive (--max-speed)");
   CompensationTable t;
@@ -92,9 +94,9 @@ CompensationTable make_compensation_table(const DriveParams& model, double max_s
 }
 
 double table_error(const CompensationTable& t, int dir, int n) {
-  feedid::FrictionTable<double, 256> ft;
+  feedid::FrictionTable<double, kMaxTablePoints> ft;
   const auto& pts = t.dir[dir];
-  ft.count[dir] = static_cast<int>(std::min<std::size_t>(pts.size(), 256));
+  ft.count[dir] = static_cast<int>(pts.size());  // <= kMaxTablePoints (make_compensation_table)
   for (int k = 0; k < ft.count[dir]; ++k) {
     ft.speed_m_s[dir][k] = pts[k].speed_m_s;
     ft.force_N[dir][k] = pts[k].force_N;

@@ -12,6 +12,9 @@
 
 namespace feedid::host {
 
+/// The most breakpoints per direction a table may have (drives take about 20).
+constexpr int kMaxTablePoints = 256;
+
 struct CompensateOptions {
   int points = 20;             ///< breakpoints per direction (>= 2), speed 0 included
   double max_speed_m_s = 0.0;  ///< top of the table (m/s); 0: the model JSON's config.velocity_max_m_s
@@ -39,7 +42,7 @@ double model_friction(const DriveParams& m, int dir, double speed_m_s);
 /// smallest for `points` breakpoints per direction (minimax: the least
 /// error for which segments of greatest reach cover [0, max speed] in
 /// points - 1 steps, found by bisection). Throws std::invalid_argument on
-/// points < 2 or a max speed that is not positive.
+/// points outside 2..kMaxTablePoints or a max speed that is not positive.
 CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points);
 
 /// Largest |table - model| over n evenly spaced speeds in [0, max speed].

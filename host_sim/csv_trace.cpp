@@ -393,13 +393,10 @@ bool CsvStream::next(TraceSample& s) {
       return true;
     }
   }
-  // End of the file: no rows, or too many bad ones, is an error.
-  if (m.kept == 0) {
-    error_ = source_ + ": no data rows";
-  } else {
-    m.counts.samples.push_back(s);  // finish() checks the share; it needs to know rows were kept
-    if (!m.rules.finish(source_)) error_ = m.rules.error();
-  }
+  // End of the file: too many bad rows, or none kept, is an error, in the
+  // whole-file reader's words (finish() tells "no rows" by an empty trace).
+  if (m.kept > 0) m.counts.samples.push_back(s);
+  if (!m.rules.finish(source_)) error_ = m.rules.error();
   ok_ = false;
   return false;
 }

@@ -797,7 +797,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
   if (r.streamed)
     j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
-                             "errors from a jackknife over ten groups of 60 s blocks dealt round-robin, and the timing "
+                             "errors from a jackknife over ten groups of 10 s blocks dealt round-robin, and the timing "
                              "term measured on the first 60 s; no block refit of m";
   if (!r.runs.empty()) {
     nlohmann::json runs = nlohmann::json::array();

@@ -11,8 +11,11 @@
 namespace feedid::host {
 namespace {
 
-/// Length of the blocks dealt to the jackknife's groups (s).
-constexpr double kGroupBlock_s = 60.0;
+/// Length of the blocks dealt to the jackknife's groups (s): ten groups
+/// have data after 100 s.
+constexpr double kGroupBlock_s = 10.0;
+/// Fewer groups with data than this: the core's own standard errors.
+constexpr int kMinGroups = 5;
 
 /// Rows of the stream until t - t0 reaches span_s (the first row past it is kept in `next`).
 bool read_span(CsvStream& in, Trace& into, double span_s, TraceSample& next, bool& have_next) {
@@ -77,7 +80,7 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   // The jackknife's groups: blocks of kGroupBlock_s dealt round-robin to
   // kJackknifeChunks cores; the whole trace is not there to cut in ten.
   std::vector<std::unique_ptr<Core>> groups;
-  std::vector<double> group_last(kJackknifeChunks, -INFINITY);
+  std::vector<double> group_last(kJackknifeChunks, -INFINITY);  // -inf: the group has no data yet
   for (int g = 0; g < kJackknifeChunks; ++g) {
     groups.push_back(std::make_unique<Core>());
     (void)groups.back()->init(r.config);
@@ -117,6 +120,7 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     more = read_span(in, chunk, so.chunk_s + 2.0 * so.margin_s, next, have_next);
   }
   if (!in.error().empty()) {
+    r.status = feedid::Status::insufficient_data;  // nothing solved: not "ok"
     r.error = in.error();
     return r;
   }
@@ -131,7 +135,12 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   if (r.status == feedid::Status::ok && opt.honest_standard_errors) {
     Uncertainty u;
     u.model_se = standard_errors(r.estimate);
-    u.chunks_used = jackknife_over(groups, opt.method, u.jackknife_se);
+    // Only groups that saw data: an empty one would leave the full estimate
+    // out of nothing and pull every standard error to zero.
+    std::vector<std::unique_ptr<Core>> filled;
+    for (std::size_t g = 0; g < groups.size(); ++g)
+      if (std::isfinite(group_last[g])) filled.push_back(std::move(groups[g]));
+    if (static_cast<int>(filled.size()) >= kMinGroups) u.chunks_used = jackknife_over(filled, opt.method, u.jackknife_se);
     // The timing term is a sensitivity, not noise that averages out: the
     // head's, at the whole trace's parameters.
     u.timing_se = timing_standard_errors(r.signals, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);

@@ -18,8 +18,9 @@ struct StreamOptions {
 /// The same result layout as identify(), from a CsvStream. The force lag
 /// and the velocity filter (or the column) chosen on the head are stated
 /// for every chunk. Standard errors: a delete-one-group jackknife over ten
-/// groups of 60 s blocks dealt round-robin, and the timing term measured on
-/// the head; the JSON says so (input.streamed).
+/// groups of 10 s blocks dealt round-robin (the core's own below 50 s of
+/// data), and the timing term measured on the head; the JSON says so
+/// (input.streamed).
 IdentifyResult identify_stream(CsvStream& in, const std::string& source, const IdentifyOptions& opt,
                                const StreamOptions& so = {});
 

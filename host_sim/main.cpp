@@ -189,7 +189,7 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
 bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool asked) {
   if (paths.size() != 1 || !in.in_list.empty()) return false;
   const std::string& p = paths.front();
-  if (p.size() >= 4 && (p.substr(p.size() - 4) == ".mat" || p.substr(p.size() - 4) == ".MAT")) return false;
+  if (is_mat_file(p)) return false;
   std::error_code ec;
   const auto size = std::filesystem::file_size(p, ec);
   return asked || (!ec && size > (512ull << 20));
@@ -281,7 +281,7 @@ struct IdentifyCommand : Command {
     app->add_option("--friction-plot", plot_path, "write the friction curve (measured band means and model) as SVG");
     app->add_flag("--stream", stream,
                   "read the CSV row by row in bounded memory (automatic above 512 MB): conventions from its first 60 s, "
-                  "jackknife standard errors over 60 s blocks");
+                  "jackknife standard errors over 10 s blocks");
     add_identify_options(app, cols, input, opt, method);
   }
   int run() override {
@@ -415,7 +415,7 @@ struct CompensateCommand : Command {
     app = parent.add_subcommand("compensate", "friction compensation a drive can load: a speed -> friction table per direction and the Coulomb + viscous form, from an identified model");
     app->add_option("--model", model_path, "model JSON from identify")->required();
     app->add_option("--points", opt.points, "breakpoints per direction, speed 0 included (CNCs take about 20)")
-        ->capture_default_str()->check(CLI::Range(2, 1000));
+        ->capture_default_str()->check(CLI::Range(2, kMaxTablePoints));
     app->add_option("--format", format, "json or csv")->check(CLI::IsMember({"json", "csv"}))->capture_default_str();
     app->add_option("--out", out_path, "file to write (default: standard output)");
     app->add_option("--max-speed", opt.max_speed_m_s, "top of the table (m/s); default: the model's velocity_max_m_s");

@@ -39,7 +39,9 @@ struct Reading {
   double value = 0.0, se = 0.0;
   bool identifiable = false;
 };
-Reading reading(const feedid::Estimate<double>& e, int i) {
+Reading reading(const MonitorEpoch& ep, int i) {
+  if (!ep.error.empty()) return {};  // not identified: nothing it can carry
+  const feedid::Estimate<double>& e = ep.estimate;
   if (i == 0) return {e.mass_kg, e.mass_se_kg, e.mass_identified()};
   const auto& d = i <= 4 ? e.pos : e.neg;
   const int k = (i - 1) % 4;
@@ -48,12 +50,12 @@ Reading reading(const feedid::Estimate<double>& e, int i) {
   return {v[k], s[k], k < 2 ? d.friction_identified() : d.stribeck_identified()};
 }
 
-const char* unit_of(feedid::Tracked p) {
+std::string unit_of(feedid::Tracked p, const Units& u) {
   switch (p) {
-    case feedid::Tracked::mass: return "kg";
-    case feedid::Tracked::viscous: return "N s/m";
-    case feedid::Tracked::stribeck_velocity: return "m/s";
-    default: return "N";
+    case feedid::Tracked::mass: return u.mass();
+    case feedid::Tracked::viscous: return u.viscous();
+    case feedid::Tracked::stribeck_velocity: return u.velocity();
+    default: return u.force;
   }
 }
 
@@ -96,7 +98,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
   for (const auto& ep : r.epochs) {
     nlohmann::json j = {{"t_start_s", ep.t_start_s}, {"t_end_s", ep.t_end_s}, {"samples", ep.samples}};
     if (!ep.error.empty()) j["error"] = ep.error;
-    const Reading m = reading(ep.estimate, 0);
+    const Reading m = reading(ep, 0);
     j["m"] = m.value;
     j["m_se"] = m.se;
     j["m_identifiable"] = m.identifiable;
@@ -105,7 +107,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
       const char* names[4] = {"sigma", "fc", "fs", "vs"};
       nlohmann::json ident;
       for (int k = 0; k < 4; ++k) {
-        const Reading x = reading(ep.estimate, 1 + 4 * d + k);
+        const Reading x = reading(ep, 1 + 4 * d + k);
         side[names[k]] = x.value;
         side[std::string(names[k]) + "_se"] = x.se;
         ident[names[k]] = x.identifiable;
@@ -153,7 +155,7 @@ std::string trend_table(const MonitorResult& r) {
       continue;
     }
     for (int i : shown) {
-      const Reading x = reading(ep.estimate, i);
+      const Reading x = reading(ep, i);
       const Rounded v = round_to_se(x.value, x.se);
       const std::string cell = x.identifiable ? v.value + " +- " + v.se : "-";
       std::snprintf(buf, sizeof buf, "  %-16s", cell.c_str());
@@ -166,7 +168,7 @@ std::string trend_table(const MonitorResult& r) {
     const Rounded c = round_to_se(a.change, a.change_se);
     std::snprintf(buf, sizeof buf, "ALARM at %.1f s (raised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, a.raised_t_s,
                   feedid::tracked_name(a.parameter), a.direction ? " " : "", direction_name(a.direction).c_str(),
-                  c.value.c_str(), c.se.c_str(), unit_of(a.parameter), a.reference != 0 ? 100.0 * a.change / a.reference : 0.0);
+                  c.value.c_str(), c.se.c_str(), unit_of(a.parameter, r.units).c_str(), a.reference != 0 ? 100.0 * a.change / a.reference : 0.0);
     o << buf;
   }
   return o.str();
@@ -174,8 +176,10 @@ std::string trend_table(const MonitorResult& r) {
 
 bool write_trend_svg(const MonitorResult& r, const std::string& path, std::string& error) {
   const int shown[5] = {0, 1, 5, 2, 6};
-  const char* titles[5] = {"mass m (kg)", "viscous sigma+ (N s/m)", "viscous sigma- (N s/m)", "Coulomb Fc+ (N)",
-                           "Coulomb Fc- (N)"};
+  const Units& u = r.units;
+  const std::string titles[5] = {"mass m (" + u.mass() + ")", "viscous sigma+ (" + u.viscous() + ")",
+                                 "viscous sigma- (" + u.viscous() + ")", "Coulomb Fc+ (" + u.force + ")",
+                                 "Coulomb Fc- (" + u.force + ")"};
   const int W = 760, H = 300;
   std::ostringstream o;
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << 5 * H << "\" viewBox=\"0 0 " << W
@@ -201,7 +205,7 @@ bool write_trend_svg(const MonitorResult& r, const std::string& path, std::strin
     // band) are left out: each would flatten the trend to a line.
     std::vector<double> widths;
     for (const auto& ep : r.epochs) {
-      const Reading x = reading(ep.estimate, i);
+      const Reading x = reading(ep, i);
       if (ep.error.empty() && x.identifiable) widths.push_back(4.0 * x.se);
     }
     std::vector<double> sorted = widths;
@@ -209,7 +213,7 @@ bool write_trend_svg(const MonitorResult& r, const std::string& path, std::strin
     const double wide = sorted.empty() ? 0.0 : 5.0 * sorted[sorted.size() / 2];
     int left_out = 0;
     for (const auto& ep : r.epochs) {
-      const Reading x = reading(ep.estimate, i);
+      const Reading x = reading(ep, i);
       if (!ep.error.empty() || !x.identifiable) continue;
       if (4.0 * x.se > wide) {
         ++left_out;

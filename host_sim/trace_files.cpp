@@ -12,10 +12,14 @@
 
 namespace feedid::host {
 
-CsvResult read_trace_file(const std::string& path, const CsvColumns& columns) {
+bool is_mat_file(const std::string& path) {
   std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".mat" ? read_trace_mat(path, columns) : read_trace_csv(path, columns);
+  return ext == ".mat";
+}
+
+CsvResult read_trace_file(const std::string& path, const CsvColumns& columns) {
+  return is_mat_file(path) ? read_trace_mat(path, columns) : read_trace_csv(path, columns);
 }
 
 CsvResult read_trace_files(const std::vector<std::string>& paths, const CsvColumns& columns) {

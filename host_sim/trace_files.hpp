@@ -8,6 +8,8 @@
 
 namespace feedid::host {
 
+/// Whether the path names a MATLAB file (.mat, any case).
+bool is_mat_file(const std::string& path);
 /// A .mat file (by its extension, any case) through read_trace_mat, any
 /// other through read_trace_csv; the same columns, scales and row rules.
 CsvResult read_trace_file(const std::string& path, const CsvColumns& columns);

@@ -308,6 +308,13 @@ TEST(CsvStream, ErrorsAsTheReaderGivesThem) {
   EXPECT_EQ(stream_all(st).size(), 1u);
   EXPECT_NE(st.error().find("time must increase"), std::string::npos) << st.error();
 
+  std::ofstream(dir + "feedid_stream_allbad.csv") << "t,x,u\n0,a,0\n1,b,1\n";
+  CsvStream all_bad(dir + "feedid_stream_allbad.csv", CsvColumns{});
+  EXPECT_TRUE(stream_all(all_bad).empty());
+  const CsvResult whole_all_bad = read_trace_csv(dir + "feedid_stream_allbad.csv", CsvColumns{});
+  EXPECT_EQ(all_bad.error(), whole_all_bad.error) << "the same words as the whole-file reader";
+  EXPECT_NE(all_bad.error().find("rows are bad"), std::string::npos) << all_bad.error();
+
   CsvStream absent(dir + "feedid_no_such_file.csv", CsvColumns{});
   EXPECT_FALSE(absent.ok());
 }

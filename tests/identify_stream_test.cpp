@@ -2,6 +2,7 @@
 // read row by row in chunks, gives what the whole-trace identification gives.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <string>
 
 #include "csv_trace.hpp"
@@ -48,6 +49,36 @@ TEST(IdentifyStream, ChunksGiveTheWholeTracesEstimate) {
     EXPECT_LT(e.coulomb_se, 5.0 * w.coulomb_se) << d;
   }
   EXPECT_NE(to_json(r)["input"]["streamed"].get<std::string>().find("row by row"), std::string::npos);
+}
+
+// Under 50 s of data fewer than five jackknife groups have any: the core's
+// own standard errors, never a jackknife over empty groups (which gave 0).
+TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
+  test::SimSpec spec;
+  spec.duration_s = 30.0;
+  const std::string path = ::testing::TempDir() + "feedid_stream_short.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, host::simulate(test::sim_config(spec)), err)) << err;
+  CsvStream in(path, CsvColumns{});
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.jackknife_chunks, 0);
+  EXPECT_GT(r.estimate.pos.coulomb_se, 0.0);
+  EXPECT_GT(r.estimate.mass_se_kg, 0.0);
+}
+
+TEST(IdentifyStream, AReadErrorIsNotReportedAsOk) {
+  std::string text = "t,x,v,u\n";
+  for (int k = 0; k < 300; ++k) text += std::to_string(k * 1e-3) + ",0,0,1\n";
+  text += "0.1,0,0,1\n";  // time goes back: with --bad-rows error, the error
+  const std::string path = ::testing::TempDir() + "feedid_stream_bad.csv";
+  std::ofstream(path) << text;
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  CsvStream in(path, strict);
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{});
+  EXPECT_FALSE(r.error.empty());
+  EXPECT_NE(r.status, feedid::Status::ok);
 }
 
 }  // namespace
