@@ -149,11 +149,7 @@ CircleResult run_circle(const CircleOptions& opt) {
       out.models[a] = identified_on_the_spot(opt.drives[a], opt.rate_hz);
       continue;
     }
-    std::ifstream f(opt.model_paths[a]);
-    if (!f) throw std::invalid_argument(opt.model_paths[a] + ": cannot open");
-    nlohmann::json j;
-    f >> j;
-    out.models[a] = model_from_json(j);
+    out.models[a] = model_from_json(read_json_file(opt.model_paths[a]));
   }
   const std::array<DriveParams, 2> plus = {scaled_friction(out.models[0], 1.0 + opt.wrong_fraction),
                                            scaled_friction(out.models[1], 1.0 + opt.wrong_fraction)};

@@ -164,16 +164,11 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
 
 int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
                    CompensateOptions opt) {
-  std::ifstream f(model_path);
-  if (!f) {
-    std::fprintf(stderr, "error: %s: cannot open\n", model_path.c_str());
-    return 2;
-  }
   nlohmann::json mj;
   try {
-    f >> mj;
+    mj = read_json_file(model_path);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
+    std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))

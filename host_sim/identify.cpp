@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -512,6 +513,17 @@ std::vector<std::string> flag_names(uint32_t flags) {
   return out;
 }
 
+void fill_friction_curve(const Core& core, IdentifyResult& r) {
+  const auto& st = core.statistics();
+  for (int d = 0; d < 2; ++d)
+    for (int j = 0; j < Core::bands; ++j) {
+      const auto& b = st.band[d][j];
+      const double t = b.time_s.get();
+      if (t < feedid::detail::min_band_time_s<double>()) continue;  // the core's own rule for a band point
+      r.friction_curve[d].push_back({b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
+    }
+}
+
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   IdentifyResult r;
   r.units = opt.units;
@@ -544,17 +556,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   r.first_rejections = run.first_rejections;
   if (opt.progress) opt.progress(1.0);
 
-  const Core* core = run.core.get();
-  const auto& st = core->statistics();
-  for (int d = 0; d < 2; ++d) {
-    for (int j = 0; j < Core::bands; ++j) {
-      const auto& b = st.band[d][j];
-      const double t = b.time_s.get();
-      if (t < 2e-3) continue;
-      r.friction_curve[d].push_back(
-          {b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
-    }
-  }
+  fill_friction_curve(*run.core, r);
   if (r.status == feedid::Status::insufficient_data) {
     std::ostringstream o;
     o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
@@ -694,6 +696,16 @@ nlohmann::json model_json(const DriveParams& p, const Units& units) {
     return nlohmann::json{{"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s}};
   };
   return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)}, {"units", units_json(units)}};
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  try {
+    return nlohmann::json::parse(f);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
 }
 
 DriveParams model_from_json(const nlohmann::json& j) {

@@ -245,6 +245,10 @@ struct CoreRun {
   std::array<FrictionModel, 2> friction_model;  ///< [pos, neg], applied to estimate
 };
 
+/// r.friction_curve from a solved core: per band with time, mean speed and
+/// mean friction with r.estimate's inertia removed.
+void fill_friction_curve(const Core& core, IdentifyResult& r);
+
 /// Model selection on a solved core, per direction: keeps the Stribeck law
 /// only where it is physical (Fc, sigma >= 0) and pays for its two extra
 /// parameters in the Bayesian information criterion over the band points;
@@ -310,6 +314,9 @@ std::vector<std::string> flag_names(uint32_t flags);
 nlohmann::json to_json(const IdentifyResult& r);
 /// The model part alone: {"m":..,"pos":{..},"neg":{..}} (also the truth format).
 nlohmann::json model_json(const DriveParams& p, const Units& units = {});
+/// A JSON file (a model, a truth file); throws std::runtime_error naming the
+/// file when it cannot be opened or parsed.
+nlohmann::json read_json_file(const std::string& path);
 /// Reads a model written by to_json or model_json; throws std::runtime_error naming the key.
 DriveParams model_from_json(const nlohmann::json& j);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);

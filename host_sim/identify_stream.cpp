@@ -149,13 +149,7 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     r.se_model = u.model_se;
     r.se_jackknife = u.jackknife_se;
   }
-  const auto& st = core.statistics();
-  for (int d = 0; d < 2; ++d)
-    for (int j = 0; j < Core::bands; ++j) {
-      const auto& b = st.band[d][j];
-      const double t = b.time_s.get();
-      if (t >= 2e-3) r.friction_curve[d].push_back({b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
-    }
+  fill_friction_curve(core, r);
   r.streamed = true;
   if (r.status == feedid::Status::insufficient_data) {
     std::ostringstream o;

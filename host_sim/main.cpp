@@ -329,14 +329,7 @@ struct ValidateCommand : Command {
     app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
   }
   int run() override {
-    std::ifstream mf(model_path);
-    if (!mf) { std::fprintf(stderr, "error: %s: cannot open\n", model_path.c_str()); return 2; }
-    nlohmann::json mj;
-    try { mf >> mj; } catch (const std::exception& e) {
-      std::fprintf(stderr, "error: %s: not valid JSON: %s\n", model_path.c_str(), e.what());
-      return 2;
-    }
-    const DriveParams model = model_from_json(mj);
+    const DriveParams model = model_from_json(read_json_file(model_path));  // errors reach main's handler
     CsvResult csv;
     if (!read_trace(in_path, input, cols, csv)) return 2;
     opt.units = input.units();

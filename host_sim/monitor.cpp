@@ -40,14 +40,10 @@ struct Reading {
   bool identifiable = false;
 };
 Reading reading(const MonitorEpoch& ep, int i) {
-  if (!ep.error.empty()) return {};  // not identified: nothing it can carry
-  const feedid::Estimate<double>& e = ep.estimate;
-  if (i == 0) return {e.mass_kg, e.mass_se_kg, e.mass_identified()};
-  const auto& d = i <= 4 ? e.pos : e.neg;
-  const int k = (i - 1) % 4;
-  const double v[4] = {d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
-  const double s[4] = {d.viscous_se, d.coulomb_se, d.breakaway_se, d.stribeck_velocity_se};
-  return {v[k], s[k], k < 2 ? d.friction_identified() : d.stribeck_identified()};
+  Reading x;
+  // Not identified at all: nothing it can carry; else the core's rule.
+  if (ep.error.empty()) x.identifiable = feedid::tracked_value(ep.estimate, i, x.value, x.se);
+  return x;
 }
 
 std::string unit_of(feedid::Tracked p, const Units& u) {

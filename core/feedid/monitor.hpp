@@ -51,6 +51,28 @@ inline const char* tracked_name(Tracked p) {
   return "?";
 }
 
+/// An epoch's value and standard error of tracked index i (0: m; 1 + 4 d +
+/// {0 sigma, 1 Fc, 2 Fs, 3 vs}, d = 0 pos, 1 neg); false when the epoch
+/// cannot carry it: flagged, negative, or without a standard error. The
+/// monitor compares only what this accepts, and reports say so with it.
+template <typename T> bool tracked_value(const Estimate<T>& e, int i, T& value, T& se) {
+  if (i == 0) {
+    value = e.mass_kg;
+    se = e.mass_se_kg;
+    return e.mass_identified() && se > T(0);
+  }
+  const DirectionEstimate<T>& d = i <= 4 ? e.pos : e.neg;
+  const int k = (i - 1) % 4;
+  // A negative magnitude is a fit the epoch's motion could not pin down.
+  const bool physical = (d.flags & flag_not_physical) == 0;
+  const bool friction = physical && d.friction_identified(), stribeck = physical && d.stribeck_identified();
+  const T v[4] = {d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
+  const T s[4] = {d.viscous_se, d.coulomb_se, d.breakaway_se, d.stribeck_velocity_se};
+  value = v[k];
+  se = s[k];
+  return (k < 2 ? friction : stribeck) && se > T(0) && port::is_finite(value) && port::is_finite(se);
+}
+
 template <typename T> struct MonitorConfig {
   int reference_epochs = 6;  ///< epochs pooled into a reference (3 .. kMaxReferenceEpochs)
   T allowance = T(1);        ///< CUSUM k: shifts below k standard deviations are not pursued
@@ -96,7 +118,7 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     if (!initialized_) return Status::not_initialized;
     for (int i = 0; i < kTrackedCount; ++i) {
       T value, se;
-      if (!read(e, i, value, se)) continue;
+      if (!tracked_value(e, i, value, se)) continue;
       if (step(tracks_[i], value, se, t_start_s) && alarms_ < MaxAlarms) {
         alarm_[alarms_] = make_alarm(i);
         alarm_[alarms_++].raised_t_s = t_end_s;
@@ -136,26 +158,6 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     Run run_up, run_down;
     int8_t last_side = 0;  ///< which side crossed
   };
-
-  /// The epoch's value and standard error of tracked index i; false when
-  /// the epoch cannot carry it.
-  static bool read(const Estimate<T>& e, int i, T& value, T& se) {
-    if (i == 0) {
-      value = e.mass_kg;
-      se = e.mass_se_kg;
-      return e.mass_identified() && se > T(0);
-    }
-    const DirectionEstimate<T>& d = i <= 4 ? e.pos : e.neg;
-    const int k = (i - 1) % 4;
-    // A negative magnitude is a fit the epoch's motion could not pin down.
-    const bool physical = (d.flags & flag_not_physical) == 0;
-    const bool friction = physical && d.friction_identified(), stribeck = physical && d.stribeck_identified();
-    const T v[4] = {d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
-    const T s[4] = {d.viscous_se, d.coulomb_se, d.breakaway_se, d.stribeck_velocity_se};
-    value = v[k];
-    se = s[k];
-    return (k < 2 ? friction : stribeck) && se > T(0) && port::is_finite(value) && port::is_finite(se);
-  }
 
   /// Reference first; then the CUSUM. True when it crosses.
   bool step(Track& t, T x, T se, T t0) {
