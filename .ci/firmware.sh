@@ -6,7 +6,8 @@
 #   3. fail if any ELF contains malloc, _sbrk, free, operator new/delete,
 #      __cxa_throw or __cxa_allocate_exception (arm-none-eabi-nm),
 #   4. run it on QEMU's mps2-an386 exactly as the README says, and again
-#      under -icount shift=0 for instruction counts; each must print PASS,
+#      under -icount shift=0 for instruction counts, then the friction-health
+#      tracking run (feedid_monitor_m4.elf); each must print PASS,
 #   5. print the footprint: flash and RAM of the core, sizeof, per-sample and
 #      solve cost.
 # Takes about a minute on a warm machine. Exit 0 only if every step passed.
@@ -52,7 +53,7 @@ else
   finish
   exit 1
 fi
-elfs=("$build/feedid_m4.elf" "$build/feedid_core_m4.elf" "$build/feedid_baseline_m4.elf")
+elfs=("$build/feedid_m4.elf" "$build/feedid_core_m4.elf" "$build/feedid_baseline_m4.elf" "$build/feedid_monitor_m4.elf")
 
 # --- 3. no heap, no exceptions -------------------------------------------------------
 rc=0
@@ -73,24 +74,30 @@ fi
 # --- 4. emulated runs --------------------------------------------------------------
 # The README's command. The firmware writes through semihosting, which QEMU
 # prints on stderr; a run passes only with exit status 0 and a PASS line.
-run_qemu() {  # log-file extra-args...
-  local log=$1 rc=0; shift
+run_qemu() {  # elf log-file extra-args...
+  local elf=$1 log=$2 rc=0; shift 2
   timeout "$qemu_timeout" qemu-system-arm -M mps2-an386 -nographic -semihosting "$@" \
-    -kernel "$build/feedid_m4.elf" >"$log" 2>&1 </dev/null || rc=$?
+    -kernel "$elf" >"$log" 2>&1 </dev/null || rc=$?
   if [ $rc -eq 124 ]; then echo "firmware: QEMU timed out after ${qemu_timeout} s" >>"$log"; fi
   grep -q '^PASS' "$log" && [ $rc -eq 0 ]
 }
 echo "--- qemu-system-arm -M mps2-an386 -nographic -semihosting -kernel $build/feedid_m4.elf"
 rc=0
-run_qemu "$build/qemu.log" || rc=$?
+run_qemu "$build/feedid_m4.elf" "$build/qemu.log" || rc=$?
 cat "$build/qemu.log"
 verdict "emulated Cortex-M4 run (PASS line, exit status 0)" $rc
 
 echo "--- the same under -icount shift=0,sleep=off (1 instruction = 1 ns of virtual time)"
 rc=0
-run_qemu "$build/qemu-icount.log" -icount shift=0,sleep=off || rc=$?
+run_qemu "$build/feedid_m4.elf" "$build/qemu-icount.log" -icount shift=0,sleep=off || rc=$?
 grep -E '^(servo|cost|  push|  solve|  hand-off|  feedforward|stack|timed|PASS|FAIL)' "$build/qemu-icount.log" || cat "$build/qemu-icount.log"
 verdict "emulated run with instruction counting (PASS line, exit status 0)" $rc
+
+echo "--- friction-health tracking: qemu-system-arm ... -icount shift=0,sleep=off -kernel $build/feedid_monitor_m4.elf"
+rc=0
+run_qemu "$build/feedid_monitor_m4.elf" "$build/qemu-monitor.log" -icount shift=0,sleep=off || rc=$?
+cat "$build/qemu-monitor.log"
+verdict "emulated tracking run: a Coulomb step alarmed within 60 s, as on the host (PASS line, exit status 0)" $rc
 
 # --- 5. footprint ---------------------------------------------------------------------
 # Flash = vector table + code + read-only data + .data load image; RAM = .data

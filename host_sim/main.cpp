@@ -391,7 +391,7 @@ struct MonitorCommand : Command {
     app->add_option("--in", in_path, "log CSV, read row by row")->required();
     app->add_option("--json", json_path, "write epochs and alarms as JSON");
     app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
-    app->add_option("--epoch-s", opt.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
+    app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
     app->add_option("--reference-epochs", opt.detector.reference_epochs, "epochs pooled into each parameter's reference")
         ->capture_default_str()->check(CLI::Range(3, 16));
     app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")

@@ -64,7 +64,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   out.units = opt.identify.units;
   Monitor health;
   if (health.init(opt.detector) != feedid::Status::ok) {
-    out.error = "monitor: reference epochs must be 3..16, allowance >= 0 and threshold > 0";
+    out.error = "monitor: epoch length must be > 0 s, reference epochs 3..16, allowance >= 0 and threshold > 0";
     return out;
   }
   std::vector<TraceSample> buf;
@@ -79,7 +79,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     if (opt.progress) opt.progress(ep.t_end_s);
   };
   while (in.next(s)) {
-    if (!buf.empty() && s.t_s - buf.front().t_s >= opt.epoch_s) close_epoch();
+    if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch();
     buf.push_back(s);
   }
   close_epoch();
@@ -124,7 +124,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                       {"change_pct", a.reference != 0 ? 100.0 * a.change / a.reference : 0.0},
                       {"reference", a.reference}});
   nlohmann::json j = {{"epochs", epochs}, {"alarms", alarms}, {"units", units_json(r.units)}};
-  j["detector"] = {{"epoch_s", opt.epoch_s},
+  j["detector"] = {{"epoch_s", opt.detector.epoch_s},
                    {"reference_epochs", opt.detector.reference_epochs},
                    {"cusum_allowance", opt.detector.allowance},
                    {"cusum_threshold", opt.detector.threshold},

@@ -17,8 +17,7 @@
 namespace feedid::host {
 
 struct MonitorOptions {
-  double epoch_s = 10.0;                      ///< epoch length (s)
-  feedid::MonitorConfig<double> detector{};   ///< reference epochs, CUSUM k and h
+  feedid::MonitorConfig<double> detector{};   ///< epoch length, reference epochs, CUSUM k and h
   IdentifyOptions identify;                   ///< how each epoch is identified
   std::function<void(double t_s)> progress;   ///< after each epoch, with its end time
 };

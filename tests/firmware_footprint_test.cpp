@@ -18,6 +18,9 @@ static_assert(sizeof(feedid::Estimator<float, 32, 16>) <= feedid::fw::estimator_
 static_assert(sizeof(feedid::Estimator<double, 32, 16>) <= feedid::fw::estimator_double_ram_budget,
               "Estimator<double> exceeds its RAM budget (port/cortex_m/footprint_budget.hpp)");
 
+static_assert(sizeof(feedid::HealthTracker<float>) <= feedid::fw::health_tracker_float_ram_budget,
+              "HealthTracker<float> exceeds its RAM budget (port/cortex_m/footprint_budget.hpp)");
+
 namespace {
 
 struct StringSink {

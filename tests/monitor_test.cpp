@@ -3,12 +3,17 @@
 // production logs with and without a change in service.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "csv_trace.hpp"
 #include "drive_sim.hpp"
+#include "identify.hpp"
+#include "feedid/health_tracker.hpp"
 #include "feedid/monitor.hpp"
 #include "monitor.hpp"
 
@@ -111,6 +116,9 @@ TEST(ChangeMonitor, ChecksItsConfiguration) {
   c = MonitorConfig<double>{};
   c.threshold = 0.0;
   EXPECT_EQ(m.init(c), Status::invalid_config);
+  c = MonitorConfig<double>{};
+  c.epoch_s = 0.0;
+  EXPECT_EQ(m.init(c), Status::invalid_config);
 }
 
 }  // namespace
@@ -171,6 +179,101 @@ TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_TRUE(r.alarms.empty()) << "seed " << seed << "\n" << trend_table(r);
   }
+}
+
+/// Every sample of a simulated trace through a HealthTracker<double> with
+/// the configuration `feedid identify` picks; every complete epoch closed.
+struct TrackRun {
+  int epochs = 0, solved = 0;
+  std::vector<ChangeAlarm<double>> alarms;
+};
+TrackRun track(const Trace& tr) {
+  IdentifyOptions opt;
+  const feedid::Config<double> cfg = auto_config(prepare_signals(tr, opt), opt);
+  auto health = std::make_unique<HealthTracker<double>>();
+  EXPECT_EQ(health->init(cfg, MonitorConfig<double>{}), Status::ok);
+  TrackRun out;
+  for (std::size_t k = 0; k < tr.samples.size(); ++k) {
+    Sample<double> s;
+    s.dt_s = k == 0 ? 0.0 : tr.samples[k].t_s - tr.samples[k - 1].t_s;
+    s.velocity_m_s = tr.samples[k].v_m_s;
+    s.force_N = tr.samples[k].u_N;
+    (void)health->push(s);
+    if (!health->epoch_complete()) continue;
+    int fresh = 0;
+    out.solved += health->close_epoch(fresh) == Status::ok;
+    ++out.epochs;
+  }
+  for (int i = 0; i < health->monitor().alarm_count(); ++i) out.alarms.push_back(health->monitor().alarm(i));
+  return out;
+}
+
+TEST(HealthTracker, NamesACoulombStepOnProductionMotionWithinAMinute) {
+  // GIVEN production motion where Fc+ rises 6 % at 107 s, logged without the host's convention search
+  SimConfig c = production(8);
+  c.change.time_s = 107.0;
+  c.change.coulomb_fraction = 0.06;
+  c.change.direction = +1;
+  c.logging.force = ForceLog::instant;
+  c.logging.velocity = VelocityLog::backward_difference;
+  const TrackRun t = track(simulate(c));
+  // THEN each 10 s epoch is closed and solved alone, and the one alarm is Fc+ within 60 s
+  EXPECT_EQ(t.epochs, 24);
+  EXPECT_EQ(t.solved, 24);
+  ASSERT_EQ(t.alarms.size(), 1u);
+  EXPECT_EQ(t.alarms[0].parameter, feedid::Tracked::coulomb);
+  EXPECT_EQ(t.alarms[0].direction, 1);
+  EXPECT_GE(t.alarms[0].raised_t_s, c.change.time_s);
+  EXPECT_LE(t.alarms[0].raised_t_s, c.change.time_s + 60.0);
+  EXPECT_NEAR(t.alarms[0].change / t.alarms[0].reference, 0.06, 0.01);
+}
+
+TEST(HealthTracker, ChangeFreeProductionMotionRaisesNone) {
+  for (std::uint64_t seed : {5u, 6u}) {
+    SimConfig c = production(seed);
+    c.logging.force = ForceLog::instant;
+    c.logging.velocity = VelocityLog::backward_difference;
+    EXPECT_TRUE(track(simulate(c)).alarms.empty()) << "seed " << seed;
+  }
+}
+
+TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
+  feedid::Config<double> cfg;
+  auto a = std::make_unique<HealthTracker<double>>(), b = std::make_unique<HealthTracker<double>>();
+  int fresh = 0;
+  EXPECT_EQ(a->push(Sample<double>{}), Status::not_initialized);
+  EXPECT_EQ(a->close_epoch(fresh), Status::not_initialized);
+  MonitorConfig<double> mc;
+  mc.epoch_s = -1.0;
+  EXPECT_EQ(a->init(cfg, mc), Status::invalid_config);
+  mc.epoch_s = 1.0;
+  ASSERT_EQ(a->init(cfg, mc), Status::ok);
+  ASSERT_EQ(b->init(cfg, mc), Status::ok);
+  // GIVEN the same 0.2 m/s strokes into both, and one extra all-NaN sample into one of them
+  for (int k = 0; k < 1500; ++k) {
+    Sample<double> s;
+    s.dt_s = 1e-3;
+    s.velocity_m_s = 0.2 * std::sin(0.01 * k);
+    s.force_N = 700.0 * s.velocity_m_s + (s.velocity_m_s > 0 ? 25.0 : -26.0);
+    if (k == 400) {
+      Sample<double> bad = s;
+      bad.dt_s = bad.force_N = std::nan("");
+      EXPECT_NE(a->push(bad), Status::ok);
+    }
+    (void)a->push(s);
+    (void)b->push(s);
+    if (a->epoch_complete()) {
+      ASSERT_TRUE(b->epoch_complete());
+      (void)a->close_epoch(fresh);
+      (void)b->close_epoch(fresh);
+    }
+  }
+  // THEN the epochs closed at the same time, and the estimate only lost the
+  // interval the estimator bridges after a rejection (well within 0.1 %)
+  EXPECT_EQ(a->epochs(), 1);
+  EXPECT_EQ(a->time_s(), b->time_s());
+  EXPECT_NEAR(a->last_epoch().pos.coulomb_N, b->last_epoch().pos.coulomb_N, 0.025);
+  EXPECT_NEAR(a->last_epoch().neg.viscous_Ns_m, b->last_epoch().neg.viscous_Ns_m, 0.7);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 
 #include "feedid/estimator.hpp"
 #include "feedid/feedforward.hpp"
+#include "feedid/health_tracker.hpp"
 #include "feedid/monitor.hpp"
 #include "feedid/statistics.hpp"
 #include "feedid/types.hpp"

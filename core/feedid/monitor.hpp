@@ -81,6 +81,8 @@ template <typename T> struct MonitorConfig {
   /// reference: changes well below it (a motion-dependent bias of a few
   /// tenths of a percent) are not what an alarm is for.
   T relative_floor = T(0.01);
+  /// Length of an epoch (s): each is identified alone (HealthTracker, `feedid monitor --epoch-s`).
+  T epoch_s = T(10);
 };
 
 template <typename T> struct ChangeAlarm {
@@ -98,11 +100,12 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
   static constexpr int kMaxReferenceEpochs = 16;  ///< a bound on the reference period, not storage
 
   /// Invalid_config unless 3 <= reference_epochs <= 16, allowance >= 0,
-  /// threshold > 0 and relative_floor >= 0, all finite. Clears every track and alarm.
+  /// threshold > 0, relative_floor >= 0 and epoch_s > 0, all finite. Clears every track and alarm.
   Status init(const MonitorConfig<T>& c) {
     const bool ok = c.reference_epochs >= 3 && c.reference_epochs <= kMaxReferenceEpochs && port::is_finite(c.allowance) &&
                     c.allowance >= T(0) && port::is_finite(c.threshold) && c.threshold > T(0) &&
-                    port::is_finite(c.relative_floor) && c.relative_floor >= T(0);
+                    port::is_finite(c.relative_floor) && c.relative_floor >= T(0) && port::is_finite(c.epoch_s) &&
+                    c.epoch_s > T(0);
     if (!ok) return Status::invalid_config;
     cfg_ = c;
     for (Track& t : tracks_) t = Track{};

@@ -20,22 +20,17 @@
 
 #include "drive_sim.hpp"
 #include "feedid/feedid.hpp"
+#include "firmware_header.hpp"
 #include "identify.hpp"
 
 namespace {
 
 using feedid::host::Core;
+using feedid::host::firmware::hex;
 
 struct FloatSample {
   float dt_s, velocity_m_s, force_N;
 };
-
-/// "0x1.8p+3f": the float value exactly, as a C++17 hexadecimal literal.
-std::string hex(float x) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%af", static_cast<double>(x));
-  return buf;
-}
 
 template <typename T> struct Run {
   feedid::Status mid_status{}, final_status{};
@@ -127,10 +122,7 @@ int main(int argc, char** argv) {
 
   // Configuration: what the host pipeline picks for this trace, each field
   // rounded to float once; the double reference runs with the same values.
-  feedid::host::IdentifyOptions opt;
-  const feedid::host::Signals sig = feedid::host::prepare_signals(rounded, opt);
-  const feedid::Config<double> auto_cfg = feedid::host::auto_config(sig, opt);
-  const feedid::Config<float> cf = feedid::host::config_as<float>(auto_cfg);
+  const feedid::Config<float> cf = feedid::host::firmware::float_config_for(rounded);
   const feedid::Config<double> cd = feedid::host::config_as<double>(cf);
 
   const std::size_t solve_at = n / 2;  // the mid-stream "identify now" request
@@ -165,27 +157,7 @@ int main(int argc, char** argv) {
   std::fprintf(f, "/// Samples the host double reference rejected (the firmware must agree).\n");
   std::fprintf(f, "constexpr uint32_t host_rejected = %lluu;\n\n",
                static_cast<unsigned long long>(ref.diag.samples_rejected));
-  std::fprintf(f, "/// feedid::host::auto_config for this trace, rounded to float.\n");
-  std::fprintf(f, "inline feedid::Config<float> config() {\n  feedid::Config<float> c;\n");
-  std::fprintf(f, "  c.velocity_min_m_s = %s;\n", hex(cf.velocity_min_m_s).c_str());
-  std::fprintf(f, "  c.velocity_max_m_s = %s;\n", hex(cf.velocity_max_m_s).c_str());
-  std::fprintf(f, "  c.velocity_resolution_m_s = %s;\n", hex(cf.velocity_resolution_m_s).c_str());
-  std::fprintf(f, "  c.section_enter_m_s = %s;\n", hex(cf.section_enter_m_s).c_str());
-  std::fprintf(f, "  c.rest_samples = %u;\n", unsigned(cf.rest_samples));
-  std::fprintf(f, "  c.min_section_s = %s;\n", hex(cf.min_section_s).c_str());
-  std::fprintf(f, "  c.max_fold_s = %s;\n", hex(cf.max_fold_s).c_str());
-  std::fprintf(f, "  c.mass_window_s = %s;\n", hex(cf.mass_window_s).c_str());
-  std::fprintf(f, "  c.max_step_speed_ratio = %s;\n", hex(cf.max_step_speed_ratio).c_str());
-  std::fprintf(f, "  c.max_acceleration_m_s2 = %s;\n", hex(cf.max_acceleration_m_s2).c_str());
-  std::fprintf(f, "  c.max_speed_m_s = %s;\n", hex(cf.max_speed_m_s).c_str());
-  std::fprintf(f, "  c.max_force_N = %s;\n", hex(cf.max_force_N).c_str());
-  std::fprintf(f, "  c.max_gap_s = %s;\n", hex(cf.max_gap_s).c_str());
-  std::fprintf(f, "  c.stribeck_min_m_s = %s;\n", hex(cf.stribeck_min_m_s).c_str());
-  std::fprintf(f, "  c.stribeck_max_m_s = %s;\n", hex(cf.stribeck_max_m_s).c_str());
-  std::fprintf(f, "  c.max_vs_iterations = %u;\n", unsigned(cf.max_vs_iterations));
-  std::fprintf(f, "  c.velocity_source = static_cast<feedid::VelocitySource>(%d);\n", int(cf.velocity_source));
-  std::fprintf(f, "  c.force_lag_samples = %.9gf;\n", cf.force_lag_samples);
-  std::fprintf(f, "  return c;\n}\n\n");
+  feedid::host::firmware::write_config(f, cf);
   std::fprintf(f, "/// Host Estimator<double, 32, 16> on these samples,\n"
                  "/// solved right after sample solve_request_after ...\n");
   std::fprintf(f, "constexpr Result host_double_mid = %s;\n", result_literal(ref.mid).c_str());

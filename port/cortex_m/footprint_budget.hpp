@@ -14,5 +14,8 @@ namespace feedid::fw {
 constexpr size_t estimator_float_ram_budget = 8 * 1024;
 /// Estimator<double, 32, 16>, the host reference; about twice the float one.
 constexpr size_t estimator_double_ram_budget = 20 * 1024;
+/// HealthTracker<float>, one axis's friction-health tracking (epoch
+/// estimator, change monitor, last epoch): the same 8 KiB per axis.
+constexpr size_t health_tracker_float_ram_budget = 8 * 1024;
 
 }  // namespace feedid::fw

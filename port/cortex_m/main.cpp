@@ -22,11 +22,10 @@
 #include <stdint.h>
 
 #include "board.hpp"
-#include "console.hpp"
 #include "footprint_budget.hpp"
 #include "feedid/feedid.hpp"
 #include "feedid_port/spsc_queue.hpp"
-#include "semihosting.hpp"
+#include "probe.hpp"
 #include "trace_data.h"  // generated at build time by host_sim/tools/firmware_trace_gen.cpp
 
 namespace fw = feedid::fw;
@@ -35,11 +34,8 @@ namespace trace = feedid::fw::trace;
 
 namespace {
 
-/// Console output goes through semihosting (QEMU prints it on its stderr).
-struct SemihostingSink {
-  static void write(const char* s) { fw::semihosting::write0(s); }
-};
-using Console = fw::Console<SemihostingSink>;
+using Console = fw::SemihostingConsole;
+using fw::print_cost;
 
 /// The target's estimator: the host's Estimator<double, 32, 16> in float.
 using Axis = feedid::Estimator<float, 32, 16>;
@@ -155,24 +151,6 @@ int compare(Console& out, const char* label, const fw::Result& m4, const fw::Res
   return failed;
 }
 
-// --- stack high-water mark ---------------------------------------------------
-extern "C" uint32_t __stack_bottom, __stack_top;
-constexpr uint32_t stack_paint = 0xA5A5A5A5u;
-
-/// Fills the unused part of the main stack (below the current frame) with a
-/// pattern. Context: start of main, interrupts off.
-__attribute__((noinline)) void paint_stack() {
-  uintptr_t sp;
-  __asm volatile("mov %0, sp" : "=r"(sp));
-  const uintptr_t limit = sp - 128;  // leave this frame alone
-  for (volatile uint32_t* p = &__stack_bottom; reinterpret_cast<uintptr_t>(p) < limit; ++p) *p = stack_paint;
-}
-uint32_t stack_used_bytes() {
-  const uint32_t* p = &__stack_bottom;
-  while (p < &__stack_top && *p == stack_paint) ++p;
-  return static_cast<uint32_t>(reinterpret_cast<uintptr_t>(&__stack_top) - reinterpret_cast<uintptr_t>(p));
-}
-
 feedid::Sample<float> sample_at(uint32_t k) {
   const fw::TracePoint& p = trace::points[k];
   feedid::Sample<float> s;
@@ -180,24 +158,6 @@ feedid::Sample<float> sample_at(uint32_t k) {
   s.velocity_m_s = p.velocity_m_s;
   s.force_N = p.force_N;
   return s;
-}
-
-/// Counter ticks as instructions under -icount shift=0 (1 ns per instruction,
-/// 40 ns per tick of the 25 MHz counter).
-constexpr uint32_t instructions_per_tick = 1'000'000'000u / board::clock_hz;
-
-/// Runs exactly 2 * n instructions (a subtract and a branch per turn) and
-/// returns the counter ticks they took: the scale of every cost figure.
-uint32_t calibration_ticks(uint32_t n) {
-  const uint32_t t0 = board::counter_now();
-  __asm volatile("1: subs %0, %0, #1\n\tbne 1b" : "+r"(n) : : "cc");
-  return board::counter_now() - t0;
-}
-
-void print_cost(Console& out, const char* what, float ticks, float instructions_per_tick_measured) {
-  out << "  " << what << ": ";
-  out.real(ticks, 5) << " ticks = ";
-  out.real(ticks * instructions_per_tick_measured, 5) << " instructions\n";
 }
 
 }  // namespace
@@ -232,7 +192,7 @@ extern "C" void SysTick_Handler() {
 
 int main() {
   board::irq_disable();
-  paint_stack();
+  fw::paint_stack();
   board::counter_start();
   Console out;
   out << "feedid firmware on Cortex-M4F (QEMU mps2-an386): Estimator<float, 32, 16>, " << trace::count
@@ -315,8 +275,8 @@ int main() {
   // The scale: under -icount shift=0 this loop of 200000 instructions takes
   // 5000 ticks (checked: 40.0 instructions per tick; shift=3 gives 5.0).
   constexpr uint32_t calibration_turns = 100'000;
-  const uint32_t calibration = calibration_ticks(calibration_turns);
-  const float ipt = float(2 * calibration_turns) / float(calibration > 0 ? calibration : 1);
+  uint32_t calibration = 0;
+  const float ipt = fw::measured_instructions_per_tick(calibration_turns, calibration);
   // Samples whose push() took at most 1000 / 5000 / 20000 instructions, and more.
   const uint32_t bucket_ticks[3] = {uint32_t(1000.0f / ipt), uint32_t(5000.0f / ipt), uint32_t(20000.0f / ipt)};
   uint32_t bucket[4] = {0, 0, 0, 0};
@@ -371,7 +331,7 @@ int main() {
   const uint32_t feedforward_vs_ticks = board::counter_now() - t0;
   out << "cost (25 MHz counter ticks; a loop of " << 2 * calibration_turns << " instructions took " << calibration
       << " ticks = ";
-  out.real(ipt, 4) << " instructions per tick; exact under qemu -icount shift=0 (" << instructions_per_tick
+  out.real(ipt, 4) << " instructions per tick; exact under qemu -icount shift=0 (" << fw::instructions_per_tick
                    << "), host-time noise without -icount):\n";
   print_cost(out, "push() mean per sample, loop over the trace", float(loop_ticks) / float(trace::count),
              ipt);
@@ -389,9 +349,7 @@ int main() {
              float(feedforward_ticks) / float(trace::count), ipt);
   print_cost(out, "feedforward() per call, at v = vs (the Stribeck exp in full)",
              float(feedforward_vs_ticks) / float(trace::count), ipt);
-  out << "stack high-water mark: " << stack_used_bytes() << " B of "
-      << uint32_t(reinterpret_cast<uintptr_t>(&__stack_top) - reinterpret_cast<uintptr_t>(&__stack_bottom))
-      << " B\n";
+  out << "stack high-water mark: " << fw::stack_used_bytes() << " B of " << fw::stack_size_bytes() << " B\n";
   out << "timed re-run reproduces the servo run bit for bit: " << (reproducible ? "yes" : "NO") << "\n";
 
   // --- verdict ----------------------------------------------------------------

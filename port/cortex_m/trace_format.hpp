@@ -34,3 +34,25 @@ struct Result {
 };
 
 }  // namespace feedid::fw
+
+namespace feedid::fw {
+
+/// One servo sample of the tracking trace as a drive's logger keeps it:
+/// velocity and force as 16-bit counts of a fixed scale (the header gives
+/// the scales), the servo period fixed. Half the flash of TracePoint.
+struct CountPoint {
+  int16_t velocity;  ///< x velocity_lsb_m_s
+  int16_t force;     ///< x force_lsb_N
+};
+
+/// A change alarm as the host's HealthTracker<double> raised it.
+struct AlarmResult {
+  uint8_t parameter;  ///< feedid::Tracked
+  int8_t direction;   ///< +1 pos, -1 neg, 0 mass
+  float t_s;          ///< start of the run that crossed (s)
+  float raised_t_s;   ///< end of the epoch that crossed (s)
+  float change;       ///< in the parameter's unit
+  float change_se;
+};
+
+}  // namespace feedid::fw
