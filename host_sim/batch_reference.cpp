@@ -9,8 +9,8 @@
 namespace feedid::host {
 namespace {
 
-constexpr int kBands = 32;
-constexpr int kCandidates = 16;
+constexpr int kBands = feedid::Estimator<double>::bands;
+constexpr int kCandidates = feedid::Estimator<double>::candidates;
 using LD = long double;
 
 /// A long double total and the total of the magnitudes of its terms.

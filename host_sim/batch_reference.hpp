@@ -1,7 +1,7 @@
 // Batch reference of the streaming core's bookkeeping. Host only.
 //
 // Recomputes, from a whole array of samples, the sufficient statistics that
-// feedid::Estimator<double, 32, 16> holds after push()ing every sample and
+// feedid::Estimator<double> holds after push()ing every sample and
 // calling solve() once -- written independently as a multi-pass algorithm
 // over arrays (no shared state machine with the core):
 //
@@ -47,8 +47,8 @@
 
 namespace feedid::host {
 
-using BatchStatistics = feedid::Statistics<double, 32, 16>;
-using BatchLayout = feedid::BandLayout<double, 32>;
+using BatchStatistics = feedid::Estimator<double>::Stats;
+using BatchLayout = feedid::Estimator<double>::Layout;
 
 /// Everything the batch recomputation produces.
 struct BatchResult {
@@ -66,7 +66,7 @@ struct BatchResult {
 /// Throws std::invalid_argument if the configuration is invalid (the core's init() would refuse it).
 BatchResult batch_compute(const std::vector<feedid::Sample<double>>& samples, const feedid::Config<double>& cfg);
 
-/// The statistics Estimator<double,32,16> holds after pushing `samples` and solve().
+/// The statistics Estimator<double> holds after pushing `samples` and solve().
 BatchStatistics batch_statistics(const std::vector<feedid::Sample<double>>& samples,
                                  const feedid::Config<double>& cfg, feedid::Diagnostics* diag = nullptr);
 

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "baselines.hpp"
+#include "cortex_m/footprint_budget.hpp"
 #include "csv_trace.hpp"
 #include "diagnose.hpp"
 #include "drive_sim.hpp"
@@ -152,7 +153,7 @@ template <typename F> double timed(F&& f, int repeats, long long* peak_rss, doub
 // The core alone: samples pushed from a prepared array. push_one is kept out
 // of line so callgrind shows its inclusive cost per call.
 template <typename T>
-__attribute__((noinline)) feedid::Status push_one(feedid::Estimator<T, 32, 16>& est, const feedid::Sample<T>& s) {
+__attribute__((noinline)) feedid::Status push_one(feedid::Estimator<T>& est, const feedid::Sample<T>& s) {
   return est.push(s);
 }
 
@@ -172,7 +173,7 @@ CoreRun run_core(const std::vector<feedid::Sample<T>>& loop, const feedid::Confi
   best.push_s = best.solve_s = HUGE_VAL;
   const feedid::Config<T> c = config_as<T>(cfg);
   for (int r = 0; r < std::max(repeats, 1); ++r) {
-    auto est = std::make_unique<feedid::Estimator<T, 32, 16>>();
+    auto est = std::make_unique<feedid::Estimator<T>>();
     if (est->init(c) != feedid::Status::ok) { best.status = feedid::Status::invalid_config; return best; }
     long rejected = 0;
     const std::size_t L = loop.size();
@@ -470,10 +471,10 @@ int run_core_only(const BenchOptions& o) {
   std::size_t state = 0;
   if (o.precision == "float") {
     r = run_core<float>(core_samples<float>(l.signals, l.length), l.config, o.samples, 1);
-    state = sizeof(feedid::Estimator<float, 32, 16>);
+    state = sizeof(feedid::Estimator<float>);
   } else {
     r = run_core<double>(core_samples<double>(l.signals, l.length), l.config, o.samples, 1);
-    state = sizeof(feedid::Estimator<double, 32, 16>);
+    state = sizeof(feedid::Estimator<double>);
   }
   const double ns = 1e9 * r.push_s / static_cast<double>(o.samples);
   std::printf("core-only (%s): %ld samples (loop of %zu) pushed in %.4f s = %.2f ns/sample; %ld rejected\n",
@@ -578,8 +579,8 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
   const double ns_f = n_core ? 1e9 * pf / static_cast<double>(n_core_samples) : kNaN;
   const double ns_d = n_core ? 1e9 * pd / static_cast<double>(n_core_samples) : kNaN;
   const double solve_f_us = n_core ? 1e6 * sf / n_core : kNaN, solve_d_us = n_core ? 1e6 * sd / n_core : kNaN;
-  out["core"] = {{"state_bytes_float", sizeof(feedid::Estimator<float, 32, 16>)},
-                 {"state_bytes_double", sizeof(feedid::Estimator<double, 32, 16>)},
+  out["core"] = {{"state_bytes_float", sizeof(feedid::Estimator<float>)},
+                 {"state_bytes_double", sizeof(feedid::Estimator<double>)},
                  {"ns_per_sample", jnum(ns_f)}, {"ns_per_sample_float", jnum(ns_f)}, {"ns_per_sample_double", jnum(ns_d)},
                  {"solve_us_float", jnum(solve_f_us)}, {"solve_us_double", jnum(solve_d_us)},
                  {"samples_timed", n_core_samples},
@@ -657,15 +658,15 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
           {"error_ratio_of_worst", lm_worst > 0 ? st_worst / lm_worst : kNaN},
           {"error_ratio_target", 1.5},
           {"batch_lm_converged_traces", conv}, {"batch_lm_not_converged", not_conv},
-          {"state_bytes_float", sizeof(feedid::Estimator<float, 32, 16>)}, {"state_bytes_float_target", 8192}};
+          {"state_bytes_float", sizeof(feedid::Estimator<float>)}, {"state_bytes_float_target", feedid::fw::estimator_float_ram_budget}};
     std::printf("\n== targets\n");
     std::printf("  speed: batch_lm / streaming pipeline = %.3gx (CPU time %.3gx); batch_lm / core alone (push + solve, double) = %.3gx  (target >= 100x)\n",
                 lm_s / st_s, lm_cpu / st_cpu, lm_s / core_s);
     std::printf("  accuracy (traces where batch_lm converged: %d of %zu): streaming worst %.3g %% against batch_lm worst %.3g %% (ratio %.3g); worst per-trace ratio %.3g  (target <= 1.5)\n",
                 conv, runs.size(), 100 * st_worst, 100 * lm_worst, lm_worst > 0 ? st_worst / lm_worst : kNaN, ratio_worst);
   }
-  std::printf("  state: float core %zu bytes (target <= 8192), double %zu bytes; push %.1f ns/sample float, %.1f ns/sample double; solve %.0f us float, %.0f us double\n",
-              sizeof(feedid::Estimator<float, 32, 16>), sizeof(feedid::Estimator<double, 32, 16>), ns_f, ns_d,
+  std::printf("  state: float core %zu bytes (target <= %zu), double %zu bytes; push %.1f ns/sample float, %.1f ns/sample double; solve %.0f us float, %.0f us double\n",
+              sizeof(feedid::Estimator<float>), static_cast<std::size_t>(feedid::fw::estimator_float_ram_budget), sizeof(feedid::Estimator<double>), ns_f, ns_d,
               solve_f_us, solve_d_us);
   out["targets"] = tg;
 
@@ -774,8 +775,8 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
     json jr = {{"samples", n}, {"duration_s", sc.motion.duration_s}};
     for (const auto& r : pt.runs) jr["methods"][r.method] = run_json(r);
     jr["core"] = {{"seconds_double", jnum(pt.core_d)}, {"seconds_float", jnum(pt.core_f)},
-                  {"state_bytes_float", sizeof(feedid::Estimator<float, 32, 16>)},
-                  {"state_bytes_double", sizeof(feedid::Estimator<double, 32, 16>)}};
+                  {"state_bytes_float", sizeof(feedid::Estimator<float>)},
+                  {"state_bytes_double", sizeof(feedid::Estimator<double>)}};
     rows.push_back(jr);
     pts.push_back(std::move(pt));
   }
@@ -834,9 +835,9 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
       core.x.push_back(static_cast<double>(p.n));
       core.y.push_back(p.core_f);
       sf.x.push_back(static_cast<double>(p.n));
-      sf.y.push_back(static_cast<double>(sizeof(feedid::Estimator<float, 32, 16>)));
+      sf.y.push_back(static_cast<double>(sizeof(feedid::Estimator<float>)));
       sd.x.push_back(static_cast<double>(p.n));
-      sd.y.push_back(static_cast<double>(sizeof(feedid::Estimator<double, 32, 16>)));
+      sd.y.push_back(static_cast<double>(sizeof(feedid::Estimator<double>)));
     }
     if (std::find(methods.begin(), methods.end(), "streaming") != methods.end()) pt_time.series.push_back(core);
     pt_mem.series.push_back(sf);

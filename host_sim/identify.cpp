@@ -549,6 +549,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.error = std::string("invalid configuration: ") + run.core->config_error();
     return r;
   }
+  r.config = run.core->config();  // as init() completed it: what the core ran with
   r.status = run.status;
   r.estimate = run.estimate;
   r.friction_model = run.friction_model;
@@ -820,11 +821,13 @@ nlohmann::json to_json(const IdentifyResult& r) {
     j["input"]["runs_rule"] = "each file is its own run: the time jumps by 10 s between runs, a gap no section, window "
                               "or integral spans";
   }
+  // The configuration the core ran with (Estimator::config(), defaults filled by init()).
   j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
-                 {"velocity_resolution_m_s", c.velocity_resolution_m_s},
-                 {"section_enter_m_s", c.section_enter_m_s > 0 ? c.section_enter_m_s : 2 * c.velocity_min_m_s},
+                 {"velocity_resolution_m_s", c.velocity_resolution_m_s}, {"section_enter_m_s", c.section_enter_m_s},
                  {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
-                 {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s}};
+                 {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s},
+                 {"stribeck_search_m_s", {feedid::detail::stribeck_lo(c), feedid::detail::stribeck_hi(c)}},
+                 {"force_lag_samples", c.force_lag_samples}};
   nlohmann::json curve;
   for (int d = 0; d < 2; ++d) {
     nlohmann::json pts = nlohmann::json::array();

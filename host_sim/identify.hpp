@@ -19,7 +19,7 @@
 
 namespace feedid::host {
 
-using Core = feedid::Estimator<double, 32, 16>;
+using Core = feedid::Estimator<double>;
 
 /// The velocity the core is fed.
 enum class VelocitySource {

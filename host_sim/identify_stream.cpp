@@ -77,6 +77,7 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     r.error = std::string("invalid configuration: ") + core.config_error();
     return r;
   }
+  r.config = core.config();  // as init() completed it: what the core ran with
   // The jackknife's groups: blocks of kGroupBlock_s dealt round-robin to
   // kJackknifeChunks cores; the whole trace is not there to cut in ten.
   std::vector<std::unique_ptr<Core>> groups;

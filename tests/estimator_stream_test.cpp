@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "cortex_m/footprint_budget.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -568,7 +569,7 @@ TEST(Init, PushAndSolveBeforeInitAreNotInitialized) {
 // (5) memory budget
 // ---------------------------------------------------------------------------
 
-constexpr std::size_t kFirmwareRamBudget = 8192;
+constexpr std::size_t kFirmwareRamBudget = feedid::fw::estimator_float_ram_budget;
 static_assert(sizeof(feedid::Estimator<float>) <= kFirmwareRamBudget,
               "Estimator<float> exceeds the 8 KiB firmware RAM budget");
 

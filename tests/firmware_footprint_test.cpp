@@ -13,9 +13,9 @@
 #include "cortex_m/footprint_budget.hpp"
 #include "feedid/feedid.hpp"
 
-static_assert(sizeof(feedid::Estimator<float, 32, 16>) <= feedid::fw::estimator_float_ram_budget,
+static_assert(sizeof(feedid::Estimator<float>) <= feedid::fw::estimator_float_ram_budget,
               "Estimator<float> exceeds its RAM budget (port/cortex_m/footprint_budget.hpp)");
-static_assert(sizeof(feedid::Estimator<double, 32, 16>) <= feedid::fw::estimator_double_ram_budget,
+static_assert(sizeof(feedid::Estimator<double>) <= feedid::fw::estimator_double_ram_budget,
               "Estimator<double> exceeds its RAM budget (port/cortex_m/footprint_budget.hpp)");
 
 static_assert(sizeof(feedid::HealthTracker<float>) <= feedid::fw::health_tracker_float_ram_budget,
@@ -41,10 +41,10 @@ std::string format(float x, int digits = 6) {
 TEST(FirmwareFootprint, EstimatorFitsTheRamBudget) {
   // GIVEN the budget of port/cortex_m/footprint_budget.hpp
   // THEN the host sizes are within it (the target's are checked when the firmware compiles)
-  RecordProperty("sizeof_float_estimator", static_cast<int>(sizeof(feedid::Estimator<float, 32, 16>)));
-  RecordProperty("sizeof_double_estimator", static_cast<int>(sizeof(feedid::Estimator<double, 32, 16>)));
-  EXPECT_LE(sizeof(feedid::Estimator<float, 32, 16>), feedid::fw::estimator_float_ram_budget);
-  EXPECT_LE(sizeof(feedid::Estimator<double, 32, 16>), feedid::fw::estimator_double_ram_budget);
+  RecordProperty("sizeof_float_estimator", static_cast<int>(sizeof(feedid::Estimator<float>)));
+  RecordProperty("sizeof_double_estimator", static_cast<int>(sizeof(feedid::Estimator<double>)));
+  EXPECT_LE(sizeof(feedid::Estimator<float>), feedid::fw::estimator_float_ram_budget);
+  EXPECT_LE(sizeof(feedid::Estimator<double>), feedid::fw::estimator_double_ram_budget);
 }
 
 TEST(FirmwareConsole, FormatsLikePrintfG) {

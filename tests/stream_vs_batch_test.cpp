@@ -25,7 +25,7 @@ using feedid::Method;
 using feedid::Sample;
 using feedid::Status;
 using feedid::Sum;
-using Core = feedid::Estimator<double, 32, 16>;
+using Core = feedid::Estimator<double>;
 using Stats = feedid::host::BatchStatistics;
 
 constexpr double kRel = 1e-9;      // relative agreement of sums and estimates

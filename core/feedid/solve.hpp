@@ -208,6 +208,32 @@ uint32_t stribeck_coverage_flags(const Statistics<T, Bands, C>& s, int d, T vs) 
   return covered ? 0u : static_cast<uint32_t>(flag_no_low_speed_data);
 }
 
+/// What the data can and cannot say about a direction's friction fit with
+/// Stribeck velocity vs, by either method: below the speed the data resolves,
+/// uncertain, not covered by bands near vs, or not physical.
+template <typename T, int Bands, int C>
+uint32_t friction_evidence_flags(const Statistics<T, Bands, C>& s, const Config<T>& cfg, int d,
+                                 const DirectionEstimate<T>& e, T vs) {
+  uint32_t f = 0;
+  const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
+  if (vs < floor_v) f |= flag_stribeck_below_resolution;
+  f |= stribeck_uncertainty_flags(e);
+  f |= stribeck_coverage_flags(s, d, vs);
+  if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) f |= flag_not_physical;
+  return f;
+}
+
+/// The mass's flags from its value and standard error (either method).
+template <typename T> uint32_t mass_evidence_flags(T mass, T mass_se) {
+  return mass_uncertainty_flags(mass, mass_se) | (mass > T(0) ? 0u : static_cast<uint32_t>(flag_not_physical));
+}
+
+/// Force noise (N) from the second differences of the interval forces: the
+/// variance of a second difference of white noise is 6 sigma^2.
+template <typename T, int Bands, int C> T force_noise_variance(const Statistics<T, Bands, C>& s) {
+  return s.noise_count > 0 ? s.noise_d2.get() / (T(6) * T(s.noise_count)) : T(0);
+}
+
 template <typename T> struct DirectionFit {
   DirectionEstimate<T> est{};
   T ssr = T(0);      ///< weighted residual (N^2 s)
@@ -292,13 +318,8 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
     e.stribeck_velocity_se = vs * T(1e3);
   }
 
-  // What the data can and cannot say about the Stribeck part.
-  const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
-  if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
   if (at_bound) e.flags |= flag_stribeck_at_search_bound;
-  e.flags |= stribeck_uncertainty_flags(e);
-  e.flags |= stribeck_coverage_flags(s, d, vs);
-  if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
+  e.flags |= friction_evidence_flags(s, cfg, d, e, vs);
   return out;
 }
 
@@ -372,7 +393,7 @@ Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
   int dof = 0;
   for (int d = 0; d < 2; ++d) if (fit[d].usable) { ssr += fit[d].ssr; dof += fit[d].dof; }
   const T mean_dt = s.interval_count > 0 ? s.total_interval_time.get() / T(s.interval_count) : T(0);
-  const T noise_var = s.noise_count > 0 ? s.noise_d2.get() / (T(6) * T(s.noise_count)) : T(0);
+  const T noise_var = force_noise_variance(s);
   out.force_noise_N = port::sqrt(noise_var);
   const T var_time = port::max(dof > 0 ? ssr / T(dof) : T(0), noise_var * mean_dt);
   if (!mass_ok) {
@@ -380,8 +401,7 @@ Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
   } else {
     out.mass_se_kg = port::sqrt(var_time * tau_dv2) / dv2;
     // Inertia visible only if the velocity change explains far more than noise.
-    out.mass_flags |= mass_uncertainty_flags(mass, out.mass_se_kg);
-    if (!(mass > T(0))) out.mass_flags |= flag_not_physical;
+    out.mass_flags |= mass_evidence_flags(mass, out.mass_se_kg);
   }
   if (!fit[0].usable && !fit[1].usable) return Status::insufficient_data;
   return Status::ok;
@@ -394,7 +414,6 @@ Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
 /// through the best candidate and its neighbours.
 template <typename T, int Bands, int C>
 Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estimate<T>& out) {
-  (void)cfg;
   T xy = T(0), xx = T(0), yy = T(0);
   uint32_t nsec = 0;
   for (int d = 0; d < 2; ++d) {
@@ -408,8 +427,7 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     out.mass_kg = xy / xx;
     const T res = port::max(T(0), yy - out.mass_kg * xy);
     out.mass_se_kg = port::sqrt(res / T(nsec - 1) / xx);
-    out.mass_flags |= mass_uncertainty_flags(out.mass_kg, out.mass_se_kg);
-    if (!(out.mass_kg > T(0))) out.mass_flags |= flag_not_physical;
+    out.mass_flags |= mass_evidence_flags(out.mass_kg, out.mass_se_kg);
   } else {
     out.mass_flags |= flag_no_acceleration;
   }
@@ -478,15 +496,11 @@ Status solve_paper(const Statistics<T, Bands, C>& s, const Config<T>& cfg, Estim
     e.viscous_se = port::sqrt(s2 * inv.v[1]);
     e.breakaway_se = port::sqrt(s2 * inv.v[2]);
     e.stribeck_velocity_se = curvature > T(0) ? vs * port::sqrt(T(2) * s2 / curvature) : vs * T(1e3);
-    const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
-    if (vs < floor_v) e.flags |= flag_stribeck_below_resolution;
-    e.flags |= stribeck_uncertainty_flags(e);
-    e.flags |= stribeck_coverage_flags(s, d, vs);
-    if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) e.flags |= flag_not_physical;
+    e.flags |= friction_evidence_flags(s, cfg, d, e, vs);
     // R^2 of section means: 1 - SSR / total sum of squares about the mean force.
     e.friction_r2 = ds.sec_uu.get() > T(0) ? T(1) - ssr / ds.sec_uu.get() : T(0);
   }
-  out.force_noise_N = s.noise_count > 0 ? port::sqrt(s.noise_d2.get() / (T(6) * T(s.noise_count))) : T(0);
+  out.force_noise_N = port::sqrt(force_noise_variance(s));
   if (out.pos.flags & flag_no_data && out.neg.flags & flag_no_data) return Status::insufficient_data;
   return Status::ok;
 }

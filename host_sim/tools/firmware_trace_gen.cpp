@@ -3,7 +3,7 @@
 // write them as a C++ header together with
 //   * the core configuration the host pipeline picks for this trace
 //     (feedid::host::auto_config, each field rounded to float),
-//   * the host reference: feedid::host::Core (Estimator<double, 32, 16>)
+//   * the host reference: feedid::host::Core (Estimator<double>)
 //     run on the SAME float-rounded samples with the same configuration,
 //     solved once mid-stream (at the sample where the firmware is asked to
 //     solve) and once at the end,
@@ -43,7 +43,7 @@ template <typename T> struct Run {
 template <typename T>
 Run<T> run(const std::vector<FloatSample>& s, const feedid::Config<T>& cfg, std::size_t solve_at) {
   Run<T> r;
-  auto est = std::make_unique<feedid::Estimator<T, 32, 16>>();
+  auto est = std::make_unique<feedid::Estimator<T>>();
   if (est->init(cfg) != feedid::Status::ok) {
     std::fprintf(stderr, "gen_trace: invalid config: %s\n", est->config_error());
     std::exit(2);
@@ -158,7 +158,7 @@ int main(int argc, char** argv) {
   std::fprintf(f, "constexpr uint32_t host_rejected = %lluu;\n\n",
                static_cast<unsigned long long>(ref.diag.samples_rejected));
   feedid::host::firmware::write_config(f, cf);
-  std::fprintf(f, "/// Host Estimator<double, 32, 16> on these samples,\n"
+  std::fprintf(f, "/// Host Estimator<double> on these samples,\n"
                  "/// solved right after sample solve_request_after ...\n");
   std::fprintf(f, "constexpr Result host_double_mid = %s;\n", result_literal(ref.mid).c_str());
   std::fprintf(f, "/// ... and at the end of the trace.\n");

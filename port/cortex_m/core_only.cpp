@@ -5,7 +5,7 @@
 #include "feedid/feedid.hpp"
 
 namespace {
-feedid::Estimator<float, 32, 16> g_axis;
+feedid::Estimator<float> g_axis;
 }
 
 // Inputs and outputs the optimiser cannot see through.

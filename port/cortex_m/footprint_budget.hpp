@@ -8,11 +8,11 @@
 
 namespace feedid::fw {
 
-/// Estimator<float, 32, 16>, the target's instance (bytes): the product's
+/// Estimator<float>, the target's instance (bytes): the product's
 /// target of at most 8 KiB per axis (6 % of the 128 KB SRAM of an
 /// STM32F407-class part, room for four axes next to the drive's firmware).
 constexpr size_t estimator_float_ram_budget = 8 * 1024;
-/// Estimator<double, 32, 16>, the host reference; about twice the float one.
+/// Estimator<double>, the host reference; about twice the float one.
 constexpr size_t estimator_double_ram_budget = 20 * 1024;
 /// HealthTracker<float>, one axis's friction-health tracking (epoch
 /// estimator, change monitor, last epoch): the same 8 KiB per axis.

@@ -37,13 +37,13 @@ namespace {
 using Console = fw::SemihostingConsole;
 using fw::print_cost;
 
-/// The target's estimator: the host's Estimator<double, 32, 16> in float.
-using Axis = feedid::Estimator<float, 32, 16>;
+/// The target's estimator: the host's Estimator<double> in float.
+using Axis = feedid::Estimator<float>;
 
 constexpr size_t axis_ram_budget = fw::estimator_float_ram_budget;
 static_assert(sizeof(Axis) <= fw::estimator_float_ram_budget,
               "Estimator<float> exceeds its RAM budget (cortex_m/footprint_budget.hpp)");
-static_assert(sizeof(feedid::Estimator<double, 32, 16>) <= fw::estimator_double_ram_budget,
+static_assert(sizeof(feedid::Estimator<double>) <= fw::estimator_double_ram_budget,
               "Estimator<double> exceeds its RAM budget (cortex_m/footprint_budget.hpp)");
 
 /// Comparison with the host double reference (relative, same trace).
@@ -195,11 +195,11 @@ int main() {
   fw::paint_stack();
   board::counter_start();
   Console out;
-  out << "feedid firmware on Cortex-M4F (QEMU mps2-an386): Estimator<float, 32, 16>, " << trace::count
+  out << "feedid firmware on Cortex-M4F (QEMU mps2-an386): Estimator<float>, " << trace::count
       << " samples of a simulated 100 kg drive at ";
   out.real(trace::sample_rate_hz, 6) << " Hz in flash\n";
   out << "sizeof Estimator<float> = " << uint32_t(sizeof(Axis)) << " B (budget " << uint32_t(axis_ram_budget)
-      << "), Estimator<double> = " << uint32_t(sizeof(feedid::Estimator<double, 32, 16>))
+      << "), Estimator<double> = " << uint32_t(sizeof(feedid::Estimator<double>))
       << " B, sample queue = " << uint32_t(sizeof(SampleQueue)) << " B (" << uint32_t(queue_capacity)
       << " x " << uint32_t(sizeof(ServoItem)) << " B)\n";
 

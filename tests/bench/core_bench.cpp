@@ -20,7 +20,7 @@ const CoreLoop& loop() {
   return l;
 }
 
-template <typename T> using Axis = feedid::Estimator<T, 32, 16>;
+template <typename T> using Axis = feedid::Estimator<T>;
 
 /// An initialised axis for the loop's configuration, or null (the
 /// benchmark then reports why).
