@@ -207,9 +207,10 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
     return 2;
   }
   opt.identify.units = in.units();
-  opt.progress = [](double t) { std::fprintf(stderr, "\rmonitor: %.0f s read", t); };
+  StreamProgress progress("monitor");
+  opt.progress = [&progress](double t) { progress(t); };
   const MonitorResult r = monitor(stream, opt);
-  std::fprintf(stderr, "\n");
+  progress.done();
   std::cout << trend_table(r);
   if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
   std::string err;
@@ -304,9 +305,10 @@ struct IdentifyCommand : Command {
     CsvStream in(in_path.front(), cols);
     if (!in.ok()) { std::fprintf(stderr, "error: %s\n", in.error().c_str()); return 2; }
     std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
-    opt.progress = [](double t) { std::fprintf(stderr, "\ridentify: %.0f s read", t); };
+    StreamProgress progress("identify");
+    opt.progress = [&progress](double t) { progress(t); };
     const IdentifyResult r = identify_stream(in, in_path.front(), opt);
-    std::fprintf(stderr, "\n");
+    progress.done();
     return report_identify(r, json_path, nullptr);
   }
 };
