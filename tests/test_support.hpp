@@ -8,9 +8,9 @@
 #include <cstdint>
 #include <random>
 
-#include "drive_sim.hpp"
+#include "sim/drive_sim.hpp"
 #include "feedid/feedid.hpp"
-#include "trace.hpp"
+#include "io/trace.hpp"
 
 namespace feedid::test {
 

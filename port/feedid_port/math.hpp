@@ -3,7 +3,7 @@
 // double-precision exp would drag software floating point into the firmware.
 // These are range-reduced polynomials, templated on the scalar so float code
 // stays in float. Accuracy (checked on host against <cmath> in
-// tests/port_math_test.cpp over the ranges the core uses):
+// tests/core/port_math_test.cpp over the ranges the core uses):
 //   exp: relative error < 2e-15 (double), < 3e-7 (float) for x in [-80, 80]
 //   log: absolute error < 2e-15 (double), < 3e-7 (float) times max(1, |ln x|)
 //        for x in [1e-30, 1e30] (the spacing of the results themselves grows with |ln x|)

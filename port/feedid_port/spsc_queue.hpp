@@ -15,7 +15,7 @@
 //
 // LockPolicy (static void lock(); static void unlock();) is used only by the
 // task-side operations that touch both ends at once (clear()): on a
-// Cortex-M it masks interrupts (port/cortex_m/board.hpp); a host test
+// Cortex-M it masks interrupts (firmware/cortex_m/board.hpp); a host test
 // counts its calls to prove the ISR path takes none.
 //
 // Overflow: push_from_isr on a full queue stores nothing, returns false and

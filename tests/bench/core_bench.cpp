@@ -8,8 +8,8 @@
 
 #include <memory>
 
-#include "bench.hpp"
-#include "identify.hpp"
+#include "bench/bench.hpp"
+#include "identify/identify.hpp"
 
 namespace {
 

@@ -1,0 +1,204 @@
+// Friction compensation tables from an identified model. Host only.
+#include "compensate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "feedid/feedforward.hpp"
+#include "identify/identify.hpp"
+
+namespace feedid::host {
+namespace {
+
+/// Largest |chord - curve| on [a, b], sampled finely enough for the
+/// Stribeck dip (the chord is exact at both ends).
+double chord_error(const DriveParams& m, int dir, double a, double b) {
+  constexpr int kSamples = 64;
+  const double fa = model_friction(m, dir, a), fb = model_friction(m, dir, b);
+  double worst = 0.0;
+  for (int i = 1; i < kSamples; ++i) {
+    const double s = a + (b - a) * i / kSamples;
+    const double chord = fa + (fb - fa) * (s - a) / (b - a);
+    worst = std::max(worst, std::fabs(chord - model_friction(m, dir, s)));
+  }
+  return worst;
+}
+
+/// Breakpoints from 0 to top, each segment reaching as far as its chord
+/// stays within eps; empty if more than `segments` segments are needed.
+std::vector<double> greedy_breakpoints(const DriveParams& m, int dir, double top, double eps, int segments) {
+  std::vector<double> b{0.0};
+  while (b.back() < top) {
+    if (static_cast<int>(b.size()) > segments) return {};
+    const double a = b.back();
+    double lo = a, hi = top;
+    if (chord_error(m, dir, a, top) <= eps) {
+      lo = top;
+    } else {
+      for (int it = 0; it < 50; ++it) {  // reach of the chord from a: bisection on its end
+        const double mid = 0.5 * (lo + hi);
+        (chord_error(m, dir, a, mid) <= eps ? lo : hi) = mid;
+      }
+    }
+    if (lo <= a) return {};  // eps below what any segment can hold
+    b.push_back(lo);
+  }
+  return static_cast<int>(b.size()) - 1 <= segments ? b : std::vector<double>{};
+}
+
+std::vector<TablePoint> minimax_table(const DriveParams& m, int dir, double top, int points) {
+  // The error of the straight line over the whole range is an upper bound.
+  double lo = 0.0, hi = chord_error(m, dir, 0.0, top) + 1e-12;
+  std::vector<double> best = greedy_breakpoints(m, dir, top, hi, points - 1);
+  for (int it = 0; it < 60 && !best.empty(); ++it) {
+    const double eps = 0.5 * (lo + hi);
+    std::vector<double> b = greedy_breakpoints(m, dir, top, eps, points - 1);
+    if (b.empty()) {
+      lo = eps;
+    } else {
+      hi = eps;
+      best = std::move(b);
+    }
+  }
+  std::vector<TablePoint> t;
+  for (double s : best) t.push_back({s, model_friction(m, dir, s)});
+  return t;
+}
+
+double scaled(double force_N, const CompensateOptions& o) { return force_N / o.force_scale; }
+
+}  // namespace
+
+double model_friction(const DriveParams& m, int dir, double speed_m_s) {
+  const feedid::Estimate<double> e = to_estimate(m);
+  return feedid::friction_magnitude(dir == 0 ? e.pos : e.neg, speed_m_s);
+}
+
+CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points) {
+  if (points < 2 || points > kMaxTablePoints)
+    throw std::invalid_argument("--points " + std::to_string(points) + ": a table has 2 to " +
+                                std::to_string(kMaxTablePoints) + " points");
+  if (!(max_speed_m_s > 0) || !std::isfinite(max_speed_m_s))
+    throw std::invalid_argument("max speed " + std::to_string(max_speed_m_s) + " m/s: must be positive (--max-speed)");
+  CompensationTable t;
+  t.model = model;
+  t.max_speed_m_s = max_speed_m_s;
+  for (int d = 0; d < 2; ++d) t.dir[d] = minimax_table(model, d, max_speed_m_s, points);
+  t.max_interpolation_error_N = std::max(table_error(t, 0), table_error(t, 1));
+  return t;
+}
+
+double table_error(const CompensationTable& t, int dir, int n) {
+  feedid::FrictionTable<double, kMaxTablePoints> ft;
+  const auto& pts = t.dir[dir];
+  ft.count[dir] = static_cast<int>(pts.size());  // <= kMaxTablePoints (make_compensation_table)
+  for (int k = 0; k < ft.count[dir]; ++k) {
+    ft.speed_m_s[dir][k] = pts[k].speed_m_s;
+    ft.force_N[dir][k] = pts[k].force_N;
+  }
+  double worst = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    const double s = t.max_speed_m_s * i / n;
+    worst = std::max(worst, std::fabs(ft.magnitude(dir, s) - model_friction(t.model, dir, s)));
+  }
+  return worst;
+}
+
+nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt) {
+  const bool drive_units = opt.force_scale != 1.0 || !opt.force_unit.empty();
+  const std::string unit = opt.force_unit.empty() ? "N" : opt.force_unit;
+  nlohmann::json j;
+  for (int d = 0; d < 2; ++d) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& p : t.dir[d]) {
+      nlohmann::json e = {{"speed_m_s", p.speed_m_s}, {"force_N", p.force_N}};
+      if (drive_units) e["force"] = scaled(p.force_N, opt);
+      list.push_back(e);
+    }
+    j[d == 0 ? "pos" : "neg"] = list;
+  }
+  j["max_interpolation_error_N"] = t.max_interpolation_error_N;
+  j["max_speed_m_s"] = t.max_speed_m_s;
+  j["points"] = t.dir[0].size();
+  j["rule"] = "per direction, the breakpoints whose largest linear-interpolation error against the model is least "
+              "(minimax); magnitudes are positive: the drive adds +force moving positive, -force moving negative; "
+              "beyond the last point the last segment continues";
+  const auto& m = t.model;
+  j["parameter_form"] = {
+      {"offset_pos_N", m.pos.coulomb_N},
+      {"offset_neg_N", -m.neg.coulomb_N},
+      {"viscous_pos_Ns_m", m.pos.viscous_Ns_m},
+      {"viscous_neg_Ns_m", m.neg.viscous_Ns_m},
+      {"convention", "u_ff = offset_pos + viscous_pos * v while v > 0, offset_neg + viscous_neg * v while v < 0 "
+                     "(offset_neg is negative); the Stribeck rise below twice vs is not in this form"}};
+  if (drive_units) {
+    j["force_unit"] = unit;
+    j["force_scale_N_per_unit"] = opt.force_scale;
+    j["parameter_form"]["offset_pos"] = scaled(m.pos.coulomb_N, opt);
+    j["parameter_form"]["offset_neg"] = scaled(-m.neg.coulomb_N, opt);
+    j["parameter_form"]["viscous_pos_per_m_s"] = scaled(m.pos.viscous_Ns_m, opt);
+    j["parameter_form"]["viscous_neg_per_m_s"] = scaled(m.neg.viscous_Ns_m, opt);
+  }
+  return j;
+}
+
+std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
+  const bool drive_units = opt.force_scale != 1.0 || !opt.force_unit.empty();
+  const std::string unit = opt.force_unit.empty() ? "unit" : opt.force_unit;
+  std::ostringstream o;
+  o.precision(10);
+  o << "direction,speed_m_s,force_N" << (drive_units ? ",force_" + unit : "") << "\n";
+  for (int d = 0; d < 2; ++d)
+    for (const auto& p : t.dir[d]) {
+      o << (d == 0 ? "pos" : "neg") << "," << p.speed_m_s << "," << p.force_N;
+      if (drive_units) o << "," << scaled(p.force_N, opt);
+      o << "\n";
+    }
+  return o.str();
+}
+
+int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
+                   CompensateOptions opt) {
+  nlohmann::json mj;
+  try {
+    mj = read_json_file(model_path);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
+    opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
+  if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
+    std::fprintf(stderr, "error: --force-scale %g: must be finite and non-zero\n", opt.force_scale);
+    return 2;
+  }
+  CompensationTable t;
+  try {
+    if (opt.max_speed_m_s <= 0)
+      throw std::invalid_argument(model_path + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
+    t = make_compensation_table(model_from_json(mj), opt.max_speed_m_s, opt.points);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  const std::string text = format == "csv" ? to_csv(t, opt) : to_json(t, opt).dump(2) + "\n";
+  if (out_path.empty()) {
+    std::cout << text;
+  } else {
+    std::ofstream o(out_path);
+    if (!(o << text)) {
+      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+      return 1;
+    }
+    std::printf("%zu points per direction up to %.4g m/s; largest interpolation error %.3g N; wrote %s\n",
+                t.dir[0].size(), t.max_speed_m_s, t.max_interpolation_error_N, out_path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace feedid::host

@@ -1,0 +1,116 @@
+// Sim-to-real gap diagnosis: fit the base model on part of a trace, measure
+// the force residual on the held-out rest, say where it lies, which
+// unmodelled effect explains it, and how far adding that effect shrinks the
+// held-out gap. docs/diagnosis.md gives the method. Host only.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "identify/identify.hpp"
+#include "io/trace.hpp"
+
+namespace feedid::host {
+
+/// The catalogue (NOTES.md), plus the two verdicts.
+inline const std::vector<std::string>& effect_kinds() {
+  static const std::vector<std::string> k = {"offset", "position_ripple", "position_friction", "thermal_drift",
+                                             "quadratic_viscous", "presliding_hysteresis", "compliance", "delay"};
+  return k;
+}
+
+struct DiagnoseOptions {
+  IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
+  double block_s = 0.005;         ///< residual block length (s): force residual is averaged per block
+  int folds = 40;                 ///< at most this many time folds (each spans two motion cycles); odd ones are held out
+  /// Held-out improvement over its noise-only spread (improvement_z in
+  /// diagnose.cpp) a candidate must exceed; calibrated in docs/diagnosis.md.
+  double significance_z = 5.0;
+  double min_closed_fraction = 0.5;  ///< share of the gap's excess energy the named effects together must explain
+  /// Share of the gap's excess energy left at a step that an effect added
+  /// there must explain (forward selection, docs/diagnosis.md).
+  double min_step_energy_share = 0.4;
+  double unexplained_ratio = 1.4;    ///< held-out RMS / noise floor above which a gap is real
+  int max_effects = 3;               ///< forward selection stops after this many
+  /// A Coulomb asymmetry |Fc+ - Fc-|/2 above this share of the mean Coulomb
+  /// force is reported as ambiguous with an offset (indistinguishable while moving).
+  double offset_asymmetry_ratio = 0.1;
+  /// A held-out observation whose leverage under the base fit exceeds this
+  /// (its prediction variance above half the noise variance) lies where the
+  /// identification folds do not reach; it is set aside, not scored.
+  double max_leverage = 0.5;
+  std::function<void(double)> progress;
+};
+
+struct Candidate {
+  std::string kind;
+  nlohmann::json parameters;      ///< fitted on the identification part, SI names
+  double heldout_rms_N = 0.0;     ///< held-out RMS with this effect added
+  double closed_fraction = 0.0;   ///< of the excess gap over the noise floor
+  double z_statistic = 0.0;       ///< held-out improvement over its noise-only spread
+  double energy_share = 0.0;      ///< of the excess gap energy this effect explains
+  bool significant = false;
+  bool indistinguishable = false; ///< its term is (almost) a combination of the base model's terms here
+  std::string note;
+};
+
+/// One effect named by forward selection, with the gap after adding it.
+struct NamedEffect {
+  std::string kind;
+  nlohmann::json parameters;      ///< from the joint fit with every named effect
+  double heldout_rms_N = 0.0;     ///< held-out RMS with this and the effects before it
+  double closed_fraction = 0.0;   ///< of the base model's excess gap, cumulative
+  double z_statistic = 0.0;       ///< at the step it was added
+};
+
+struct WhereEntry {
+  std::string domain;   ///< velocity, position, time, after_reversal, acceleration_change, frequency
+  std::string range;    ///< human-readable range with units
+  double lo = 0.0, hi = 0.0;  ///< numeric range in the domain's SI unit
+  double share = 0.0;         ///< share of held-out residual energy in this range
+  double time_share = 0.0;    ///< share of held-out time in this range
+};
+
+struct DiagnoseResult {
+  std::string error;
+  IdentifyResult base;            ///< the core's identification on the identification part
+  std::string effect;             ///< none, unexplained, or the first of effects
+  nlohmann::json effect_parameters;
+  std::vector<NamedEffect> effects;  ///< forward selection, in the order added
+  bool gap_remains = false;       ///< a significant gap is left after the named effects (unexplained)
+  double rms_base_N = 0.0;        ///< held-out RMS force residual of the base model
+  double rms_augmented_N = 0.0;   ///< held-out RMS with every named effect (= base when none)
+  double noise_floor_N = 0.0;     ///< RMS a perfect model would leave (white block noise)
+  /// RMS a point-sampled force log adds at acceleration steps (0 for period-mean logs);
+  /// with noise_floor_N it sets the floor of the test for a remaining gap.
+  double sampling_floor_N = 0.0;
+  double closed_fraction = 0.0;   ///< of the excess gap, by every named effect
+  std::vector<WhereEntry> where;  ///< of the base model's held-out residual
+  std::vector<WhereEntry> where_left;  ///< of what the named effects leave (when a gap remains)
+  std::vector<Candidate> candidates;  ///< first step, ranked, best first
+  std::vector<std::vector<Candidate>> steps;  ///< every forward-selection step's candidates, ranked
+  /// Effects the data cannot tell from the base model's own terms, e.g. an
+  /// offset from Coulomb friction that differs by direction.
+  nlohmann::json ambiguities = nlohmann::json::array();
+  /// The base model refitted jointly with the named effects on the
+  /// identification folds (valid when has_augmented_model).
+  DriveParams augmented_model{};
+  bool has_augmented_model = false;
+  std::size_t blocks_identification = 0, blocks_heldout = 0;
+  std::size_t heldout_beyond_identification = 0;  ///< held-out observations set aside (max_leverage)
+  double force_lag_s = 0.0;               ///< lag the base model pairs force with (s)
+  double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
+  std::string position_origin = "measured";  ///< or how it was obtained (integrated from velocity)
+  int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)
+  // Series for the report (observations): centre time, position, velocity, residual before/after.
+  std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;
+  std::vector<bool> block_heldout;
+};
+
+DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt);
+nlohmann::json to_json(const DiagnoseResult& r);
+std::string summary(const DiagnoseResult& r);
+
+}  // namespace feedid::host

@@ -1,0 +1,177 @@
+// The diagnosis's observations and their regressors. A trace becomes time
+// folds (odd ones held out), residual blocks of one direction inside a fold,
+// and observations: pairs of adjacent blocks under a triangular weight.
+// Every regressor is a column over the observations, built from two moments
+// per block, so the candidate search scales with the blocks, not the
+// samples (docs/diagnosis.md, "Cost"). Host only.
+#pragma once
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "identify/identify.hpp"
+
+namespace feedid::host::diag {
+
+using Vec = Eigen::VectorXd;
+using Mat = Eigen::MatrixXd;
+
+/// n values from lo to hi, evenly spaced in log (every grid of the diagnosis).
+inline std::vector<double> log_grid(double lo, double hi, int n) {
+  std::vector<double> g;
+  for (int i = 0; i < n; ++i) g.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1)));
+  return g;
+}
+
+/// Time folds. Folds of fixed length alias with periodic motion (0.75 s
+/// folds over a ladder whose strokes alternate every 0.75 s put every
+/// positive stroke in the identification half), so each fold spans at
+/// least two motion cycles and its edges sit in dwells where there are any.
+struct Folds {
+  std::vector<double> edges;  ///< interior edges, ascending (s)
+  int of(double t) const;     ///< fold index of time t (0-based)
+  int count() const { return static_cast<int>(edges.size()) + 1; }
+  static bool heldout(int fold) { return fold % 2 == 1; }
+};
+Folds make_folds(const Signals& s, int max_folds, double v_min);
+
+/// Moving stretch of one direction inside one fold, about block_s long.
+/// Interval j runs from sample j to sample j + 1.
+struct Block {
+  std::size_t j0 = 0, j1 = 0;  ///< intervals [j0, j1)
+  double t0 = 0.0, tau = 0.0;  ///< start time and length (s)
+  int dir = 0;                 ///< +1 / -1
+  int fold = 0;
+};
+
+/// An observation: blocks a and a + 1 under the weight w rising from 0 to 1
+/// across a and falling back across a + 1. Under w, sum w dv telescopes to
+/// the difference of the two blocks' mean velocities: no raw velocity
+/// sample carries the inertia term (identify.cpp uses the same rule).
+struct Observation {
+  std::size_t a = 0;        ///< first block
+  double t = 0.0;           ///< centre time (s)
+  double x = 0.0, v = 0.0;  ///< mean position (m) and velocity (m/s)
+  double area = 0.0;        ///< integral of w dt (s)
+  double since_reversal = 0.0;  ///< distance since the last reversal at the start (m)
+  double accel_change = 0.0;    ///< |a_end - a_start| (m/s^2)
+  int dir = 0, fold = 0;
+  bool heldout = false;
+  bool beyond_identification = false;  ///< in a held-out fold but set aside (set_aside_beyond)
+};
+
+/// A stretch of one block (or of the time between blocks, block ==
+/// kNoBlock) over which candidate regressors are evaluated as constant.
+/// Fine segments of block_s / 5 (1 ms) hold a 2 mm ripple at 0.25 m/s
+/// within 1 % and cost 8x less than samples at 8 kHz; coarse ones, a whole
+/// block, serve the grid search that only has to find the right basin.
+struct Segment {
+  static constexpr std::size_t kNoBlock = static_cast<std::size_t>(-1);
+  std::size_t block = kNoBlock;
+  std::size_t j0 = 0;        ///< first interval
+  double dt = 0.0;           ///< length (s)
+  double t = 0.0;            ///< mid time (s)
+  double t_rel = 0.0;        ///< mid time after the block's start (s)
+  double t_start = 0.0;      ///< start (s)
+  double x0 = 0.0, x1 = 0.0; ///< position at start and end (m)
+  double v = 0.0;            ///< mean velocity (m/s)
+  double rev0 = 0.0, rev1 = 0.0;      ///< distance since the last reversal, start and end (m)
+  double start0 = 0.0, start1 = 0.0;  ///< ... since the last reversal or start from rest (m)
+  double accel = 0.0;        ///< mean smoothed acceleration (m/s^2)
+};
+
+class Observations {
+ public:
+  /// Blocks of about block_s on the folds, paired into observations, and
+  /// segments of about block_s / 5.
+  Observations(const Signals& s, double v_min, double block_s, const Folds& folds);
+
+  std::size_t size() const { return obs_.size(); }
+  const std::vector<Observation>& obs() const { return obs_; }
+  enum class Resolution { coarse, fine };
+  const std::vector<Segment>& segments(Resolution r = Resolution::fine) const {
+    return r == Resolution::fine ? fine_ : coarse_;
+  }
+  const Signals& signals() const { return s_; }
+  std::size_t heldout_count() const;
+  /// Takes the held-out observations whose prediction variance (in units of
+  /// the noise variance) exceeds max_variance out of the held-out set; they
+  /// lie where the identification folds do not reach. Returns how many.
+  std::size_t set_aside_beyond(const Vec& prediction_variance, double max_variance);
+
+  /// Column of w-weighted means of g(j) over each observation, g per interval j.
+  template <typename G> Vec sample_column(G&& g) const {
+    return sample_columns(1, [&g](std::size_t j, double* out) { out[0] = g(j); }).col(0);
+  }
+  /// q columns at once from g(j, out[q]).
+  template <typename G> Mat sample_columns(int q, G&& g) const {
+    std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
+    std::vector<double> value(static_cast<std::size_t>(q), 0.0);
+    for (std::size_t b = 0; b < blocks_.size(); ++b)
+      for (std::size_t j = blocks_[b].j0; j < blocks_[b].j1; ++j) {
+        g(j, value.data());
+        const double dt = interval_dt(j), age = interval_t(j) - blocks_[b].t0;
+        for (int c = 0; c < q; ++c)
+          if (value[static_cast<std::size_t>(c)] != 0.0) m[static_cast<std::size_t>(c)].add(b, value[static_cast<std::size_t>(c)], dt, age);
+      }
+    return to_columns(m);
+  }
+  /// Columns of w-weighted means of q values g(i, segment, out[q]) taken
+  /// as constant over each segment. A stateful g (a filter) sees every
+  /// segment in time order; otherwise segments between blocks are skipped.
+  template <typename G> Mat segment_columns(int q, bool stateful, Resolution r, G&& g) const {
+    std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
+    double value[4] = {0, 0, 0, 0};
+    const std::vector<Segment>& segs = segments(r);
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      const Segment& sg = segs[i];
+      if (sg.block == Segment::kNoBlock && !stateful) continue;
+      g(i, sg, value);
+      if (sg.block == Segment::kNoBlock) continue;
+      for (int c = 0; c < q; ++c)
+        if (value[c] != 0.0) m[static_cast<std::size_t>(c)].add(sg.block, value[c], sg.dt, sg.t_rel);
+    }
+    return to_columns(m);
+  }
+
+  double interval_dt(std::size_t j) const { return s_.t[j + 1] - s_.t[j]; }
+  double interval_t(std::size_t j) const { return 0.5 * (s_.t[j + 1] + s_.t[j]); }
+  double interval_v(std::size_t j) const { return 0.5 * (s_.v[j + 1] + s_.v[j]); }
+  /// Force for interval j by the core's pairing rule.
+  double interval_force(std::size_t j) const;
+  /// Mean of the zero-phase low-passed force over [t0, t1] (linear between
+  /// samples), searching from sample j: exact for a segment of any length.
+  double lowpass_force_mean(double t0, double t1, std::size_t j) const;
+
+ private:
+  /// Per block: M0 = sum g dt, M1 = sum g (t - t0) dt.
+  struct Moments {
+    explicit Moments(std::size_t n) : m0(n, 0.0), m1(n, 0.0) {}
+    void add(std::size_t b, double g, double dt, double age) {
+      m0[b] += g * dt;
+      m1[b] += g * age * dt;
+    }
+    std::vector<double> m0, m1;
+  };
+  Vec from_moments(const Moments& m) const;
+  Mat to_columns(const std::vector<Moments>& m) const {
+    Mat out(static_cast<Eigen::Index>(obs_.size()), static_cast<Eigen::Index>(m.size()));
+    for (std::size_t c = 0; c < m.size(); ++c) out.col(static_cast<Eigen::Index>(c)) = from_moments(m[c]);
+    return out;
+  }
+  void make_blocks(double v_min, double block_s, const Folds& folds);
+  void make_observations(const std::vector<double>& accel);
+  std::vector<Segment> make_segments(const std::vector<double>& accel, double v_min, double segment_s) const;
+
+  const Signals& s_;
+  feedid::ForcePairing<double> pairing_;
+  std::vector<Block> blocks_;
+  std::vector<Observation> obs_;
+  std::vector<Segment> fine_, coarse_;
+  double force_integral(double t, std::size_t& j) const;
+  std::vector<double> force_lp_, force_integral_;  ///< per sample: low-passed force, its integral from the start
+};
+
+}  // namespace feedid::host::diag

@@ -1,0 +1,828 @@
+#include "identify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "signals/alignment.hpp"
+#include "signals/filters.hpp"
+#include "report/number_format.hpp"
+#include "uncertainty.hpp"
+
+namespace feedid::host {
+namespace {
+
+double median_step(const std::vector<double>& t) {
+  std::vector<double> d;
+  d.reserve(t.size());
+  for (std::size_t k = 1; k < t.size(); ++k) d.push_back(t[k] - t[k - 1]);
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+double quantile_abs(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  for (double& x : v) x = std::fabs(x);
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
+}
+
+/// Encoder quantum: the smallest position step, if the steps are (nearly
+/// all) integer multiples of it; 0 for an unquantised or resampled position.
+double position_quantum(const std::vector<double>& x) {
+  double q = 0.0;
+  const double scale = 1e-12 * std::max(1.0, quantile_abs(x, 1.0));
+  for (std::size_t k = 1; k < x.size(); ++k) {
+    const double d = std::fabs(x[k] - x[k - 1]);
+    if (d > scale && (q == 0.0 || d < q)) q = d;
+  }
+  if (q == 0.0) return 0.0;
+  std::size_t on_grid = 0, n = 0;
+  for (std::size_t k = 1; k < x.size(); k += 7) {
+    const double r = (x[k] - x[k - 1]) / q;
+    ++n;
+    if (std::fabs(r - std::round(r)) < 1e-3) ++on_grid;
+  }
+  return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
+}
+
+/// White-noise level of a velocity from its second differences (m/s);
+/// differences across a gap in time (held-out folds cut out, another run)
+/// are not noise.
+double velocity_noise(const std::vector<double>& v, const std::vector<double>& t, double dt) {
+  double d2 = 0.0;
+  std::size_t nd = 0;
+  for (std::size_t k = 2; k < v.size(); ++k) {
+    if (t[k] - t[k - 1] > 1.5 * dt || t[k - 1] - t[k - 2] > 1.5 * dt) continue;
+    const double e = v[k] - 2.0 * v[k - 1] + v[k - 2];
+    d2 += e * e;
+    ++nd;
+  }
+  return nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
+}
+
+/// The lag a named --alignment states (sample periods); NaN for "auto".
+double named_lag(const std::string& name) {
+  if (name == "auto") return std::numeric_limits<double>::quiet_NaN();
+  if (name == "held-backward") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_backward_velocity);
+  if (name == "held-instant") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
+  if (name == "trapezoid") return feedid::force_lag_of<double>(feedid::ForceAlignment::trapezoid);
+  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'");
+}
+
+/// The lag nearest `lag` whose force delay (lag + the velocity's own lag,
+/// none when unknown: the core's velocity is a zero-phase derivative) a logging convention
+/// explains; what is cut off is kept in s.lag_beyond_conventions.
+double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
+  const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.0;
+  const double limit = convention_force_delay_limit();
+  const double kept = std::clamp(lag + v_lag, -limit, limit) - v_lag;
+  s.lag_beyond_conventions = lag - kept;
+  return kept;
+}
+
+/// Finds (or takes from the options) the force lag and applies it.
+/// velocity_lag: the core velocity's lag behind the motion (periods, NaN
+/// unknown); column_lag: the logged velocity column's lag behind the core's
+/// velocity, in which stated lags are given and the lag is reported.
+/// `found`: a search already run on these signals with another velocity
+/// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
+void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
+                 const LagEstimate* found = nullptr) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
+  s.force_lag_origin = Signals::LagOrigin::convention;
+  if (std::isfinite(opt.force_lag_s)) {
+    lag = opt.force_lag_s / dt + column_lag;
+    s.force_lag_origin = Signals::LagOrigin::option;
+  } else if (!std::isfinite(lag)) {
+    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt));
+    s.lag_search = e;
+    if (e.ok) {
+      lag = e.lag_samples;
+      se = e.se_samples;
+      s.force_lag_origin = Signals::LagOrigin::estimated;
+      if (opt.lag_within_conventions) lag = keep_within_conventions(s, lag, velocity_lag);
+    } else {
+      lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.0);  // a held command, the commonest log
+      s.force_lag_origin = Signals::LagOrigin::assumed;
+    }
+  }
+  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
+    throw std::invalid_argument("force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]");
+  apply_force_lag(s, lag);
+  s.force_lag_s = (lag - column_lag) * dt;
+  s.force_lag_se_s = se * dt;
+  s.force_convention = std::isfinite(velocity_lag) ? nearest_force_convention(lag, velocity_lag)
+                                                   : "unknown (no position column to time the velocity by)";
+}
+
+
+nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
+  const bool fr = d.friction_identified();
+  const bool st = d.stribeck_identified();
+  return {
+      {"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s},
+      {"sigma_se", d.viscous_se}, {"fc_se", d.coulomb_se}, {"fs_se", d.breakaway_se}, {"vs_se", d.stribeck_velocity_se},
+      {"identifiable", {{"sigma", fr}, {"fc", fr}, {"fs", st}, {"vs", st}}},
+      {"flags", flag_names(d.flags)},
+      {"sections", d.sections}, {"bands_used", d.bands_used}, {"time_in_bands_s", d.time_in_bands_s},
+      {"friction_r2", d.friction_r2}, {"friction_rms_N", d.friction_rms_N},
+  };
+}
+
+}  // namespace
+
+double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
+                    std::size_t first) {
+  return p.interval_force([&](int age) {
+    const std::size_t back = std::min<std::size_t>(static_cast<std::size_t>(age), k - first);
+    return u[k - back];
+  });
+}
+
+double interval_force(const Signals& s, std::size_t k) { return paired_force(s.u, s.pairing(), k); }
+
+namespace {
+/// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.
+struct BlockSums {
+  int dir = 0;
+  double tau = 0.0;         ///< s
+  double impulse = 0.0;     ///< integral of u - F(v) (N s)
+  double phi_impulse = 0.0; ///< same, weighted by phi
+  double dv = 0.0;          ///< velocity change (m/s)
+  double phi_dv = 0.0;      ///< same, weighted by phi
+};
+
+/// The one block rule: blocks of block_s within a direction (above v_min),
+/// and observations from adjacent pairs under a triangular weight w rising
+/// over the first block and falling over the second. visit(impulse, dv,
+/// area, t_end) gets the weighted integrals of u - F(v) (N s) and of dv
+/// (m/s) and the weight's area (s). Under w the velocity change sums by
+/// parts to the difference of the two blocks' mean velocities, so no raw
+/// velocity sample carries it: with raw block-end samples, m times the
+/// velocity's noise (a quantum of 0.8 mm/s at 8 kHz and 100 nm) dominated
+/// the residual, a lag search on it preferred whatever lag attenuated the
+/// mass, and a mass fitted on the blocks was attenuated. Smoothing the end
+/// samples instead biased m by +0.1 % per half-millisecond of mean at the
+/// motion's corners; the triangle is exact. (docs/diagnosis.md uses the
+/// same observation.)
+template <typename Visit>
+void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, Visit visit) {
+  const feedid::ForcePairing<double> pairing = s.pairing();
+  BlockSums prev, cur;
+  double t_start = 0.0, moment_impulse = 0.0, moment_dv = 0.0;
+  auto close = [&](std::size_t k_end, bool adjacent_next) {
+    if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
+      cur.phi_impulse = moment_impulse / cur.tau;
+      cur.phi_dv = moment_dv / cur.tau;
+      if (prev.dir == cur.dir)
+        visit(prev.phi_impulse + cur.impulse - cur.phi_impulse, prev.phi_dv + cur.dv - cur.phi_dv,
+              0.5 * (prev.tau + cur.tau), s.t[k_end]);
+      prev = adjacent_next ? cur : BlockSums{};
+    } else {
+      prev = BlockSums{};
+    }
+    cur = BlockSums{};
+    moment_impulse = moment_dv = 0.0;
+  };
+  for (std::size_t k = 1; k < s.t.size(); ++k) {
+    const double dt = s.t[k] - s.t[k - 1];
+    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
+    const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
+    if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
+    if (d == 0) continue;
+    if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
+    const double g = (paired_force(s.u, pairing, k) - stribeck_friction(p, vm)) * dt;
+    const double dv = s.v[k] - s.v[k - 1];
+    const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
+    cur.impulse += g;
+    cur.dv += dv;
+    moment_impulse += age * g;
+    moment_dv += age * dv;
+    cur.tau += dt;
+    if (cur.tau >= block_s) close(k, true);
+  }
+}
+}  // namespace
+
+int chunk_of(const Signals& s, double t) {
+  const double t0 = s.t.empty() ? 0.0 : s.t.front(), span = s.t.empty() ? 0.0 : s.t.back() - t0;
+  if (!(span > 0)) return 0;
+  return static_cast<int>(std::clamp(std::floor((t - t0) / span * kJackknifeChunks), 0.0, kJackknifeChunks - 1.0));
+}
+
+double jackknife_se(const std::vector<double>& leave_one_out) {
+  if (leave_one_out.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  const double g = static_cast<double>(leave_one_out.size());
+  double mean = 0.0, ss = 0.0;
+  for (double x : leave_one_out) mean += x;
+  mean /= g;
+  for (double x : leave_one_out) ss += (x - mean) * (x - mean);
+  return std::sqrt((g - 1.0) / g * ss);
+}
+
+double convention_force_delay_limit() { return 0.5 + kLagAccuracy; }
+
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockResidual out;
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double tau, double t_end) {
+    const double r = (impulse - p.mass_kg * dv) / tau;
+    out.sum_squares += r * r;
+    out.chunk_sum_squares[static_cast<std::size_t>(chunk_of(s, t_end))] += r * r;
+    ++out.blocks;
+  });
+  return out;
+}
+
+BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockMass out;
+  constexpr int chunks = kJackknifeChunks;
+  if (s.t.size() < 2) return out;
+  // Sums per contiguous stretch of time, for the delete-one jackknife.
+  std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double, double t_end) {
+    const auto c = static_cast<std::size_t>(chunk_of(s, t_end));
+    num[c] += impulse * dv;
+    den[c] += dv * dv;
+  });
+  double n_all = 0.0, d_all = 0.0;
+  for (int c = 0; c < chunks; ++c) { n_all += num[c]; d_all += den[c]; }
+  if (!(d_all > 0.0)) return out;
+  out.mass_kg = n_all / d_all;
+  std::vector<double> leave_out;
+  for (int c = 0; c < chunks; ++c)
+    if (d_all - den[c] > 0.0) leave_out.push_back((n_all - num[c]) / (d_all - den[c]));
+  out.mass_se_kg = jackknife_se(leave_out);
+  out.ok = std::isfinite(out.mass_se_kg) && std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
+  return out;
+}
+
+namespace {
+/// Longest step within one stretch of samples (s); a longer one is a gap
+/// (another recording, a cut) that no filter or integral crosses.
+double max_step_s(const Signals& s) { return s.sample_rate_hz > 0 ? 5.0 / s.sample_rate_hz : 0.0; }
+}  // namespace
+
+double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
+
+/// Velocity as the core sees it: position through the zero-phase
+/// Butterworth at cut-off fc (at most 0.4 of the rate), then central
+/// differences: no lag, and the encoder's counts averaged over about 1/fc.
+void derive_velocity(Signals& s, double fc_hz) {
+  s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, max_step_s(s));
+}
+
+namespace {
+/// The trace's columns, the rate and the encoder quantum; a velocity-only
+/// log integrated to a position.
+Signals read_signals(const Trace& trace) {
+  Signals s;
+  const std::size_t n = trace.samples.size();
+  s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    s.t[k] = trace.samples[k].t_s;
+    s.x[k] = trace.samples[k].x_m;
+    s.v[k] = trace.samples[k].v_m_s;
+    s.u[k] = trace.samples[k].u_N;
+  }
+  const double dt = median_step(s.t);
+  s.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
+  s.has_position = trace.has_position;
+  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
+  if (!trace.has_velocity && !trace.has_position)
+    throw std::invalid_argument(trace.source + ": neither velocity nor position column");
+  if (!trace.has_position) {
+    // A velocity-only log: its quantisation and the drive's filter hide in
+    // the samples (a low-pass leaves no lattice to read the encoder quantum
+    // from, so the chatter at rest split sections and R^2 fell to 0.06 on a
+    // 100 nm, 8 kHz log). Integrated, it is the position seen through the
+    // drive's filter, and goes the way of a logged position; the force lag
+    // search takes up the filter's delay.
+    s.x = integrate_velocity(s.v, s.t, max_step_s(s));
+    s.position_origin = "integrated from the velocity column (none logged): relative to the start";
+    // A position difference integrates back onto the encoder's lattice; a
+    // filtered column does not, and its sample noise stands in for the
+    // quantum (too low by the filter's noise gain, but on the right side of
+    // a band edge that the derived velocity would put at 1e-4 of top speed).
+    s.position_quantum_m = position_quantum(s.x);
+    s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
+  }
+  return s;
+}
+
+/// Timing of the velocity column (periods): `core` is the lag behind the
+/// motion of the velocity the core will see (NaN unknown), `column` the
+/// logged column's lag behind that velocity, in which stated force lags are
+/// given and the estimated one is reported.
+struct VelocityTiming {
+  double core = 0.0, column = 0.0;
+};
+
+VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double stated = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : std::numeric_limits<double>::quiet_NaN();
+  VelocityTiming v;
+  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+    v.core = std::isfinite(stated) ? stated : 0.0;
+  } else if (trace.has_velocity && trace.has_position) {
+    const double lag = std::isfinite(stated) ? stated : estimate_velocity_lag(s);
+    s.velocity_lag_s = lag * dt;
+    v.column = std::isfinite(lag) ? lag : 0.5;
+  } else if (!trace.has_position) {
+    // Integrated and derived again, the column is advanced by exactly half
+    // a period; its own lag behind the motion is unknown unless stated.
+    v.column = 0.5;
+    v.core = stated - 0.5;
+  }
+  return v;
+}
+
+/// The core's velocity at cut-off fc_hz, then the force lag on it.
+Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
+                         double fc_hz, const LagEstimate* found = nullptr) {
+  Signals s = raw;
+  derive_velocity(s, fc_hz);
+  std::ostringstream o;
+  o << "derived: zero-phase 4th-order Butterworth " << std::setprecision(3) << s.velocity_filter_hz << " Hz ("
+    << s.velocity_filter_origin << ") on position" << (trace.has_position ? "" : " (integrated velocity)")
+    << ", central differences";
+  if (trace.has_velocity && trace.has_position)
+    o << "; the velocity column lags position by " << std::setprecision(2) << timing.column << " periods";
+  s.velocity_origin = o.str();
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column, found);
+  return s;
+}
+
+/// A velocity column lagging position by more than this (periods) went
+/// through a filter beyond the position difference (0.5); the estimate is
+/// good to about 0.02 period.
+constexpr double kFilteredVelocityLag = 0.6;
+
+/// VelocitySource::column: the column if it is a position difference, else
+/// the backward difference of position (a filter's rounding of quantised
+/// counts wrecked Fs, +3000 % on a 100 nm, 4 kHz drive).
+Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing) {
+  if (timing.column > kFilteredVelocityLag) {
+    for (std::size_t k = s.v.size(); k-- > 1;) {
+      const double h = s.t[k] - s.t[k - 1];
+      s.v[k] = h > 0 ? (s.x[k] - s.x[k - 1]) / h : 0.0;
+    }
+    if (s.v.size() > 1) s.v[0] = s.v[1];
+    std::ostringstream o;
+    o << "backward differences of position (the column lags position by " << std::setprecision(2) << timing.column
+      << " periods: a drive filter)";
+    s.velocity_origin = o.str();
+    timing.core = 0.5;
+  } else {
+    s.velocity_origin = "measured";
+    timing.core = timing.column;
+  }
+  timing.column -= timing.core;
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column);
+  return s;
+}
+}  // namespace
+
+Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
+  Signals raw = read_signals(trace);
+  const VelocityTiming timing = time_velocity_column(raw, trace, opt);
+  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+    raw.velocity_origin = "given";
+    raw.core_velocity_lag = timing.core;
+    align_force(raw, opt, timing.core, timing.column);
+    return raw;
+  }
+  if (trace.has_velocity && trace.has_position && opt.velocity_source == VelocitySource::column)
+    return column_and_align(raw, opt, timing);
+  // The core's velocity is the zero-phase derivative of position (logged or
+  // integrated): a drive's column carries the count noise (one count per
+  // period is 0.4 mm/s at 4 kHz and 100 nm) into every band's m * dv at
+  // each crossing, which left Fc- 0.9 % and sigma- 0.35 % off on a 400 kg
+  // axis. How much to smooth depends on the encoder and the mass, so the
+  // cut-off is the one whose model leaves the least block residual
+  // (choose_velocity_filter), unless stated. The column stays a candidate
+  // under the same measure: a log whose velocity comes from a better sensor
+  // than its position keeps it.
+  const bool stated = opt.velocity_filter_hz > 0;
+  raw.velocity_filter_origin = stated ? "stated" : "provisional";
+  Signals s = derive_and_align(raw, trace, opt, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
+  if (stated) return s;
+  const feedid::Config<double> edges = auto_config(s, opt);
+  const FilterChoice choice = choose_velocity_filter(s, edges);
+  if (trace.has_velocity && trace.has_position) {
+    Signals column = column_and_align(raw, opt, timing);
+    if (block_fit_ssr(column, edges) < choice.block_ssr) {
+      column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
+      return column;
+    }
+  }
+  std::ostringstream o;
+  o << "least block residual of " << choice.candidates << " cut-offs" << (trace.has_velocity && trace.has_position ? " and the velocity column" : "");
+  raw.velocity_filter_origin = o.str();
+  return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
+}
+
+feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
+  feedid::Config<double> c;
+  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  // Velocity resolution: the encoder quantum per sample period, or the white
+  // noise of the velocity (second differences), whichever is larger; a
+  // velocity column that was integrated and derived again keeps its own.
+  const double v_noise = std::max(velocity_noise(s.v, s.t, dt), s.column_velocity_noise_m_s);
+  const double v_res = std::max(s.position_quantum_m / dt, v_noise);
+  const double v_top = quantile_abs(s.v, 0.999);
+  c.velocity_resolution_m_s = opt.velocity_resolution_m_s > 0 ? opt.velocity_resolution_m_s : v_res;
+  c.velocity_min_m_s = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s
+                                                : std::max({2.0 * c.velocity_resolution_m_s, 1e-4 * v_top, 1e-6});
+  c.velocity_max_m_s = opt.velocity_max_m_s > 0 ? opt.velocity_max_m_s
+                                                : std::max(1.05 * v_top, 5.0 * c.velocity_min_m_s);
+  // Jumps beyond several times the largest acceleration in the trace are absurd.
+  std::vector<double> acc;
+  acc.reserve(s.v.size());
+  for (std::size_t k = 1; k < s.v.size(); ++k)
+    if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
+  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
+  c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
+  c.max_force_N = 1e9;
+  c.max_gap_s = std::max(10.0 * dt, 1e-3);
+  c.mass_window_s = std::max(0.02, 20.0 * dt);
+  c.min_section_s = std::max(0.02, 10.0 * dt);
+  c.force_lag_samples = s.force_lag_samples;
+  return c;
+}
+
+
+
+
+
+void fill_friction_curve(const Core& core, IdentifyResult& r) {
+  const auto& st = core.statistics();
+  for (int d = 0; d < 2; ++d)
+    for (int j = 0; j < Core::bands; ++j) {
+      const auto& b = st.band[d][j];
+      const double t = b.time_s.get();
+      if (t < feedid::detail::min_band_time_s<double>()) continue;  // the core's own rule for a band point
+      r.friction_curve[d].push_back({b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
+    }
+}
+
+IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
+  IdentifyResult r;
+  r.units = opt.units;
+  r.rows_skipped = trace.rows_skipped;
+  r.rows_repeated = trace.rows_repeated;
+  r.skipped_rows = trace.skipped_rows;
+  r.runs = trace.runs;
+  const std::size_t n = trace.samples.size();
+  constexpr std::size_t min_samples = 100;
+  if (n < min_samples) {
+    r.status = feedid::Status::insufficient_data;
+    r.error = trace.source + ": trace too short to identify: " + std::to_string(n) + " samples (need at least " +
+              std::to_string(min_samples) + " and motion in both directions)";
+    return r;
+  }
+  r.signals = prepare_signals(trace, opt);
+  const Signals& s = r.signals;
+  r.duration_s = s.t.back() - s.t.front();
+  r.config = auto_config(s, opt);
+  CoreRun run = run_core(s, r.config, opt);
+  if (run.status == feedid::Status::invalid_config) {
+    r.status = run.status;
+    r.error = std::string("invalid configuration: ") + run.core->config_error();
+    return r;
+  }
+  r.config = run.core->config();  // as init() completed it: what the core ran with
+  r.status = run.status;
+  r.estimate = run.estimate;
+  r.friction_model = run.friction_model;
+  r.diagnostics = run.diagnostics;
+  r.first_rejections = run.first_rejections;
+  if (opt.progress) opt.progress(1.0);
+
+  fill_friction_curve(*run.core, r);
+  if (r.status == feedid::Status::insufficient_data) {
+    std::ostringstream o;
+    o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
+      << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
+      << " s moving negative above " << r.config.velocity_min_m_s
+      << " m/s; each direction needs data in at least 5 velocity bands";
+    r.error = o.str();
+    return r;
+  }
+  r.residual_block_s = block_length_s(s);
+  r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
+  if (opt.honest_standard_errors && r.status == feedid::Status::ok) {
+    const Uncertainty u = widen_standard_errors(r, opt);
+    r.jackknife_chunks = u.chunks_used;
+    r.se_model = u.model_se;
+    r.se_jackknife = u.jackknife_se;
+    r.se_timing = u.timing_se;
+  }
+  refit_mass_on_blocks(r);
+  return r;
+}
+
+const char* lag_origin_name(Signals::LagOrigin o) {
+  switch (o) {
+    case Signals::LagOrigin::estimated: return "estimated";
+    case Signals::LagOrigin::option: return "option";
+    case Signals::LagOrigin::convention: return "convention";
+    case Signals::LagOrigin::assumed: return "assumed held force (too little motion to estimate the lag)";
+  }
+  return "?";
+}
+
+void refit_mass_on_blocks(IdentifyResult& r) {
+  r.mass_from_windows_kg = r.estimate.mass_kg;
+  if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
+  const BlockMass b = block_mass(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s,
+                                 r.residual_block_s);
+  if (!b.ok) return;
+  r.estimate.mass_kg = b.mass_kg;
+  // The block jackknife replaces the windows' one, and the timing term is
+  // the block mass's own sensitivity to the lag: the window mass's, twice
+  // to four times larger, made m's intervals cover 99.5 %.
+  r.se_jackknife[0] = b.mass_se_kg;
+  if (r.lag_se_periods > 0) {
+    Signals probe = r.signals;
+    probe.force_lag_samples = timing_probe_lag(probe);
+    const BlockMass shifted = block_mass(probe, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+    if (shifted.ok) r.se_timing[0] = std::fabs(shifted.mass_kg - b.mass_kg) / kTimingProbeStep * r.lag_se_periods;
+  }
+  r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0]);
+  r.estimate.mass_flags |= feedid::detail::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
+}
+
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
+                 std::size_t begin, std::size_t end) {
+  CoreRun run;
+  run.core = std::make_unique<Core>();
+  Core& core = *run.core;
+  run.status = core.init(cfg);
+  if (run.status != feedid::Status::ok) return run;
+  const std::size_t n = std::min(end, s.t.size());
+  const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  for (std::size_t k = begin; k < n; ++k) {
+    feedid::Sample<double> smp;
+    smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
+    smp.position_m = s.x[k];
+    smp.velocity_m_s = s.v[k];
+    smp.force_N = s.u[k];
+    const feedid::Status st = core.push(smp);
+    if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
+    if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
+  }
+  run.status = core.solve(opt.method);
+  run.estimate = core.estimate();
+  run.diagnostics = core.diagnostics();
+  if (run.status == feedid::Status::ok && opt.select_friction_model) {
+    run.friction_model = select_friction_models(core, run.estimate);
+  } else {
+    for (int d = 0; d < 2; ++d) {
+      const auto& de = d == 0 ? run.estimate.pos : run.estimate.neg;
+      run.friction_model[static_cast<std::size_t>(d)] = {de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0,
+                                                         "as the core fitted it (no model selection)", 0.0};
+    }
+  }
+  return run;
+}
+
+namespace {
+FrictionModel select_direction(const Core& core, int d, double mass, feedid::DirectionEstimate<double>& de) {
+  FrictionModel m;
+  if (!de.friction_identified()) {
+    m.reason = "no friction identified";
+    return m;
+  }
+  const auto p = feedid::detail::friction_points(core.statistics(), d, mass);
+  feedid::Vector<double, 3> th4, th2, inv2;
+  double ssr4 = 0.0, ssr2 = 0.0;
+  const bool has_dip = de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0 &&
+                       feedid::detail::fit_friction_at(p, de.stribeck_velocity_m_s, th4, ssr4);
+  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2) || p.count < 6) {
+    m.stribeck = has_dip;
+    m.reason = "too few velocity bands to weigh the Stribeck law";
+    return m;
+  }
+  const double n = p.count;
+  m.bic_gain = has_dip && ssr4 > 0 ? n * std::log(ssr2 / ssr4) - 2.0 * std::log(n) : 0.0;
+  const bool physical = de.coulomb_N >= 0 && de.viscous_Ns_m >= 0;
+  m.stribeck = has_dip && physical && m.bic_gain > 0;
+  if (m.stribeck) {
+    m.reason = "Stribeck: its dip lowers the band residual by more than BIC charges for Fs and vs";
+    return m;
+  }
+  m.reason = !has_dip    ? "Coulomb + viscous: the fit found no dip (Fs = 0)"
+             : !physical ? "Coulomb + viscous: the Stribeck fit was not physical (a negative Coulomb or viscous term)"
+                         : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
+  const double s2 = ssr2 / std::max(n - 2.0, 1.0);
+  de.coulomb_N = th2.v[0];
+  de.viscous_Ns_m = th2.v[1];
+  de.coulomb_se = std::sqrt(s2 * inv2.v[0]);
+  de.viscous_se = std::sqrt(s2 * inv2.v[1]);
+  de.breakaway_N = 0.0;
+  de.stribeck_velocity_m_s = 0.0;
+  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical);
+  if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
+  if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
+  return m;
+}
+}  // namespace
+
+std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e) {
+  return {select_direction(core, 0, e.mass_kg, e.pos), select_direction(core, 1, e.mass_kg, e.neg)};
+}
+
+
+
+
+
+SymmetricFriction symmetric_friction(const IdentifyResult& r) {
+  SymmetricFriction out;
+  const auto& p = r.estimate.pos;
+  const auto& n = r.estimate.neg;
+  if (r.friction_model[0].stribeck || r.friction_model[1].stribeck || !p.friction_identified() ||
+      !n.friction_identified())
+    return out;
+  // Inverse-variance means; the directions agree when each difference is
+  // within 2 of its standard errors.
+  auto pooled = [](double a, double sa, double b, double sb, double& mean, double& se) {
+    const double wa = 1.0 / (sa * sa), wb = 1.0 / (sb * sb);
+    mean = (wa * a + wb * b) / (wa + wb);
+    se = std::sqrt(1.0 / (wa + wb));
+    return std::fabs(a - b) <= 2.0 * std::hypot(sa, sb);
+  };
+  out.agree = pooled(p.coulomb_N, p.coulomb_se, n.coulomb_N, n.coulomb_se, out.coulomb_N, out.coulomb_se) &&
+              pooled(p.viscous_Ns_m, p.viscous_se, n.viscous_Ns_m, n.viscous_se, out.viscous_Ns_m, out.viscous_se);
+  out.agree = out.agree && std::isfinite(out.coulomb_N) && std::isfinite(out.viscous_Ns_m);
+  return out;
+}
+
+namespace {
+nlohmann::json friction_model_json(const IdentifyResult& r) {
+  nlohmann::json friction;
+  for (int d = 0; d < 2; ++d) {
+    const FrictionModel& m = r.friction_model[static_cast<std::size_t>(d)];
+    friction[d == 0 ? "pos" : "neg"] = {{"law", m.stribeck ? "stribeck" : "coulomb_viscous"},
+                                        {"reason", m.reason},
+                                        {"bic_gain", m.bic_gain}};
+  }
+  friction["rule"] = "the Stribeck law is kept where it is physical and lowers the band residual by more than the "
+                     "Bayesian information criterion charges for Fs and vs (n ln(SSR_cv/SSR_stribeck) > 2 ln n over n "
+                     "velocity bands); otherwise Coulomb + viscous, with Fs = vs = 0";
+  const SymmetricFriction sym = symmetric_friction(r);
+  friction["symmetric"] = sym.agree ? nlohmann::json{{"fc", sym.coulomb_N}, {"fc_se", sym.coulomb_se},
+                                                     {"sigma", sym.viscous_Ns_m}, {"sigma_se", sym.viscous_se}}
+                                    : nlohmann::json();
+  return {{"friction", friction}};
+}
+}  // namespace
+
+nlohmann::json to_json(const IdentifyResult& r) {
+  const auto& e = r.estimate;
+  const auto& g = r.diagnostics;
+  nlohmann::json j;
+  j["status"] = feedid::status_name(r.status);
+  if (!r.error.empty()) j["error"] = r.error;
+  j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
+  j["m"] = e.mass_kg;
+  j["m_se"] = e.mass_se_kg;
+  j["m_identifiable"] = e.mass_identified();
+  j["m_flags"] = flag_names(e.mass_flags);
+  j["pos"] = direction_json(e.pos);
+  j["neg"] = direction_json(e.neg);
+  j["model"] = friction_model_json(r);
+  j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
+              {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
+              {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
+              {"force_noise_N", e.force_noise_N}};
+  nlohmann::json rej = nlohmann::json::array();
+  for (const auto& x : r.first_rejections) rej.push_back({{"sample", x.sample}, {"status", feedid::status_name(x.status)}});
+  j["counts"] = {{"samples", r.signals.t.size()}, {"accepted", g.samples_accepted}, {"rejected", g.samples_rejected},
+                 {"rejected_not_finite", g.rejected_not_finite},
+                 {"rejected_time_not_increasing", g.rejected_time_not_increasing},
+                 {"rejected_out_of_range", g.rejected_out_of_range},
+                 {"rejected_velocity_jump", g.rejected_velocity_jump}, {"first_rejections", rej},
+                 {"sections_pos", g.sections_complete[0]}, {"sections_neg", g.sections_complete[1]},
+                 {"sections_short", g.sections_short}, {"sections_split", g.sections_split},
+                 {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks}};
+  const auto& c = r.config;
+  j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
+                {"velocity", r.signals.velocity_origin},
+                {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
+                {"position", r.signals.position_origin},
+                {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
+                {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
+                {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
+                {"velocity_delay_samples", r.signals.velocity_delay_samples},
+                {"position_quantum_m", r.signals.position_quantum_m},
+                {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+  if (r.streamed)
+    j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
+                             "errors from a jackknife over ten groups of 10 s blocks dealt round-robin, and the timing "
+                             "term measured on the first 60 s; no block refit of m";
+  if (!r.runs.empty()) {
+    nlohmann::json runs = nlohmann::json::array();
+    for (const TraceRun& run : r.runs)
+      runs.push_back({{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
+                      {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}});
+    j["input"]["runs"] = runs;
+    j["input"]["runs_rule"] = "each file is its own run: the time jumps by 10 s between runs, a gap no section, window "
+                              "or integral spans";
+  }
+  // The configuration the core ran with (Estimator::config(), defaults filled by init()).
+  j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
+                 {"velocity_resolution_m_s", c.velocity_resolution_m_s}, {"section_enter_m_s", c.section_enter_m_s},
+                 {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
+                 {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s},
+                 {"stribeck_search_m_s", {feedid::detail::stribeck_lo(c), feedid::detail::stribeck_hi(c)}},
+                 {"force_lag_samples", c.force_lag_samples}};
+  nlohmann::json curve;
+  for (int d = 0; d < 2; ++d) {
+    nlohmann::json pts = nlohmann::json::array();
+    for (const auto& p : r.friction_curve[d]) pts.push_back({p.speed_m_s, p.friction_N, p.time_s});
+    curve[d == 0 ? "pos" : "neg"] = pts;
+  }
+  curve["columns"] = {"speed_m_s", "friction_N", "time_s"};
+  j["friction_curve"] = curve;
+  j["mass_from_windows_kg"] = r.mass_from_windows_kg;
+  j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
+                           {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
+                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing}};
+  j["units"] = units_json(r.units);
+  return j;
+}
+
+std::string summary(const IdentifyResult& r, const DriveParams* truth) {
+  std::ostringstream o;
+  const auto& e = r.estimate;
+  char buf[256];
+  o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
+    << feedid::status_name(r.status) << "; "
+    << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
+    << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
+    << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
+  const Units& u = r.units;
+  auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
+    const char* unit = unit_text.c_str();
+    const Rounded x = round_to_se(v, se);  // the digits se justifies
+    if (truth)
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s truth %-11.6g err %+7.3f %%%s\n", name, x.value.c_str(), unit,
+                    x.se.c_str(), t, t != 0 ? 100.0 * (v / t - 1.0) : 0.0, ok ? "" : "  NOT IDENTIFIABLE");
+    else
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s%s\n", name, x.value.c_str(), unit, x.se.c_str(),
+                    ok ? "" : "  NOT IDENTIFIABLE");
+    o << buf;
+  };
+  line("mass m", u.mass(), e.mass_kg, e.mass_se_kg, truth ? truth->mass_kg : 0, e.mass_identified());
+  for (int d = 0; d < 2; ++d) {
+    const auto& de = d == 0 ? e.pos : e.neg;
+    const DirectionFriction* td = truth ? (d == 0 ? &truth->pos : &truth->neg) : nullptr;
+    const char* s = d == 0 ? "+" : "-";
+    std::string n;
+    n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
+    n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.friction_identified());
+    n = std::string("break-away Fs") + s; line(n.c_str(), u.force, de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
+    n = std::string("Stribeck vel. vs") + s; line(n.c_str(), u.velocity(), de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
+    if (de.flags) {
+      o << "    flags:";
+      for (const auto& f : flag_names(de.flags)) o << " " << f;
+      o << "\n";
+    }
+    if (!r.friction_model[static_cast<std::size_t>(d)].reason.empty())
+      o << "    model: " << r.friction_model[static_cast<std::size_t>(d)].reason << "\n";
+  }
+  const SymmetricFriction sym = symmetric_friction(r);
+  if (sym.agree) {
+    const Rounded fc = round_to_se(sym.coulomb_N, sym.coulomb_se), sg = round_to_se(sym.viscous_Ns_m, sym.viscous_se);
+    o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
+      << u.force << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+  }
+  std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
+  o << buf;
+  if (r.streamed) {
+    o << "block residual not computed (streamed); ";
+  } else {
+    std::snprintf(buf, sizeof buf, "RMS force residual %.3g %s over %.0f ms blocks; ", r.residual_rms_N, u.force.c_str(),
+                  1e3 * r.residual_block_s);
+    o << buf;
+  }
+  std::snprintf(buf, sizeof buf, "force noise %.3g %s\n", e.force_noise_N, u.force.c_str());
+  o << buf;
+  const auto& g = r.diagnostics;
+  o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "
+    << g.mass_windows << " mass windows; " << g.samples_rejected << " samples rejected\n";
+  return o.str();
+}
+
+}  // namespace feedid::host

@@ -1,0 +1,308 @@
+// The host identification pipeline: condition a trace (derive velocity when
+// it is missing), choose the core's configuration from the data, stream the
+// samples through the double-precision core, solve, and report. Host only.
+#pragma once
+#include <array>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "feedid/feedid.hpp"
+#include "io/trace.hpp"
+#include "io/units.hpp"
+#include "model/drive_model.hpp"
+
+namespace feedid::host {
+
+using Core = feedid::Estimator<double>;
+
+/// The velocity the core is fed.
+enum class VelocitySource {
+  /// The zero-phase derivative of position (logged, or integrated from a
+  /// velocity-only log) at a cut-off chosen from the data: the most
+  /// accurate parameters (docs/method.md).
+  position,
+  /// The drive's velocity column where it is a position difference, else
+  /// the backward difference of position: no filter rounds a start or a
+  /// reversal, which the diagnosis reads sample by sample. Without both
+  /// columns, as `position`.
+  column,
+  /// The velocity column as it is, its lag behind the motion as stated
+  /// (velocity_lag_s, 0 if not): signals the diagnosis has aligned already.
+  given,
+};
+
+struct IdentifyOptions {
+  feedid::Method method = feedid::Method::bands;
+  /// Cut-off (Hz) of the zero-phase Butterworth applied to position (logged,
+  /// or integrated from a velocity-only log) before central differences:
+  /// the velocity the core sees.
+  double velocity_filter_hz = 0.0;  ///< 0: chosen from the data (choose_velocity_filter)
+  /// Weigh the Stribeck law against Coulomb + viscous after each solve
+  /// (select_friction_models). The lag and velocity searches leave it off:
+  /// a law that switches from one candidate to the next makes their cost jump.
+  bool select_friction_model = true;
+  /// Where the core's velocity comes from (VelocitySource).
+  VelocitySource velocity_source = VelocitySource::position;
+  /// Force/velocity pairing: "auto" estimates the lag from the data
+  /// (alignment.hpp); a named convention (held-backward, held-instant,
+  /// trapezoid) or force_lag_s states it.
+  std::string alignment = "auto";
+  /// How far the logged force lags the logged velocity (s); NaN: from `alignment`.
+  double force_lag_s = std::numeric_limits<double>::quiet_NaN();
+  /// How far the logged velocity lags the motion (s), e.g. a drive's filter;
+  /// NaN: estimated against position when there is a position column.
+  double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();
+  /// Keep an estimated lag to what logging conventions explain: the force's
+  /// own delay (its lag plus the velocity's) between a held command (-1/2
+  /// period) and a period mean (+1/2), plus kLagAccuracy. The diagnosis sets
+  /// it, so that a physical delay beyond the conventions stays in the
+  /// residual for its `delay` candidate instead of vanishing into the lag.
+  bool lag_within_conventions = false;
+  /// Overrides of the automatic choices (0 = from the data).
+  double velocity_min_m_s = 0.0;
+  double velocity_max_m_s = 0.0;
+  double velocity_resolution_m_s = 0.0;
+  /// Widen the core's standard errors by the jackknife and the lag's
+  /// uncertainty (uncertainty.hpp): two more passes over the data.
+  bool honest_standard_errors = true;
+  /// Labels only (units.hpp): the arithmetic is the same for any units.
+  Units units;
+  std::function<void(double)> progress;  ///< fraction done, optional
+};
+
+/// A force lag search's outcome (alignment.hpp, estimate_force_lag).
+struct LagEstimate {
+  double lag_samples = 0.0;  ///< force lag behind the velocity (periods)
+  double se_samples = 0.0;   ///< its standard error (periods)
+  int evaluations = 0;       ///< identifications run for the search
+  bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
+};
+
+/// The signals as the core sees them, one entry per sample.
+struct Signals {
+  std::vector<double> t, x, v, u;
+  std::string velocity_origin;        ///< "measured" or how it was derived
+  std::string position_origin = "measured";  ///< or how x was made (no position column)
+  double velocity_filter_hz = 0.0;            ///< cut-off of the derived velocity (Hz); 0: given as is
+  std::string velocity_filter_origin;         ///< stated, or how it was chosen
+  /// Lag of the force behind the velocity as the core pairs them (sample
+  /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
+  double force_lag_samples = -1.0;
+  int velocity_delay_samples = 0;     ///< whole samples v and x were delayed by (a positive lag)
+  double force_lag_s = 0.0;           ///< force lag behind the logged velocity (s)
+  /// Lag of v (what the core sees) behind the motion, before any whole-sample
+  /// delay of the alignment (periods; NaN unknown).
+  double core_velocity_lag = 0.0;
+  double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
+  /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
+  enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
+  std::string force_convention;       ///< nearest named convention of the force log
+  LagEstimate lag_search;             ///< the search behind an estimated lag (before any clamp)
+  /// Part of the estimated lag beyond the conventions, left out when
+  /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
+  double lag_beyond_conventions = 0.0;
+  double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
+  feedid::ForcePairing<double> pairing() const {
+    feedid::ForcePairing<double> p;
+    (void)p.init(force_lag_samples);
+    return p;
+  }
+  bool has_position = false;          ///< x is a logged position (not zeros)
+  double sample_rate_hz = 0.0;        ///< from the median time step
+  double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
+  /// Sample noise of a velocity column that was integrated and derived
+  /// again (no position logged), kept for the velocity resolution (m/s).
+  double column_velocity_noise_m_s = 0.0;
+};
+
+/// Which friction law a direction's figures come from (model selection,
+/// docs/method.md "Model selection").
+struct FrictionModel {
+  bool stribeck = false;     ///< the Stribeck law was kept (else Coulomb + viscous)
+  std::string reason;        ///< why, for the summary and the JSON
+  double bic_gain = 0.0;     ///< BIC(Coulomb + viscous) - BIC(Stribeck); > 0 favours Stribeck
+};
+
+/// Coulomb + viscous in both directions, pooled, when the directions agree
+/// within 2 standard errors (inverse-variance means).
+struct SymmetricFriction {
+  bool agree = false;
+  double coulomb_N = 0.0, coulomb_se = 0.0, viscous_Ns_m = 0.0, viscous_se = 0.0;
+};
+
+/// One velocity band of the measured friction curve (inertia removed).
+struct FrictionPoint {
+  double speed_m_s;     ///< time-weighted mean |v| in the band
+  double friction_N;    ///< mean friction magnitude in the band
+  double time_s;        ///< time spent in the band
+};
+
+struct Rejection {
+  std::size_t sample = 0;  ///< 0-based sample index
+  feedid::Status status{};
+};
+
+struct IdentifyResult {
+  feedid::Status status = feedid::Status::not_initialized;
+  std::string error;                      ///< set when the trace cannot be identified
+  feedid::Estimate<double> estimate{};
+  feedid::Diagnostics diagnostics{};
+  feedid::Config<double> config{};
+  Units units;  ///< of the input, for every label (IdentifyOptions::units)
+  Signals signals;
+  std::vector<Rejection> first_rejections;  ///< at most 10
+  std::vector<FrictionPoint> friction_curve[2];  ///< [pos, neg]
+  std::array<FrictionModel, 2> friction_model;   ///< [pos, neg]: which law, and why
+  /// The core's mass from its acceleration windows, before the block refit
+  /// (equal to estimate.mass_kg when the refit did not run).
+  double mass_from_windows_kg = 0.0;
+  double lag_se_periods = 0.0;   ///< the lag's uncertainty the timing terms use (0: stated lag)
+  int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
+  std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
+  double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks
+  double residual_block_s = 0.01;  ///< block_length_s of the signals
+  std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
+  std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
+  std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
+  double duration_s = 0.0;
+  /// Streamed (identify_stream.hpp): conventions from the head, the core's
+  /// own standard errors, no jackknife or block refit.
+  bool streamed = false;
+};
+
+/// Velocity (measured or derived) and the pairing convention for a trace.
+Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt);
+
+/// Length of the blocks behind the block residual and the block-pair mass
+/// (s): 10 ms, or 8 samples where that is longer (a 200 Hz log has two
+/// samples in 10 ms, and its block mass was noise).
+double block_length_s(const Signals& s);
+
+/// Sets s.v to the zero-phase derivative of s.x at cut-off fc_hz (at most
+/// 0.4 of the rate; filters.hpp), stretch by stretch between time gaps.
+void derive_velocity(Signals& s, double fc_hz);
+
+/// The same configuration in another precision, field by field (float on
+/// target, double on host; a force limit beyond float's range is clamped).
+template <typename To, typename From> feedid::Config<To> config_as(const feedid::Config<From>& c) {
+  feedid::Config<To> o;
+  o.velocity_min_m_s = To(c.velocity_min_m_s);
+  o.velocity_max_m_s = To(c.velocity_max_m_s);
+  o.velocity_resolution_m_s = To(c.velocity_resolution_m_s);
+  o.section_enter_m_s = To(c.section_enter_m_s);
+  o.rest_samples = c.rest_samples;
+  o.min_section_s = To(c.min_section_s);
+  o.max_fold_s = To(c.max_fold_s);
+  o.mass_window_s = To(c.mass_window_s);
+  o.max_step_speed_ratio = To(c.max_step_speed_ratio);
+  o.max_acceleration_m_s2 = To(c.max_acceleration_m_s2);
+  o.max_speed_m_s = To(c.max_speed_m_s);
+  o.max_force_N = To(c.max_force_N < From(1e30) ? c.max_force_N : From(1e30));
+  o.max_gap_s = To(c.max_gap_s);
+  o.stribeck_min_m_s = To(c.stribeck_min_m_s);
+  o.stribeck_max_m_s = To(c.stribeck_max_m_s);
+  o.max_vs_iterations = c.max_vs_iterations;
+  o.velocity_source = c.velocity_source;
+  o.force_lag_samples = To(c.force_lag_samples);
+  return o;
+}
+
+/// Force for the interval ending at sample k of a force column, by the
+/// core's pairing rule (force_pairing.hpp); taps before `first` (the start
+/// of the chain) take u[first]. k > first.
+double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
+                    std::size_t first = 0);
+/// The same for a trace's signals, with their lag.
+double interval_force(const Signals& s, std::size_t k);
+
+/// The core configuration the data calls for (docs/reference.md explains each choice).
+feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt);
+
+IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
+
+/// Replaces the core's mass (from its acceleration windows, whose raw
+/// end velocities carry quantisation noise that attenuates m: -0.7 % at
+/// 8 kHz and 100 nm) by block_mass() on triangle-weighted pairs of 10 ms
+/// blocks, with its jackknife and the timing term as its standard error. Friction is
+/// held at the core's. Host only: the firmware keeps the windows' mass.
+void refit_mass_on_blocks(IdentifyResult& r);
+/// "estimated", "option", "convention" or the reason a held force was assumed.
+const char* lag_origin_name(Signals::LagOrigin o);
+
+/// What one pass of the core over prepared signals gives.
+struct CoreRun {
+  feedid::Status status = feedid::Status::not_initialized;
+  feedid::Estimate<double> estimate{};
+  feedid::Diagnostics diagnostics{};
+  std::vector<Rejection> first_rejections;  ///< at most 10
+  std::unique_ptr<Core> core;               ///< the solved core (statistics for plots)
+  std::array<FrictionModel, 2> friction_model;  ///< [pos, neg], applied to estimate
+};
+
+/// r.friction_curve from a solved core: per band with time, mean speed and
+/// mean friction with r.estimate's inertia removed.
+void fill_friction_curve(const Core& core, IdentifyResult& r);
+
+/// Model selection on a solved core, per direction: keeps the Stribeck law
+/// only where it is physical (Fc, sigma >= 0) and pays for its two extra
+/// parameters in the Bayesian information criterion over the band points;
+/// otherwise replaces Fc, sigma and their standard errors by the Coulomb +
+/// viscous fit, sets Fs = vs = 0 (no dip) and flags the Stribeck pair.
+std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e);
+
+/// The symmetric model, where both directions fell back to Coulomb + viscous and agree.
+SymmetricFriction symmetric_friction(const IdentifyResult& r);
+/// Streams samples [begin, end) of the signals through a new core with `cfg`
+/// (its force lag as given) and solves.
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
+                 std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1));
+
+/// Contiguous stretches of time of every delete-one jackknife (parameters,
+/// the block mass, the force lag).
+constexpr int kJackknifeChunks = 10;
+
+/// The jackknife chunk (0 .. kJackknifeChunks-1) that time t falls in.
+int chunk_of(const Signals& s, double t);
+
+/// Standard error from delete-one estimates theta_-i:
+/// sqrt((g-1)/g sum (theta_-i - mean)^2); NaN for fewer than two.
+double jackknife_se(const std::vector<double>& leave_one_out);
+
+/// The largest force delay (lag behind velocity plus the velocity's own
+/// lag, periods) a logging convention explains: a period mean's +1/2 plus
+/// the lag search's accuracy (held commands sit at -1/2, symmetric).
+double convention_force_delay_limit();
+
+/// Mean force residual [integral w (u - F) dt - m integral w dv] / integral w
+/// over pairs of adjacent blocks of about block_s under a triangular weight
+/// w (no derivative, no raw velocity sample; identify.cpp, for_each_block).
+struct BlockResidual {
+  double sum_squares = 0.0;  ///< N^2
+  std::size_t blocks = 0;
+  std::array<double, kJackknifeChunks> chunk_sum_squares{};  ///< the same per chunk of time
+  double rms() const { return blocks > 0 ? std::sqrt(sum_squares / static_cast<double>(blocks)) : 0.0; }
+};
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s);
+
+/// Mass fitted on the same blocks, friction held at p: sum(impulse dv) /
+/// sum(dv^2), with a delete-one jackknife over the chunks of time.
+struct BlockMass {
+  bool ok = false;
+  double mass_kg = 0.0;
+  double mass_se_kg = 0.0;
+};
+BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s);
+
+
+
+
+nlohmann::json to_json(const IdentifyResult& r);
+std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
+
+}  // namespace feedid::host

@@ -1,0 +1,110 @@
+// The drive model's parameters, F(v) and their JSON form (drive_model.hpp).
+#include "drive_model.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <utility>
+
+namespace feedid::host {
+
+double sliding_friction(const DirectionFriction& f, double direction, double v_m_s) {
+  const double r = v_m_s / f.stribeck_velocity_m_s;
+  return direction * (f.coulomb_N + f.breakaway_N * std::exp(-r * r)) + f.viscous_Ns_m * v_m_s;
+}
+
+double stribeck_friction(const DriveParams& p, double v_m_s) {
+  if (v_m_s > 0.0) return sliding_friction(p.pos, 1.0, v_m_s);
+  if (v_m_s < 0.0) return sliding_friction(p.neg, -1.0, v_m_s);
+  return 0.0;
+}
+
+feedid::Estimate<double> to_estimate(const DriveParams& p) {
+  feedid::Estimate<double> e;
+  e.mass_kg = p.mass_kg;
+  auto dir = [](const DirectionFriction& f) {
+    feedid::DirectionEstimate<double> d;
+    d.viscous_Ns_m = f.viscous_Ns_m;
+    d.coulomb_N = f.coulomb_N;
+    d.breakaway_N = f.breakaway_N;
+    d.stribeck_velocity_m_s = f.stribeck_velocity_m_s;
+    return d;
+  };
+  e.pos = dir(p.pos);
+  e.neg = dir(p.neg);
+  return e;
+}
+
+DriveParams to_drive_params(const feedid::Estimate<double>& e) {
+  DriveParams p;
+  p.mass_kg = e.mass_kg;
+  auto dir = [](const feedid::DirectionEstimate<double>& d) {
+    // No Stribeck velocity identified: the model has no dip, so Fs is 0 (vs
+    // is then irrelevant; 1 m/s keeps F(v) defined). It used to keep Fs with
+    // vs = 1e-9, a dip nobody could see, silently.
+    if (!(d.stribeck_velocity_m_s > 0)) return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, 0.0, 1.0};
+    return DirectionFriction{d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
+  };
+  p.pos = dir(e.pos);
+  p.neg = dir(e.neg);
+  return p;
+}
+
+double predict_force(const DriveParams& p, double v_m_s, double a_m_s2) {
+  return p.mass_kg * a_m_s2 + stribeck_friction(p, v_m_s);
+}
+
+std::vector<std::string> flag_names(uint32_t flags) {
+  static const std::pair<uint32_t, const char*> names[] = {
+      {feedid::flag_no_data, "no_data"},
+      {feedid::flag_stribeck_below_resolution, "stribeck_below_resolution"},
+      {feedid::flag_stribeck_at_search_bound, "stribeck_at_search_bound"},
+      {feedid::flag_stribeck_uncertain, "stribeck_uncertain"},
+      {feedid::flag_no_low_speed_data, "no_low_speed_data"},
+      {feedid::flag_no_acceleration, "no_acceleration"},
+      {feedid::flag_not_physical, "not_physical"},
+      {feedid::flag_fit_failed, "fit_failed"},
+  };
+  std::vector<std::string> out;
+  for (const auto& [bit, name] : names)
+    if (flags & bit) out.emplace_back(name);
+  return out;
+}
+
+nlohmann::json model_json(const DriveParams& p, const Units& units) {
+  auto dir = [](const DirectionFriction& d) {
+    return nlohmann::json{{"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s}};
+  };
+  return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)}, {"units", units_json(units)}};
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  try {
+    return nlohmann::json::parse(f);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+  }
+}
+
+DriveParams model_from_json(const nlohmann::json& j) {
+  auto num = [](const nlohmann::json& o, const char* key, const std::string& where) {
+    if (!o.contains(key) || !o.at(key).is_number())
+      throw std::runtime_error("model JSON: missing number '" + where + key + "'");
+    return o.at(key).get<double>();
+  };
+  auto dir = [&](const char* name) {
+    if (!j.contains(name) || !j.at(name).is_object()) throw std::runtime_error(std::string("model JSON: missing object '") + name + "'");
+    const auto& o = j.at(name);
+    const std::string w = std::string(name) + ".";
+    return DirectionFriction{num(o, "sigma", w), num(o, "fc", w), num(o, "fs", w), num(o, "vs", w)};
+  };
+  DriveParams p;
+  p.mass_kg = num(j, "m", "");
+  p.pos = dir("pos");
+  p.neg = dir("neg");
+  return p;
+}
+
+}  // namespace feedid::host

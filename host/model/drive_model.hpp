@@ -1,0 +1,64 @@
+// The drive model u = m a + F(v) with direction-dependent Stribeck
+// friction (NOTES.md): its parameters, F(v), and their JSON form, in one
+// place for every stage - the simulator drives with it, identify fills it,
+// validate, diagnose, compensate and the reports read it. Host only.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "feedid/types.hpp"
+#include "io/units.hpp"
+
+namespace feedid::host {
+
+/// Friction of one direction, positive magnitudes (NOTES.md model).
+struct DirectionFriction {
+  double viscous_Ns_m = 700.0;            ///< sigma (N s/m)
+  double coulomb_N = 25.0;                ///< Fc (N)
+  double breakaway_N = 8.0;               ///< Fs (N): static friction is Fc + Fs
+  double stribeck_velocity_m_s = 2.0e-3;  ///< vs (m/s)
+};
+
+struct DriveParams {
+  double mass_kg = 100.0;
+  DirectionFriction pos{};
+  DirectionFriction neg{720.0, 26.0, 7.5, 1.8e-3};
+};
+
+/// F(v) of NOTES.md for v != 0 (sign included); 0 at v == 0.
+double stribeck_friction(const DriveParams& p, double v_m_s);
+/// One direction's law continued analytically through any v while sliding
+/// in `direction` s (+1 or -1):
+///   s = +1: F+(v) = +(Fc+ + Fs+ exp(-(v/vs+)^2)) + sigma+ v
+///   s = -1: F-(v) = -(Fc- + Fs- exp(-(v/vs-)^2)) + sigma- v
+/// The simulator's integrator uses it for stages that cross zero within a
+/// step; the crossing itself is resolved separately.
+double sliding_friction(const DirectionFriction& f, double direction, double v_m_s);
+
+/// The identified model as simulator parameters (same equations, one place).
+DriveParams to_drive_params(const feedid::Estimate<double>& e);
+
+/// The parameters as a core estimate (no standard errors or flags), for the
+/// core's model functions (friction_magnitude, feedforward).
+feedid::Estimate<double> to_estimate(const DriveParams& p);
+
+/// Force the model predicts for velocity v and acceleration a (N).
+double predict_force(const DriveParams& p, double v_m_s, double a_m_s2);
+
+/// Names of the set bits of a flag word, e.g. ["stribeck_uncertain"].
+std::vector<std::string> flag_names(uint32_t flags);
+
+/// The model part alone: {"m":..,"pos":{..},"neg":{..}} (also the truth format).
+nlohmann::json model_json(const DriveParams& p, const Units& units = {});
+
+/// A JSON file (a model, a truth file); throws std::runtime_error naming the
+/// file when it cannot be opened or parsed.
+nlohmann::json read_json_file(const std::string& path);
+
+/// Reads a model written by to_json or model_json; throws std::runtime_error naming the key.
+DriveParams model_from_json(const nlohmann::json& j);
+
+}  // namespace feedid::host

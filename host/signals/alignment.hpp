@@ -1,0 +1,74 @@
+// Force/velocity timing found from the data (NOTES.md, "Logging
+// conventions"). A drive's log does not say whether its force is a held
+// command, an instantaneous sample or a period average, nor how its velocity
+// was filtered; each shifts force against motion by a fraction of a period
+// and biases the parameters. This finds the shift from the trace itself.
+// Host only.
+#pragma once
+#include <limits>
+#include <string>
+
+#include "identify/identify.hpp"
+
+namespace feedid::host {
+
+/// Searched range of the force lag behind the core's velocity (sample periods):
+/// held force (-1/2) less a velocity-only log's filter delay, up to a period
+/// mean (+1/2) and a physical delay beyond it that the diagnosis names.
+constexpr double kForceLagMin = -5.0;
+constexpr double kForceLagMax = 3.0;
+
+
+/// The lag that minimises the residual of the identified model over short
+/// blocks of motion (the inertia identity integral(u - F) = m dv is exact only
+/// for the right pairing; a wrong one leaves about lag * (change of force)
+/// in every block). Grid over [kForceLagMin, kForceLagMax], then a parabola
+/// through the best point and its neighbours; the standard error from its
+/// curvature and the block residual variance. `cfg` is the core
+/// configuration for the trace (its lag is ignored).
+LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Cut-off of the core's velocity (the zero-phase derivative of position)
+/// before one is chosen, and the lowest tried (Hz; a slow log goes down to
+/// two octaves below its top cut-off of 0.4 of the rate).
+constexpr double kProvisionalVelocityFilter_hz = 300.0;
+constexpr double kLowestVelocityFilter_hz = 100.0;
+
+struct FilterChoice {
+  double cutoff_hz = 0.0;
+  int candidates = 0;  ///< cut-offs tried
+  double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
+};
+
+/// The cut-off, from 100 Hz (or 0.1 of the rate, if less) up to 0.4 of the
+/// rate in half octaves, whose
+/// identified model leaves the least block residual (the measure the lag
+/// search minimises) on `s` as aligned. A coarse encoder on a heavy axis
+/// wants smoothing (the counts' noise enters m * dv at every band
+/// crossing: Fs 10 % off at 1 kHz cut-off on a 400 kg, 100 nm, 4 kHz
+/// axis); a fine one does not (vs 3 % off at 300 Hz on a 40 kg, 5 nm one,
+/// where the filter rounds the Stribeck dip). The residual is least where
+/// the parameters are best in both. cfg fixes the band edges for all.
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Sum of squared 10 ms block residuals (N^2) of the model the core
+/// identifies on `s` as paired, at cfg's band edges: the measure the lag
+/// search and the velocity choice minimise. Infinite if nothing identifies.
+double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Lag of the logged velocity behind the backward difference of the logged
+/// position, plus that difference's own half period (sample periods): 0.5 for
+/// a velocity that is the position difference, about (k+1)/2 for a k-sample
+/// moving average. NaN without a usable position column.
+double estimate_velocity_lag(const Signals& s);
+
+/// Sets the lag of `s` (periods): a positive lag delays v and x by whole
+/// samples so that what is left for the core's pairing rule is in [-5, 0].
+void apply_force_lag(Signals& s, double lag_samples);
+
+/// Nearest named force convention ("held", "instant", "averaged") given the
+/// force lag behind velocity and the velocity's own lag (periods); "none"
+/// when the force delay is more than a quarter period from all three.
+std::string nearest_force_convention(double force_lag_samples, double velocity_lag_samples);
+
+}  // namespace feedid::host

@@ -1,0 +1,107 @@
+#include "validate.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "signals/filters.hpp"
+#include "identify/identify.hpp"
+
+namespace feedid::host {
+namespace {
+
+std::vector<double> column(const Trace& tr, double TraceSample::*field) {
+  std::vector<double> out;
+  out.reserve(tr.samples.size());
+  for (const auto& s : tr.samples) out.push_back(s.*field);
+  return out;
+}
+
+double sample_rate(const std::vector<double>& t) {
+  return static_cast<double>(t.size() - 1) / (t.back() - t.front());
+}
+
+}  // namespace
+
+void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a) {
+  const std::vector<double> t = column(trace, &TraceSample::t_s);
+  const double fs = sample_rate(t);
+  const double fc = std::min(filter_hz, 0.4 * fs);
+  if (trace.has_position) {
+    v = central_difference(filtfilt_butter4(column(trace, &TraceSample::x_m), fc, fs), t);
+  } else {
+    v = filtfilt_butter4(column(trace, &TraceSample::v_m_s), fc, fs);
+  }
+  a = central_difference(v, t);
+}
+
+ValidateResult validate(const DriveParams& model, const Trace& trace, const ValidateOptions& opt) {
+  const std::size_t n = trace.samples.size();
+  if (opt.decimate < 1) throw std::invalid_argument("--decimate must be >= 1");
+  if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
+  if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
+    throw std::invalid_argument(trace.source + ": trace too short to validate: " + std::to_string(n) + " samples");
+  ValidateResult r;
+  r.units = opt.units;
+  r.velocity_origin = trace.has_position ? "position, zero-phase Butterworth + central differences"
+                                         : "velocity column, zero-phase Butterworth; acceleration by central differences";
+  std::vector<double> v, a;
+  protocol_derivatives(trace, opt.filter_hz, v, a);
+  std::vector<double> u = column(trace, &TraceSample::u_N);
+  const std::vector<double> t = column(trace, &TraceSample::t_s);
+  std::vector<double> u_hat(n);
+  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]);
+
+  // Every sample (after the dropped start), no decimation.
+  double e2 = 0.0, u2 = 0.0;
+  for (std::size_t k = static_cast<std::size_t>(opt.drop_first); k < n; ++k) {
+    e2 += (u[k] - u_hat[k]) * (u[k] - u_hat[k]);
+    u2 += u[k] * u[k];
+  }
+  r.relative_error_full_pct = 100.0 * std::sqrt(e2 / u2);
+
+  // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
+  // new Nyquist frequency, like MATLAB decimate's default) and every n-th
+  // sample kept. Measured and predicted force are treated alike.
+  std::vector<double> uf = u, uhf = u_hat;
+  if (opt.decimate > 1) {
+    const double fs = sample_rate(t);
+    const double fc = 0.8 * 0.5 * fs / opt.decimate;
+    uf = filtfilt_butter4(u, fc, fs);
+    uhf = filtfilt_butter4(u_hat, fc, fs);
+  }
+  e2 = u2 = 0.0;
+  for (std::size_t k = static_cast<std::size_t>(opt.drop_first); k < n; k += static_cast<std::size_t>(opt.decimate)) {
+    const double e = uf[k] - uhf[k];
+    e2 += e * e;
+    u2 += uf[k] * uf[k];
+    r.t.push_back(t[k]);
+    r.u.push_back(uf[k]);
+    r.u_hat.push_back(uhf[k]);
+    r.v.push_back(v[k]);
+  }
+  r.samples_used = r.t.size();
+  r.relative_error_pct = 100.0 * std::sqrt(e2 / u2);
+  r.error_norm_N = std::sqrt(e2);
+  r.rms_error_N = std::sqrt(e2 / static_cast<double>(r.samples_used));
+  return r;
+}
+
+nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const ValidateOptions& opt) {
+  return {{"relative_error_pct", r.relative_error_pct},
+          {"relative_error_full_rate_pct", r.relative_error_full_pct},
+          {"rms_error_N", r.rms_error_N},
+          {"error_norm_N", r.error_norm_N},
+          {"samples_used", r.samples_used},
+          {"protocol",
+           {{"position_filter", "zero-phase 4th-order Butterworth"},
+            {"filter_hz", opt.filter_hz},
+            {"derivatives", "central differences"},
+            {"drop_first", opt.drop_first},
+            {"decimate", opt.decimate},
+            {"anti_alias", "zero-phase 4th-order Butterworth at 0.8 x new Nyquist"}}},
+          {"velocity", r.velocity_origin},
+          {"model", model_json(model, r.units)},
+          {"units", units_json(r.units)}};
+}
+
+}  // namespace feedid::host

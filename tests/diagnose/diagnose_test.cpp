@@ -1,0 +1,235 @@
+// The diagnosis on traces whose truth the test knows. GIVEN a simulated
+// drive logged under one of the force conventions and velocity filters,
+// WHEN diagnose runs on the trace alone, THEN an effect-free trace is called
+// `none` (a logging convention is not a physical effect), and a trace with
+// one catalogued effect is called by that effect, which closes most of the
+// held-out gap.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "diagnose/diagnose.hpp"
+#include "test_support.hpp"
+
+namespace feedid::test {
+namespace {
+
+using host::ForceLog;
+using host::VelocityLog;
+
+struct DiagCase {
+  ForceLog force;
+  VelocityLog velocity;
+  double duration_s;
+};
+
+host::SimConfig logged(const DiagCase& c, std::uint64_t seed) {
+  SimSpec spec;
+  spec.encoder_m = 5e-8;
+  spec.seed = seed;
+  spec.duration_s = c.duration_s;
+  return logged_config(spec, c.force, c.velocity);
+}
+
+class NoFalseAlarm : public ::testing::TestWithParam<DiagCase> {};
+
+// 30 s ladders alternate direction about every 0.75 s: fixed 0.75 s folds
+// once put each direction in one half of the split and called every one of
+// these `unexplained`.
+TEST_P(NoFalseAlarm, EffectFreeTraceIsCalledNone) {
+  const host::SimConfig cfg = logged(GetParam(), 11);
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.effect, "none") << host::summary(r);
+  EXPECT_LT(r.rms_base_N, 1.4 * r.noise_floor_N);
+}
+
+std::string diag_name(const DiagCase& c) {
+  return std::string(host::force_log_name(c.force)) + "_" + host::velocity_log_name(c.velocity) + "_" +
+         std::to_string(static_cast<int>(c.duration_s)) + "s";
+}
+
+INSTANTIATE_TEST_SUITE_P(Conventions, NoFalseAlarm,
+                         ::testing::Values(DiagCase{ForceLog::held, VelocityLog::backward_difference, 30.0},
+                                           DiagCase{ForceLog::instant, VelocityLog::moving_average, 30.0},
+                                           DiagCase{ForceLog::averaged, VelocityLog::low_pass, 30.0},
+                                           DiagCase{ForceLog::instant, VelocityLog::backward_difference, 60.0}),
+                         [](const auto& info) { return diag_name(info.param); });
+
+// A 3 N, 5 mm position ripple under an instantaneous force log is named,
+// its period recovered within 2 %, and most of the held-out gap closed.
+// The independent open-loop plant, on the motions a drive sees in service.
+// Production: the only slow positive jog may fall in a held-out fold, where
+// the base fit cannot predict (it was called `unexplained` at 10x the floor).
+// Instant log: the force is point-sampled and the trapezoid reference steps
+// its acceleration between ticks (it was `unexplained` at 1.8-3x).
+host::SimConfig open_loop(host::Program program, ForceLog force, std::uint64_t seed) {
+  host::SimConfig c = logged(DiagCase{force, VelocityLog::low_pass, 60.0}, seed);
+  c.plant = host::PlantKind::open_loop;
+  c.motion.program = program;
+  c.controller.servo_rate_hz = 4000.0;
+  return c;
+}
+
+TEST(DiagnoseOpenLoopPlant, EffectFreeProgramsAreCalledNone) {
+  for (const host::Program p : {host::Program::ladder, host::Program::sine, host::Program::production}) {
+    const host::DiagnoseResult r = host::diagnose(host::simulate(open_loop(p, ForceLog::instant, 5)), host::DiagnoseOptions{});
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(r.effect, "none") << host::program_name(p) << "\n" << host::summary(r);
+  }
+}
+
+TEST(DiagnoseOpenLoopPlant, QuadraticDampingOnSineMotionIsNamed) {
+  // On sine motion v|v| is 99.8 % collinear with v and the Stribeck terms;
+  // the held-out test, not the collinearity, must decide.
+  host::SimConfig c = open_loop(host::Program::sine, ForceLog::averaged, 6);
+  c.effects.quadratic_c2_Ns2_m2 = 800.0;  // 18 N at 0.15 m/s
+  const host::DiagnoseResult r = host::diagnose(host::simulate(c), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "quadratic_viscous") << host::summary(r);
+  EXPECT_NEAR(r.effect_parameters.value("c2", 0.0), 800.0, 80.0);
+  EXPECT_GT(r.closed_fraction, 0.8);
+}
+
+TEST(DiagnoseEffect, PositionRippleUnderAnotherForceConvention) {
+  host::SimConfig cfg = logged({ForceLog::instant, VelocityLog::backward_difference, 40.0}, 3);
+  cfg.effects.ripple_amplitude_N = 3.0;
+  cfg.effects.ripple_period_m = 5e-3;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
+  ASSERT_TRUE(r.effect_parameters.contains("period_m")) << r.effect_parameters.dump();
+  EXPECT_NEAR(r.effect_parameters["period_m"].get<double>(), 5e-3, 1e-4);
+  EXPECT_GT(r.closed_fraction, 0.8);
+}
+
+// A physical delay of 2.5 periods under an instantaneous force log: the
+// conventions explain a force delay of up to 0.6 period, so `delay` is named
+// and its size is the part beyond that (docs/diagnosis.md, "Timing").
+TEST(DiagnoseEffect, DelayBeyondTheConventionsIsNamedAndSizedBeyondThem) {
+  host::SimConfig cfg = logged({ForceLog::instant, VelocityLog::backward_difference, 40.0}, 5);
+  const double period = 1.0 / cfg.controller.servo_rate_hz;
+  cfg.effects.delay_s = 2.5 * period;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "delay") << host::summary(r);
+  EXPECT_NEAR(r.lag_beyond_conventions_s / period, 2.5 - 0.6, 0.2);
+  EXPECT_NEAR(r.effect_parameters["delay_s"].get<double>() / period, 2.5 - 0.6, 0.3) << r.effect_parameters.dump();
+}
+
+// A log without a position column: the diagnosis integrates velocity for
+// the position and reversal candidates, and says so. It used zeros, which no
+// ripple fits.
+TEST(DiagnoseEffect, RippleWithoutAPositionColumnIsFoundOnIntegratedVelocity) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 40.0}, 3);
+  cfg.effects.ripple_amplitude_N = 3.0;
+  cfg.effects.ripple_period_m = 5e-3;
+  host::Trace trace = host::simulate(cfg);
+  trace.has_position = false;
+  for (auto& s : trace.samples) s.x_m = 0.0;
+  const host::DiagnoseResult r = host::diagnose(trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
+  EXPECT_NEAR(r.effect_parameters["period_m"].get<double>(), 5e-3, 2e-4);
+  EXPECT_NE(r.position_origin.find("integrated from the velocity"), std::string::npos);
+}
+
+// A log without a velocity column: the base model's JSON says the velocity
+// was derived, not "measured" (the identification folds reach the core as a
+// column, which had made it say measured).
+TEST(DiagnoseEffect, DerivedVelocityIsReportedAsDerived) {
+  host::Trace trace = host::simulate(logged({ForceLog::held, VelocityLog::backward_difference, 30.0}, 2));
+  trace.has_velocity = false;
+  const host::DiagnoseResult r = host::diagnose(trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.base.signals.velocity_origin.rfind("derived", 0), 0u) << r.base.signals.velocity_origin;
+}
+
+// Per candidate term: a trace with exactly that effect gives back its
+// parameters. Tolerances are about three times the blind benchmark's median
+// errors (docs/blind_bench_seed11.md): position range edges 5 % of its width
+// and its force 10 %; presliding work 2 Fp d 10 %; compliance frequency 6 %
+// and load mass 30 %.
+TEST(DiagnoseParameters, PositionFrictionRangeAndForce) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::moving_average, 40.0}, 7);
+  cfg.effects.position_friction_N = 10.0;
+  cfg.effects.position_friction_x_min_m = 0.03;  // inside the ladder's 0.11 m of travel
+  cfg.effects.position_friction_x_max_m = 0.08;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_friction") << host::summary(r);
+  const nlohmann::json& p = r.effect_parameters;
+  EXPECT_NEAR(p.value("x_min_m", 0.0), 0.03, 0.05 * 0.05) << p.dump();
+  EXPECT_NEAR(p.value("x_max_m", 0.0), 0.08, 0.05 * 0.05) << p.dump();
+  EXPECT_NEAR(p.value("delta_N", 0.0), 10.0, 1.0) << p.dump();
+}
+
+// 60 s: over 40 s of the default ladder the same presliding closed 43 % of
+// the gap at z = 2.3 (too few reversals in the held-out folds) and was
+// called `unexplained` (docs/diagnosis.md, Limits).
+TEST(DiagnoseParameters, PreslidingDistanceAndForce) {
+  host::SimConfig cfg = logged({ForceLog::averaged, VelocityLog::backward_difference, 60.0}, 8);
+  cfg.effects.presliding_force_N = 12.0;
+  cfg.effects.presliding_distance_m = 30e-6;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "presliding_hysteresis") << host::summary(r);
+  // What a reversal's few blocks carry is the friction work the bristles
+  // take, 2 Fp d; force and distance trade against each other along it
+  // (here 6.4 N over 54 um for 12 N over 30 um), so each alone is only
+  // checked to a factor of two.
+  const nlohmann::json& p = r.effect_parameters;
+  const double d = p.value("distance_m", 0.0), f = p.value("force_N", 0.0);
+  EXPECT_NEAR(f * d, 12.0 * 30e-6, 0.1 * 12.0 * 30e-6) << p.dump();
+  EXPECT_GT(d, 15e-6) << p.dump();
+  EXPECT_LT(d, 60e-6) << p.dump();
+  EXPECT_GT(f, 6.0) << p.dump();
+  EXPECT_LT(f, 24.0) << p.dump();
+}
+
+TEST(DiagnoseParameters, ComplianceFrequencyAndLoadMass) {
+  host::SimConfig cfg = logged({ForceLog::instant, VelocityLog::low_pass, 40.0}, 9);
+  cfg.effects.compliance_frequency_hz = 30.0;
+  cfg.effects.compliance_mass_fraction = 0.3;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "compliance") << host::summary(r);
+  const nlohmann::json& p = r.effect_parameters;
+  EXPECT_NEAR(p.value("frequency_hz", 0.0), 30.0, 0.06 * 30.0) << p.dump();
+  EXPECT_NEAR(p.value("load_mass_kg", 0.0), 0.3 * cfg.drive.mass_kg, 0.3 * 0.3 * cfg.drive.mass_kg) << p.dump();
+}
+
+// Two effects at once: forward selection names both, each from what the
+// other leaves, and together they close most of the held-out gap.
+TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 60.0}, 4);
+  cfg.effects.ripple_amplitude_N = 4.0;
+  cfg.effects.ripple_period_m = 8e-3;
+  cfg.effects.drift_fraction = 0.4;
+  cfg.effects.drift_time_constant_s = 15.0;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  std::vector<std::string> named;
+  for (const auto& e : r.effects) named.push_back(e.kind);
+  std::sort(named.begin(), named.end());
+  EXPECT_EQ(named, (std::vector<std::string>{"position_ripple", "thermal_drift"})) << host::summary(r);
+  EXPECT_GT(r.closed_fraction, 0.8);
+}
+
+// An offset is the same regressor as Coulomb friction that differs by
+// direction: the diagnosis reports the ambiguity with the offset's size
+// and names no effect from it.
+TEST(DiagnoseEffects, OffsetIsReportedAsAmbiguousNotNamed) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 30.0}, 6);
+  cfg.effects.offset_N = 8.0;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.effect, "none") << host::summary(r);
+  ASSERT_EQ(r.ambiguities.size(), 1u) << host::summary(r);
+  EXPECT_NEAR(r.ambiguities[0]["offset_N"].get<double>(), 8.0, 0.5);
+}
+
+}  // namespace
+}  // namespace feedid::test

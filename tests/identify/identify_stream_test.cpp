@@ -1,0 +1,85 @@
+// identify in bounded memory (host/identify/identify_stream.cpp): the same drive,
+// read row by row in chunks, gives what the whole-trace identification gives.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "io/csv_trace.hpp"
+#include "identify/identify_stream.hpp"
+#include "test_support.hpp"
+
+namespace feedid::host {
+namespace {
+
+TEST(IdentifyStream, ChunksGiveTheWholeTracesEstimate) {
+  test::SimSpec spec;
+  spec.duration_s = 60.0;
+  const host::SimConfig cfg = test::sim_config(spec);
+  const Trace trace = host::simulate(cfg);
+  const std::string path = ::testing::TempDir() + "feedid_stream_identify.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, trace, err)) << err;
+
+  const IdentifyResult whole = identify(trace, IdentifyOptions{});
+  CsvStream in(path, CsvColumns{});
+  ASSERT_TRUE(in.ok()) << in.error();
+  StreamOptions small;  // many chunks on a short trace: every chunk edge is exercised
+  small.head_s = 15.0;
+  small.chunk_s = 5.0;
+  small.margin_s = 0.5;
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{}, small);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(whole.error.empty()) << whole.error;
+  EXPECT_TRUE(r.streamed);
+  EXPECT_EQ(r.diagnostics.samples_accepted + r.diagnostics.samples_rejected, trace.samples.size())
+      << "every row pushed once: no chunk edge drops or repeats one";
+  EXPECT_GT(r.jackknife_chunks, 0);
+  // Against the truth, within the streamed standard errors (3 se), and the
+  // standard errors of the same order as the whole-trace ones.
+  const auto& t = cfg.drive;
+  EXPECT_NEAR(r.estimate.mass_kg, t.mass_kg, 3.0 * r.estimate.mass_se_kg);
+  for (int d = 0; d < 2; ++d) {
+    const auto& e = d == 0 ? r.estimate.pos : r.estimate.neg;
+    const auto& w = d == 0 ? whole.estimate.pos : whole.estimate.neg;
+    const auto& tr = d == 0 ? t.pos : t.neg;
+    EXPECT_NEAR(e.coulomb_N, tr.coulomb_N, 3.0 * e.coulomb_se) << d;
+    EXPECT_NEAR(e.viscous_Ns_m, tr.viscous_Ns_m, 3.0 * e.viscous_se) << d;
+    EXPECT_GT(e.coulomb_se, 0.2 * w.coulomb_se) << d;
+    EXPECT_LT(e.coulomb_se, 5.0 * w.coulomb_se) << d;
+  }
+  EXPECT_NE(to_json(r)["input"]["streamed"].get<std::string>().find("row by row"), std::string::npos);
+}
+
+// Under 50 s of data fewer than five jackknife groups have any: the core's
+// own standard errors, never a jackknife over empty groups (which gave 0).
+TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
+  test::SimSpec spec;
+  spec.duration_s = 30.0;
+  const std::string path = ::testing::TempDir() + "feedid_stream_short.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, host::simulate(test::sim_config(spec)), err)) << err;
+  CsvStream in(path, CsvColumns{});
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.jackknife_chunks, 0);
+  EXPECT_GT(r.estimate.pos.coulomb_se, 0.0);
+  EXPECT_GT(r.estimate.mass_se_kg, 0.0);
+}
+
+TEST(IdentifyStream, AReadErrorIsNotReportedAsOk) {
+  std::string text = "t,x,v,u\n";
+  for (int k = 0; k < 300; ++k) text += std::to_string(k * 1e-3) + ",0,0,1\n";
+  text += "0.1,0,0,1\n";  // time goes back: with --bad-rows error, the error
+  const std::string path = ::testing::TempDir() + "feedid_stream_bad.csv";
+  std::ofstream(path) << text;
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  CsvStream in(path, strict);
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{});
+  EXPECT_FALSE(r.error.empty());
+  EXPECT_NE(r.status, feedid::Status::ok);
+}
+
+}  // namespace
+}  // namespace feedid::host

@@ -1,0 +1,323 @@
+// CSV traces: exact round trip and error messages that name file, line and
+// column (host/io/csv_trace.hpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "io/csv_trace.hpp"
+#include "io/trace.hpp"
+
+namespace {
+
+using feedid::host::CsvColumns;
+using feedid::host::CsvResult;
+using feedid::host::read_trace_csv;
+using feedid::host::Trace;
+using feedid::host::TraceSample;
+using feedid::host::write_trace_csv;
+
+::testing::AssertionResult contains(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
+}
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "feedid_csv_" + name + ".csv";
+}
+
+std::string write_text(const std::string& name, const std::string& text) {
+  const std::string path = temp_path(name);
+  std::ofstream f(path, std::ios::binary);
+  f << text;
+  f.close();
+  EXPECT_TRUE(f.good()) << "cannot write " << path;
+  return path;
+}
+
+TEST(CsvTrace, RoundTripIsExact) {
+  // GIVEN a trace whose values need all 17 significant digits
+  Trace tr;
+  const double values[][4] = {
+      {0.0, 0.0, 0.0, 0.0},
+      {0.1, 1e-300, -0.0, 12.5},
+      {0.30000000000000004, -1.2345678901234567e10, 3.0e-5, -7.0000000000000009},
+      {1.0 / 3.0, 2.0 / 3.0, -1e-8, 6.02214076e23},
+  };
+  for (const auto& v : values) tr.samples.push_back(TraceSample{v[0], v[1], v[2], v[3]});
+  const std::string path = temp_path("roundtrip");
+  // WHEN it is written and read back
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, tr, err)) << err;
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN every value comes back bit for bit, with both signals present
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.trace.has_position);
+  EXPECT_TRUE(r.trace.has_velocity);
+  ASSERT_EQ(r.trace.samples.size(), tr.samples.size());
+  for (std::size_t i = 0; i < tr.samples.size(); ++i) {
+    EXPECT_EQ(r.trace.samples[i].t_s, tr.samples[i].t_s) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].x_m, tr.samples[i].x_m) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].v_m_s, tr.samples[i].v_m_s) << "row " << i;
+    EXPECT_EQ(r.trace.samples[i].u_N, tr.samples[i].u_N) << "row " << i;
+  }
+}
+
+TEST(CsvTrace, VelocityOnlyFileIsAccepted) {
+  // GIVEN a file with time, velocity and force but no position column
+  const std::string path = write_text("vonly", "t,v,u\n0,0,1\n0.001,0.5,2\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN it is accepted and says which signal is missing
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_FALSE(r.trace.has_position);
+  EXPECT_TRUE(r.trace.has_velocity);
+  ASSERT_EQ(r.trace.samples.size(), 2u);
+  EXPECT_EQ(r.trace.samples[1].v_m_s, 0.5);
+  EXPECT_EQ(r.trace.samples[1].u_N, 2.0);
+}
+
+TEST(CsvTrace, MissingColumnNamesColumnAndLineOne) {
+  // GIVEN a file without the force column
+  const std::string path = write_text("missing", "t,x,v\n0,0,0\n0.001,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names the file, line 1 and the missing column
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'u'"));
+  EXPECT_TRUE(contains(r.error, "missing"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, MissingRenamedTimeColumnIsNamed) {
+  // GIVEN columns renamed by the caller and a file that lacks the time column
+  CsvColumns cols;
+  cols.time = "time_s";
+  const std::string path = write_text("missing_time", "t,x,v,u\n0,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, cols);
+  // THEN the error names the caller's column name on line 1
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'time_s'"));
+}
+
+TEST(CsvTrace, NonNumericFieldNamesLineAndColumn) {
+  // GIVEN a bad velocity on the third line
+  const std::string path = write_text("nonnum", "t,x,v,u\n0,0,0,0\n0.001,1e-8,abc,3\n0.002,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 3, column 'v' and the offending text
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":3:"));
+  EXPECT_TRUE(contains(r.error, "column 'v'"));
+  EXPECT_TRUE(contains(r.error, "'abc'"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, TrailingGarbageInNumberIsRejected) {
+  // GIVEN a force value with a unit suffix on line 2
+  const std::string path = write_text("suffix", "t,x,v,u\n0,0,0,5N\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 2 and column 'u'
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":2:"));
+  EXPECT_TRUE(contains(r.error, "column 'u'"));
+}
+
+TEST(CsvTrace, NonIncreasingTimeNamesLine) {
+  // GIVEN time that repeats on line 4 with other values (not a repeated row)
+  const std::string path = write_text("time", "t,x,v,u\n0,0,0,0\n0.001,0,0,0\n0.001,0,0,1\n0.003,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 4, the time column, and the previous line 3
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":4:"));
+  EXPECT_TRUE(contains(r.error, "'t'"));
+  EXPECT_TRUE(contains(r.error, "line 3"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, DecreasingTimeIsRejected) {
+  // GIVEN time that goes back on line 3
+  const std::string path = write_text("time_back", "t,x,v,u\n1.0,0,0,0\n0.5,0,0,0\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names line 3
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":3:"));
+}
+
+/// n rows of a clean trace, with `bad` replacing row `at` (1-based data row).
+std::string rows_with(int n, int at, const std::string& bad) {
+  std::string text = "t,x,v,u\n";
+  for (int k = 1; k <= n; ++k)
+    text += k == at ? bad + "\n" : std::to_string(k * 1e-3) + "," + std::to_string(k * 1e-6) + ",0.001,1\n";
+  return text;
+}
+
+TEST(CsvTrace, OneNaNRowInThousandsIsSkippedCountedAndNamed) {
+  // GIVEN 5000 rows, one of them with a NaN force on file line 1001
+  const std::string path = write_text("one_nan", rows_with(5000, 1000, "1.0,0.001,0.001,nan"));
+  // WHEN it is read with the defaults
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the trace has the other 4999 rows, and the skip is counted and named
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 4999u);
+  EXPECT_EQ(r.trace.rows_skipped, 1u);
+  ASSERT_EQ(r.trace.skipped_rows.size(), 1u);
+  EXPECT_TRUE(contains(r.trace.skipped_rows[0], path + ":1001:"));
+  EXPECT_TRUE(contains(r.trace.skipped_rows[0], "NaN"));
+}
+
+TEST(CsvTrace, BadRowIsTheErrorWhenSkippingIsOff) {
+  const std::string path = write_text("one_nan_strict", rows_with(5000, 1000, "1.0,0.001,0.001,nan"));
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  const CsvResult r = read_trace_csv(path, strict);
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1001:"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, RepeatedRowsAreCountedAndNeverKept) {
+  // GIVEN a logger that wrote rows 10 and 20 twice
+  std::string text = "t,x,v,u\n";
+  for (int k = 1; k <= 100; ++k) {
+    const std::string row = std::to_string(k * 1e-3) + "," + std::to_string(k * 1e-6) + ",0.001,1\n";
+    text += row;
+    if (k == 10 || k == 20) text += row;
+  }
+  const CsvResult r = read_trace_csv(write_text("repeated", text), CsvColumns{});
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 100u);  // no zero-length interval
+  EXPECT_EQ(r.trace.rows_repeated, 2u);
+  EXPECT_EQ(r.trace.rows_skipped, 0u);
+}
+
+TEST(CsvTrace, MoreThanOnePercentBadRowsIsAnErrorNamingTheFirst) {
+  std::string text = rows_with(100, 5, "0.005,0,0,abc");
+  const CsvResult r = read_trace_csv(write_text("many_bad", text + "0.2,0,0,x\n"), CsvColumns{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, "2 of 101 rows are bad"));
+  EXPECT_TRUE(contains(r.error, "'abc'"));
+}
+
+TEST(CsvTrace, BinaryBytesAreEscapedInMessages) {
+  const std::string path = write_text("binary", std::string("t,x,v,u\n0,0,0,\x01\xff\n"));
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  const CsvResult r = read_trace_csv(path, strict);
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, "\\x01\\xFF")) << r.error;
+  EXPECT_EQ(r.error.find('\x01'), std::string::npos);
+}
+
+TEST(CsvTrace, HeaderOnlyFileIsAnError) {
+  // GIVEN a header and no data rows
+  const std::string path = write_text("header_only", "t,x,v,u\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN it is an error that names the file and says there are no rows
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path));
+  EXPECT_TRUE(contains(r.error, "no data"));
+  EXPECT_TRUE(r.trace.samples.empty());
+}
+
+TEST(CsvTrace, NoPositionAndNoVelocityIsAnError) {
+  // GIVEN time and force only
+  const std::string path = write_text("no_motion", "t,u\n0,0\n0.001,1\n");
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names both motion columns on line 1
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path + ":1:"));
+  EXPECT_TRUE(contains(r.error, "'x'"));
+  EXPECT_TRUE(contains(r.error, "'v'"));
+}
+
+TEST(CsvTrace, MissingFileIsAnError) {
+  // GIVEN a path that does not exist
+  const std::string path = temp_path("does_not_exist_9f3a");
+  std::remove(path.c_str());
+  // WHEN it is read
+  const CsvResult r = read_trace_csv(path, CsvColumns{});
+  // THEN the error names the file
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, path));
+}
+
+}  // namespace
+
+namespace feedid::host {
+namespace {
+
+std::vector<TraceSample> stream_all(CsvStream& st) {
+  std::vector<TraceSample> out;
+  TraceSample s;
+  while (st.next(s)) out.push_back(s);
+  return out;
+}
+
+// The stream reads row by row with the reader's rules: the same samples,
+// the same counts, the same errors.
+TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
+  std::string text = "\xEF\xBB\xBFt;x;v;u\n";
+  for (int k = 0; k < 400; ++k) text += std::to_string(k * 1e-3) + ";" + std::to_string(k * 1e-6) + ";0.001;" + std::to_string(k) + "\n";
+  text += "0.4;bad;0;0\n";                          // skipped, named
+  text += "0.4005;4e-4;0.001;400\n0.4005;4e-4;0.001;400\n";  // repeated
+  text += "\n0.401;4.1e-4;0.001;401\n";
+  const std::string path = ::testing::TempDir() + "feedid_stream.csv";
+  std::ofstream(path) << text;
+  const CsvResult whole = read_trace_csv(path, CsvColumns{});
+  ASSERT_TRUE(whole.ok) << whole.error;
+  CsvStream st(path, CsvColumns{});
+  const std::vector<TraceSample> rows = stream_all(st);
+  EXPECT_TRUE(st.error().empty()) << st.error();
+  ASSERT_EQ(rows.size(), whole.trace.samples.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k].t_s, whole.trace.samples[k].t_s);
+    EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
+  }
+  EXPECT_EQ(st.rows_skipped(), 1u);
+  EXPECT_EQ(st.rows_repeated(), 1u);
+  EXPECT_EQ(st.skipped_rows().front(), whole.trace.skipped_rows.front());
+}
+
+TEST(CsvStream, ErrorsAsTheReaderGivesThem) {
+  const std::string dir = ::testing::TempDir();
+  std::ofstream(dir + "feedid_stream_hdr.csv") << "t,x,u\n";
+  CsvStream header_only(dir + "feedid_stream_hdr.csv", CsvColumns{});
+  EXPECT_TRUE(stream_all(header_only).empty());
+  EXPECT_NE(header_only.error().find("no data rows"), std::string::npos) << header_only.error();
+
+  std::ofstream(dir + "feedid_stream_col.csv") << "t,x,v\n0,0,0\n";
+  CsvStream missing(dir + "feedid_stream_col.csv", CsvColumns{});
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("missing column 'u'"), std::string::npos) << missing.error();
+
+  std::ofstream(dir + "feedid_stream_strict.csv") << "t,x,u\n0,0,0\n0,1,1\n";
+  CsvColumns strict;
+  strict.skip_bad_rows = false;
+  CsvStream st(dir + "feedid_stream_strict.csv", strict);
+  EXPECT_EQ(stream_all(st).size(), 1u);
+  EXPECT_NE(st.error().find("time must increase"), std::string::npos) << st.error();
+
+  std::ofstream(dir + "feedid_stream_allbad.csv") << "t,x,u\n0,a,0\n1,b,1\n";
+  CsvStream all_bad(dir + "feedid_stream_allbad.csv", CsvColumns{});
+  EXPECT_TRUE(stream_all(all_bad).empty());
+  const CsvResult whole_all_bad = read_trace_csv(dir + "feedid_stream_allbad.csv", CsvColumns{});
+  EXPECT_EQ(all_bad.error(), whole_all_bad.error) << "the same words as the whole-file reader";
+  EXPECT_NE(all_bad.error().find("rows are bad"), std::string::npos) << all_bad.error();
+
+  CsvStream absent(dir + "feedid_no_such_file.csv", CsvColumns{});
+  EXPECT_FALSE(absent.ok());
+}
+
+}  // namespace
+}  // namespace feedid::host

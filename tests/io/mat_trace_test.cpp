@@ -1,0 +1,157 @@
+// MATLAB .mat input (host/io/mat_trace.cpp): variables chosen by name like
+// CSV columns, row or column vectors, v5 and v7.3 files, the CSV reader's
+// row rules, and EMPS read from its .mat giving what its CSV gives.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <matio.h>
+
+#include "identify/identify.hpp"
+#include "io/trace_files.hpp"
+
+namespace feedid::host {
+namespace {
+
+struct Var {
+  std::string name;
+  std::vector<double> values;
+  bool row = false;  ///< 1 x n instead of n x 1
+};
+
+/// Writes the variables as doubles to a .mat file of the given version.
+std::string write_mat(const std::string& stem, const std::vector<Var>& vars, mat_ft version = MAT_FT_MAT5) {
+  const std::string path = ::testing::TempDir() + "feedid_" + stem + ".mat";
+  std::remove(path.c_str());
+  mat_t* mat = Mat_CreateVer(path.c_str(), nullptr, version);
+  EXPECT_NE(mat, nullptr);
+  for (const Var& v : vars) {
+    std::vector<double> data = v.values;
+    size_t dims[2] = {v.row ? 1 : data.size(), v.row ? data.size() : 1};
+    matvar_t* mv = Mat_VarCreate(v.name.c_str(), MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, data.data(), 0);
+    EXPECT_EQ(Mat_VarWrite(mat, mv, MAT_COMPRESSION_NONE), 0);
+    Mat_VarFree(mv);
+  }
+  Mat_Close(mat);
+  return path;
+}
+
+CsvColumns named(const char* t, const char* x, const char* u) {
+  CsvColumns c;
+  c.time = t;
+  c.position = x;
+  c.velocity = "";
+  c.force = u;
+  return c;
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+TEST(MatTrace, RowAndColumnVectorsInV5AndV73) {
+  for (const mat_ft version : {MAT_FT_MAT5, MAT_FT_MAT73}) {
+    // GIVEN time as a row vector, position and force as column vectors
+    const std::string path = write_mat(version == MAT_FT_MAT5 ? "v5" : "v73",
+                                       {{"time", {0.0, 0.001, 0.002}, true}, {"pos", {0.0, 1e-6, 3e-6}}, {"F", {1.0, 2.0, 4.0}}},
+                                       version);
+    // WHEN read by name, with a force scale
+    CsvColumns c = named("time", "pos", "F");
+    c.force_scale = 2.0;
+    const CsvResult r = read_trace_file(path, c);
+    // THEN every element is a row, scaled as the CSV reader scales
+    ASSERT_TRUE(r.ok) << r.error;
+    ASSERT_EQ(r.trace.samples.size(), 3u);
+    EXPECT_TRUE(r.trace.has_position);
+    EXPECT_FALSE(r.trace.has_velocity);
+    EXPECT_DOUBLE_EQ(r.trace.samples[2].t_s, 0.002);
+    EXPECT_DOUBLE_EQ(r.trace.samples[2].x_m, 3e-6);
+    EXPECT_DOUBLE_EQ(r.trace.samples[2].u_N, 8.0);
+  }
+}
+
+TEST(MatTrace, BadAndRepeatedElementsFollowTheCsvRules) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> t, x, u;
+  for (int k = 0; k < 300; ++k) {
+    t.push_back(1e-3 * k);
+    x.push_back(1e-6 * k);
+    u.push_back(k);
+  }
+  x[100] = nan;                         // one bad element: skipped and named
+  t[201] = t[200], x[201] = x[200], u[201] = u[200];  // a repeated sample: counted apart
+  const std::string path = write_mat("rules", {{"t", t}, {"x", x}, {"u", u}});
+  const CsvResult r = read_trace_file(path, named("t", "x", "u"));
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 298u);
+  EXPECT_EQ(r.trace.rows_skipped, 1u);
+  EXPECT_EQ(r.trace.rows_repeated, 1u);
+  ASSERT_FALSE(r.trace.skipped_rows.empty());
+  EXPECT_TRUE(contains(r.trace.skipped_rows.front(), "element 101")) << r.trace.skipped_rows.front();
+
+  CsvColumns strict = named("t", "x", "u");
+  strict.skip_bad_rows = false;
+  const CsvResult s = read_trace_file(path, strict);
+  EXPECT_FALSE(s.ok);
+  EXPECT_TRUE(contains(s.error, "element 101")) << s.error;
+}
+
+TEST(MatTrace, ErrorsNameTheVariableAndListTheFile) {
+  const std::string path = write_mat("errors", {{"t", {0.0, 1.0}}, {"x", {0.0, 1.0}}, {"u", {0.0, 1.0, 2.0}}});
+  const CsvResult missing = read_trace_file(path, named("t", "x", "force"));
+  EXPECT_FALSE(missing.ok);
+  EXPECT_TRUE(contains(missing.error, "'force'")) << missing.error;
+  EXPECT_TRUE(contains(missing.error, "the file has: t, x, u")) << missing.error;
+
+  const CsvResult lengths = read_trace_file(path, named("t", "x", "u"));
+  EXPECT_FALSE(lengths.ok);
+  EXPECT_TRUE(contains(lengths.error, "differ in length")) << lengths.error;
+
+  const std::string not_mat = ::testing::TempDir() + "feedid_not_a.mat";
+  std::ofstream(not_mat) << "t,x,u\n0,0,0\n";
+  const CsvResult bad = read_trace_file(not_mat, named("t", "x", "u"));
+  EXPECT_FALSE(bad.ok);
+  EXPECT_TRUE(contains(bad.error, "cannot open as a MATLAB file")) << bad.error;
+}
+
+TEST(MatTrace, MatrixIsRefused) {
+  const std::string path = ::testing::TempDir() + "feedid_matrix.mat";
+  std::remove(path.c_str());
+  mat_t* mat = Mat_CreateVer(path.c_str(), nullptr, MAT_FT_MAT5);
+  std::vector<double> d(6, 1.0);
+  size_t dims[2] = {2, 3};
+  matvar_t* mv = Mat_VarCreate("t", MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, d.data(), 0);
+  Mat_VarWrite(mat, mv, MAT_COMPRESSION_NONE);
+  Mat_VarFree(mv);
+  Mat_Close(mat);
+  const CsvResult r = read_trace_file(path, named("t", "t", "t"));
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(contains(r.error, "one row or one column")) << r.error;
+}
+
+TEST(MatTrace, EmpsFromMatEqualsEmpsFromCsv) {
+  const std::string dir = std::string(FEEDID_SHARED_DIR) + "/data/emps";
+  if (!std::ifstream(dir + "/DATA_EMPS.mat")) GTEST_SKIP() << "EMPS data not found at " << dir;
+  // The CSV's force_N is gtau * vir (data/emps/README.md); the .mat holds vir.
+  CsvColumns mat_cols = named("t", "qm", "vir");
+  mat_cols.force_scale = 35.15065188248547;
+  const CsvResult m = read_trace_file(dir + "/DATA_EMPS.mat", mat_cols);
+  const CsvResult c = read_trace_file(dir + "/DATA_EMPS.csv", named("t_s", "qm_m", "force_N"));
+  ASSERT_TRUE(m.ok) << m.error;
+  ASSERT_TRUE(c.ok) << c.error;
+  ASSERT_EQ(m.trace.samples.size(), c.trace.samples.size());
+  const IdentifyResult a = identify(m.trace, IdentifyOptions{});
+  const IdentifyResult b = identify(c.trace, IdentifyOptions{});
+  ASSERT_TRUE(a.error.empty() && b.error.empty()) << a.error << b.error;
+  // The CSV was written with 17 digits: the same doubles, the same result.
+  EXPECT_EQ(a.estimate.mass_kg, b.estimate.mass_kg);
+  EXPECT_EQ(a.estimate.pos.coulomb_N, b.estimate.pos.coulomb_N);
+  EXPECT_EQ(a.estimate.neg.viscous_Ns_m, b.estimate.neg.viscous_Ns_m);
+  EXPECT_NEAR(a.estimate.mass_kg, 95.0, 1.0);
+}
+
+}  // namespace
+}  // namespace feedid::host

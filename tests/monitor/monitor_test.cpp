@@ -1,0 +1,280 @@
+// Friction health: the core's ChangeMonitor on synthetic epoch estimates,
+// and `feedid monitor`'s pipeline (CSV stream, epochs, alarms) on simulated
+// production logs with and without a change in service.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "io/csv_trace.hpp"
+#include "sim/drive_sim.hpp"
+#include "identify/identify.hpp"
+#include "feedid/health_tracker.hpp"
+#include "feedid/monitor.hpp"
+#include "monitor/monitor.hpp"
+
+namespace feedid {
+namespace {
+
+/// An epoch estimate around the default drive, each parameter drawn with
+/// its standard error; Fs and vs not identifiable (production motion).
+Estimate<double> epoch(std::mt19937_64& rng, double fc_neg = 26.0) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Estimate<double> e;
+  e.mass_kg = 100.0 + 0.05 * n(rng);
+  e.mass_se_kg = 0.05;
+  e.pos = {700.0 + 0.5 * n(rng), 25.0 + 0.03 * n(rng), 0.0, 0.0};
+  e.neg = {720.0 + 0.5 * n(rng), fc_neg + 0.03 * n(rng), 0.0, 0.0};
+  for (auto* d : {&e.pos, &e.neg}) {
+    d->viscous_se = 0.5;
+    d->coulomb_se = 0.03;
+    d->flags = flag_stribeck_uncertain;
+  }
+  return e;
+}
+
+TEST(ChangeMonitor, NoAlarmOnAThousandChangeFreeEpochs) {
+  ChangeMonitor<double> m;
+  ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
+  std::mt19937_64 rng(7);
+  int fresh = 0;
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(m.update(epoch(rng), 10.0 * k, 10.0 * (k + 1), fresh), Status::ok);
+  EXPECT_EQ(m.alarm_count(), 0);
+  double ref = 0, se = 0;
+  ASSERT_TRUE(m.reference(6, ref, se));  // Fc-
+  EXPECT_NEAR(ref, 26.0, 0.05);
+  EXPECT_FALSE(m.reference(3, ref, se)) << "Fs+ is never identifiable here, so never referenced";
+}
+
+TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThree) {
+  ChangeMonitor<float> m;
+  ASSERT_EQ(m.init(MonitorConfig<float>{}), Status::ok);
+  std::mt19937_64 rng(3);
+  int fresh = 0, raised_at = -1;
+  for (int k = 0; k < 40 && raised_at < 0; ++k) {
+    const Estimate<double> d = epoch(rng, k >= 20 ? 26.0 * 1.05 : 26.0);
+    Estimate<float> f;
+    f.mass_kg = float(d.mass_kg), f.mass_se_kg = float(d.mass_se_kg);
+    for (int s = 0; s < 2; ++s) {
+      const auto& a = s ? d.neg : d.pos;
+      auto& b = s ? f.neg : f.pos;
+      b.viscous_Ns_m = float(a.viscous_Ns_m), b.coulomb_N = float(a.coulomb_N);
+      b.viscous_se = float(a.viscous_se), b.coulomb_se = float(a.coulomb_se), b.flags = a.flags;
+    }
+    m.update(f, 10.0f * k, 10.0f * (k + 1), fresh);
+    if (fresh > 0) raised_at = k;
+  }
+  ASSERT_EQ(m.alarm_count(), 1);
+  const ChangeAlarm<float>& a = m.alarm(0);
+  EXPECT_EQ(a.parameter, Tracked::coulomb);
+  EXPECT_EQ(a.direction, -1);
+  EXPECT_FLOAT_EQ(a.t_s, 200.0f);
+  EXPECT_NEAR(a.change, 1.3f, 0.05f);
+  EXPECT_LE(raised_at, 22) << "at most three epochs after the step";
+}
+
+TEST(ChangeMonitor, OneStrayEpochCannotRaiseAnAlarm) {
+  ChangeMonitor<double> m;
+  ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
+  std::mt19937_64 rng(11);
+  int fresh = 0;
+  for (int k = 0; k < 30; ++k) {
+    Estimate<double> e = epoch(rng);
+    if (k == 15) e.pos.coulomb_N = 40.0;  // a fit gone astray, with a small standard error
+    m.update(e, 10.0 * k, 10.0 * (k + 1), fresh);
+  }
+  EXPECT_EQ(m.alarm_count(), 0);
+}
+
+TEST(ChangeMonitor, TwoStrayEpochsWithoutAChangeInTheirRunRaiseNone) {
+  ChangeMonitor<double> m;
+  ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
+  std::mt19937_64 rng(5);
+  int fresh = 0;
+  for (int k = 0; k < 40; ++k) {
+    Estimate<double> e = epoch(rng);
+    if (k == 15 || k == 17) {  // two fits gone astray, wide but far out: each clipped z adds 0.6 h
+      e.neg.viscous_Ns_m = 3000.0;
+      e.neg.viscous_se = 100.0;
+    }
+    m.update(e, 10.0 * k, 10.0 * (k + 1), fresh);
+  }
+  EXPECT_EQ(m.alarm_count(), 0) << "the run's pooled mean has not moved: no change to report";
+}
+
+TEST(ChangeMonitor, ChecksItsConfiguration) {
+  ChangeMonitor<double> m;
+  int fresh = 0;
+  EXPECT_EQ(m.update(Estimate<double>{}, 0.0, 1.0, fresh), Status::not_initialized);
+  MonitorConfig<double> c;
+  c.reference_epochs = 2;
+  EXPECT_EQ(m.init(c), Status::invalid_config);
+  c = MonitorConfig<double>{};
+  c.threshold = 0.0;
+  EXPECT_EQ(m.init(c), Status::invalid_config);
+  c = MonitorConfig<double>{};
+  c.epoch_s = 0.0;
+  EXPECT_EQ(m.init(c), Status::invalid_config);
+}
+
+}  // namespace
+}  // namespace feedid
+
+namespace feedid::host {
+namespace {
+
+MonitorResult monitor_simulated(const SimConfig& c, const std::string& name) {
+  const std::string path = ::testing::TempDir() + name;
+  std::string err;
+  EXPECT_TRUE(write_trace_csv(path, simulate(c), err)) << err;
+  CsvStream in(path, CsvColumns{});
+  EXPECT_TRUE(in.ok()) << in.error();
+  return monitor(in, MonitorOptions{});
+}
+
+SimConfig production(std::uint64_t seed) {
+  SimConfig c;
+  c.motion.program = Program::production;
+  c.motion.duration_s = 240.0;
+  c.seed = seed;
+  c.logging.force = ForceLog::averaged;
+  c.logging.velocity = VelocityLog::low_pass;
+  return c;
+}
+
+TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
+  SimConfig c = production(4);
+  c.change.time_s = 123.0;
+  c.change.coulomb_fraction = 0.05;
+  c.change.direction = -1;
+  const MonitorResult r = monitor_simulated(c, "feedid_monitor_step.csv");
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.epochs.size(), 24u);
+  ASSERT_EQ(r.alarms.size(), 1u) << trend_table(r);
+  const auto& a = r.alarms.front();
+  EXPECT_EQ(a.parameter, feedid::Tracked::coulomb);
+  EXPECT_EQ(a.direction, -1);
+  EXPECT_LE(a.raised_t_s, c.change.time_s + 60.0);
+  EXPECT_NEAR(a.change / a.reference, 0.05, 0.01);
+  const nlohmann::json j = to_json(r, MonitorOptions{});
+  EXPECT_EQ(j["alarms"][0]["parameter"], "fc");
+  EXPECT_EQ(j["alarms"][0]["direction"], "neg");
+  // Production motion carries Fc in every epoch, vs only in those with a slow jog.
+  int with_vs = 0, with_fc = 0;
+  for (const auto& ep : j["epochs"]) {
+    with_vs += ep["pos"]["identifiable"]["vs"].get<bool>();
+    with_fc += ep["pos"]["identifiable"]["fc"].get<bool>();
+  }
+  EXPECT_EQ(with_fc, 24);
+  EXPECT_LT(with_vs, 12);
+}
+
+TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
+  for (std::uint64_t seed : {1u, 2u, 3u}) {
+    const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_free.csv");
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_TRUE(r.alarms.empty()) << "seed " << seed << "\n" << trend_table(r);
+  }
+}
+
+/// Every sample of a simulated trace through a HealthTracker<double> with
+/// the configuration `feedid identify` picks; every complete epoch closed.
+struct TrackRun {
+  int epochs = 0, solved = 0;
+  std::vector<ChangeAlarm<double>> alarms;
+};
+TrackRun track(const Trace& tr) {
+  IdentifyOptions opt;
+  const feedid::Config<double> cfg = auto_config(prepare_signals(tr, opt), opt);
+  auto health = std::make_unique<HealthTracker<double>>();
+  EXPECT_EQ(health->init(cfg, MonitorConfig<double>{}), Status::ok);
+  TrackRun out;
+  for (std::size_t k = 0; k < tr.samples.size(); ++k) {
+    Sample<double> s;
+    s.dt_s = k == 0 ? 0.0 : tr.samples[k].t_s - tr.samples[k - 1].t_s;
+    s.velocity_m_s = tr.samples[k].v_m_s;
+    s.force_N = tr.samples[k].u_N;
+    (void)health->push(s);
+    if (!health->epoch_complete()) continue;
+    int fresh = 0;
+    out.solved += health->close_epoch(fresh) == Status::ok;
+    ++out.epochs;
+  }
+  for (int i = 0; i < health->monitor().alarm_count(); ++i) out.alarms.push_back(health->monitor().alarm(i));
+  return out;
+}
+
+TEST(HealthTracker, NamesACoulombStepOnProductionMotionWithinAMinute) {
+  // GIVEN production motion where Fc+ rises 6 % at 107 s, logged without the host's convention search
+  SimConfig c = production(8);
+  c.change.time_s = 107.0;
+  c.change.coulomb_fraction = 0.06;
+  c.change.direction = +1;
+  c.logging.force = ForceLog::instant;
+  c.logging.velocity = VelocityLog::backward_difference;
+  const TrackRun t = track(simulate(c));
+  // THEN each 10 s epoch is closed and solved alone, and the one alarm is Fc+ within 60 s
+  EXPECT_EQ(t.epochs, 24);
+  EXPECT_EQ(t.solved, 24);
+  ASSERT_EQ(t.alarms.size(), 1u);
+  EXPECT_EQ(t.alarms[0].parameter, feedid::Tracked::coulomb);
+  EXPECT_EQ(t.alarms[0].direction, 1);
+  EXPECT_GE(t.alarms[0].raised_t_s, c.change.time_s);
+  EXPECT_LE(t.alarms[0].raised_t_s, c.change.time_s + 60.0);
+  EXPECT_NEAR(t.alarms[0].change / t.alarms[0].reference, 0.06, 0.01);
+}
+
+TEST(HealthTracker, ChangeFreeProductionMotionRaisesNone) {
+  for (std::uint64_t seed : {5u, 6u}) {
+    SimConfig c = production(seed);
+    c.logging.force = ForceLog::instant;
+    c.logging.velocity = VelocityLog::backward_difference;
+    EXPECT_TRUE(track(simulate(c)).alarms.empty()) << "seed " << seed;
+  }
+}
+
+TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
+  feedid::Config<double> cfg;
+  auto a = std::make_unique<HealthTracker<double>>(), b = std::make_unique<HealthTracker<double>>();
+  int fresh = 0;
+  EXPECT_EQ(a->push(Sample<double>{}), Status::not_initialized);
+  EXPECT_EQ(a->close_epoch(fresh), Status::not_initialized);
+  MonitorConfig<double> mc;
+  mc.epoch_s = -1.0;
+  EXPECT_EQ(a->init(cfg, mc), Status::invalid_config);
+  mc.epoch_s = 1.0;
+  ASSERT_EQ(a->init(cfg, mc), Status::ok);
+  ASSERT_EQ(b->init(cfg, mc), Status::ok);
+  // GIVEN the same 0.2 m/s strokes into both, and one extra all-NaN sample into one of them
+  for (int k = 0; k < 1500; ++k) {
+    Sample<double> s;
+    s.dt_s = 1e-3;
+    s.velocity_m_s = 0.2 * std::sin(0.01 * k);
+    s.force_N = 700.0 * s.velocity_m_s + (s.velocity_m_s > 0 ? 25.0 : -26.0);
+    if (k == 400) {
+      Sample<double> bad = s;
+      bad.dt_s = bad.force_N = std::nan("");
+      EXPECT_NE(a->push(bad), Status::ok);
+    }
+    (void)a->push(s);
+    (void)b->push(s);
+    if (a->epoch_complete()) {
+      ASSERT_TRUE(b->epoch_complete());
+      (void)a->close_epoch(fresh);
+      (void)b->close_epoch(fresh);
+    }
+  }
+  // THEN the epochs closed at the same time, and the estimate only lost the
+  // interval the estimator bridges after a rejection (well within 0.1 %)
+  EXPECT_EQ(a->epochs(), 1);
+  EXPECT_EQ(a->time_s(), b->time_s());
+  EXPECT_NEAR(a->last_epoch().pos.coulomb_N, b->last_epoch().pos.coulomb_N, 0.025);
+  EXPECT_NEAR(a->last_epoch().neg.viscous_Ns_m, b->last_epoch().neg.viscous_Ns_m, 0.7);
+}
+
+}  // namespace
+}  // namespace feedid::host
