@@ -44,9 +44,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
     jump_noise_allowance_ = T(4) * cfg_.velocity_resolution_m_s;
     (void)pairing_.init(cfg_.force_lag_samples);  // range checked by check()
     layout_.init(cfg_.velocity_min_m_s, cfg_.velocity_max_m_s);
-    const T lo = detail::stribeck_lo(cfg_), hi = detail::stribeck_hi(cfg_);
-    for (int i = 0; i < Candidates; ++i)
-      stats_.vs_candidate[i] = lo * port::exp(port::log(hi / lo) * T(i) / T(Candidates - 1));
+    for (int i = 0; i < Candidates; ++i) stats_.vs_candidate[i] = detail::stribeck_candidate(cfg_, i, Candidates);
     initialized_ = true;
     return Status::ok;
   }

@@ -362,6 +362,11 @@ template <typename T> T stribeck_lo(const Config<T>& c) {
 template <typename T> T stribeck_hi(const Config<T>& c) {
   return c.stribeck_max_m_s > T(0) ? c.stribeck_max_m_s : T(0.25) * c.velocity_max_m_s;
 }
+/// Candidate i of `count` Stribeck velocities, log-spaced over the search range.
+template <typename T> T stribeck_candidate(const Config<T>& c, int i, int count) {
+  const T lo = stribeck_lo(c), hi = stribeck_hi(c);
+  return lo * port::exp(port::log(hi / lo) * T(i) / T(count - 1));
+}
 
 template <typename T, int Bands, int C>
 Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>& layout,

@@ -190,11 +190,190 @@ extern "C" void SysTick_Handler() {
   if (k + 1 == trace::count) g_isr_done = true;
 }
 
-int main() {
+namespace {
+
+/// What the servo run delivered and the core made of it.
+struct ServoRun {
+  uint32_t delivered = 0, duplicated = 0, skipped = 0, rejected = 0, max_depth = 0, overflow = 0, ticks = 0;
+  feedid::Status mid_status = feedid::Status::not_initialized, final_status = feedid::Status::not_initialized;
+  fw::Result mid{}, fin{};
+  feedid::Diagnostics diag{};
+};
+
+/// The task's side of one queued sample: check its order, push it, and
+/// solve when the request travelled with it (the ISR keeps queueing).
+void take(const ServoItem& item, uint32_t& expected, ServoRun& run) {
+  ++run.delivered;
+  if (item.index() < expected) ++run.duplicated;
+  else run.skipped += item.index() - expected;
+  expected = item.index() + 1;
+  if (g_axis.push(item.sample) != feedid::Status::ok) ++run.rejected;
+  if (item.solve_request()) {
+    run.mid_status = g_axis.solve();
+    run.mid = to_result(g_axis.estimate());
+  }
+}
+
+/// 1. SysTick ISR -> queue -> task -> push(), a solve mid-stream and at the end.
+ServoRun servo_run() {
+  ServoRun run;
+  uint32_t expected = 0;
+  const uint32_t t0 = board::counter_now();
+  board::systick_start(servo_period_cycles);
+  board::irq_enable();
+  for (;;) {
+    const uint32_t depth = static_cast<uint32_t>(g_queue.size());
+    if (depth > run.max_depth) run.max_depth = depth;
+    ServoItem item;
+    while (g_queue.pop(item)) {
+      const uint32_t left = static_cast<uint32_t>(g_queue.size()) + 1u;  // incl. the one just taken
+      if (left > run.max_depth) run.max_depth = left;
+      take(item, expected, run);
+    }
+    if (g_isr_done && g_queue.empty()) break;
+    board::sleep_while([] { return g_queue.empty() && !g_isr_done; });
+  }
+  board::systick_stop();
+  run.ticks = board::counter_now() - t0;
+  run.final_status = g_axis.solve();
+  run.fin = to_result(g_axis.estimate());
+  run.diag = g_axis.diagnostics();
   board::irq_disable();
-  fw::paint_stack();
-  board::counter_start();
-  Console out;
+  run.overflow = g_queue.overflow_count();
+  return run;
+}
+
+void print_servo_run(Console& out, const ServoRun& run) {
+  const uint32_t bands_pos = g_axis.estimate().pos.bands_used, bands_neg = g_axis.estimate().neg.bands_used;
+  out << "servo: " << run.delivered << " of " << trace::count << " samples delivered, " << run.overflow
+      << " lost to overflow, " << run.duplicated << " duplicated, max queue depth " << run.max_depth
+      << "; core accepted " << uint32_t(run.diag.samples_accepted) << ", rejected " << run.rejected << " (host "
+      << trace::host_rejected << "); " << run.diag.sections_complete[0] << "+" << run.diag.sections_complete[1]
+      << " sections, " << run.diag.mass_windows << " mass windows, bands used " << bands_pos << "+" << bands_neg << "\n";
+  out << "servo: whole run " << run.ticks << " ticks\n";
+  out << "solve after sample " << trace::solve_request_after << ": " << feedid::status_name(run.mid_status)
+      << "; final solve: " << feedid::status_name(run.final_status) << "\n";
+}
+
+void print_truth(Console& out) {
+  const fw::Result& t = trace::truth;
+  out << "truth: m " << t.mass_kg << " kg; + sigma " << t.pos.viscous_Ns_m << " Fc " << t.pos.coulomb_N << " Fs "
+      << t.pos.breakaway_N << " vs " << t.pos.stribeck_velocity_m_s << "; - sigma " << t.neg.viscous_Ns_m << " Fc "
+      << t.neg.coulomb_N << " Fs " << t.neg.breakaway_N << " vs " << t.neg.stribeck_velocity_m_s << "\n";
+}
+
+/// 3. Cost: counter ticks of the same stream without interrupts.
+struct Cost {
+  uint32_t calibration = 0;
+  float ipt = 0.0f;  ///< instructions per tick, measured
+  uint32_t push_max = 0, push_max_at = 0, push_total = 0, mid_solve = 0, final_solve = 0, paper_solve = 0;
+  uint32_t bucket[4] = {0, 0, 0, 0};  ///< push() within 1000 / 5000 / 20000 instructions, and more
+  uint32_t loop_ticks = 0, handoff_ticks = 0, feedforward_ticks = 0, feedforward_vs_ticks = 0;
+  bool reproducible = false;
+};
+constexpr uint32_t calibration_turns = 100'000;
+
+/// Each push() and solve() timed on their own; false if init fails.
+bool time_each_call(const feedid::Config<float>& cfg, Cost& c) {
+  if (g_axis.init(cfg) != feedid::Status::ok) return false;
+  const uint32_t bucket_ticks[3] = {uint32_t(1000.0f / c.ipt), uint32_t(5000.0f / c.ipt), uint32_t(20000.0f / c.ipt)};
+  for (uint32_t k = 0; k < trace::count; ++k) {
+    const feedid::Sample<float> s = sample_at(k);
+    const uint32_t t0 = board::counter_now();
+    (void)g_axis.push(s);
+    const uint32_t dt = board::counter_now() - t0;
+    c.push_total += dt;
+    if (dt > c.push_max) { c.push_max = dt; c.push_max_at = k; }
+    ++c.bucket[dt <= bucket_ticks[0] ? 0 : dt <= bucket_ticks[1] ? 1 : dt <= bucket_ticks[2] ? 2 : 3];
+    if (k == trace::solve_request_after) {
+      const uint32_t s0 = board::counter_now();
+      (void)g_axis.solve();
+      c.mid_solve = board::counter_now() - s0;
+    }
+  }
+  return true;
+}
+
+/// The final solve (bands, then paper) after time_each_call, and whether it
+/// reproduces the servo run's result bit for bit.
+void time_final_solves(const ServoRun& run, Cost& c) {
+  uint32_t t0 = board::counter_now();
+  const feedid::Status st = g_axis.solve();
+  c.final_solve = board::counter_now() - t0;
+  c.reproducible = st == run.final_status && same(to_result(g_axis.estimate()), run.fin);
+  t0 = board::counter_now();
+  (void)g_axis.solve(feedid::Method::paper);
+  c.paper_solve = board::counter_now() - t0;
+}
+
+/// Means without per-call timer reads: push loop, hand-off, feed-forward.
+/// The feed-forward runs on a copy of the last solved estimate (init()
+/// below clears the axis's own).
+bool time_loops(const feedid::Config<float>& cfg, Cost& c) {
+  const feedid::Estimate<float> solved = g_axis.estimate();
+  const feedid::EstimateFriction<float> model{solved};
+  const feedid::FeedforwardConfig<float> ff{0.0005f, solved.mass_kg};
+  const float vs = solved.pos.stribeck_velocity_m_s > 0.0f ? solved.pos.stribeck_velocity_m_s : 0.002f;
+  if (g_axis.init(cfg) != feedid::Status::ok) return false;
+  uint32_t t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) (void)g_axis.push(sample_at(k));
+  c.loop_ticks = board::counter_now() - t0;
+  float lost_dt_s = 0.0f;  // hand-off per sample: the ISR's offer() plus the task's pop()
+  t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) {
+    offer(g_queue, k, lost_dt_s);
+    ServoItem item;
+    (void)g_queue.pop(item);
+  }
+  c.handoff_ticks = board::counter_now() - t0;
+  // Friction feed-forward at each sample's velocity as the reference, then
+  // near the Stribeck velocity, where the exp is evaluated in full.
+  volatile float ff_sink = 0.0f;  // keeps the loops from being optimised away
+  t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, sample_at(k).velocity_m_s, 0.1f);
+  c.feedforward_ticks = board::counter_now() - t0;
+  t0 = board::counter_now();
+  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, vs * (1.0f + 1e-5f * float(k & 63u)), 0.1f);
+  c.feedforward_vs_ticks = board::counter_now() - t0;
+  return true;
+}
+
+void print_costs(Console& out, const Cost& c) {
+  const float n = float(trace::count);
+  out << "cost (25 MHz counter ticks; a loop of " << 2 * calibration_turns << " instructions took " << c.calibration
+      << " ticks = ";
+  out.real(c.ipt, 4) << " instructions per tick; exact under qemu -icount shift=0 (" << fw::instructions_per_tick
+                     << "), host-time noise without -icount):\n";
+  print_cost(out, "push() mean per sample, loop over the trace", float(c.loop_ticks) / n, c.ipt);
+  print_cost(out, "push() mean per sample, each call timed", float(c.push_total) / n, c.ipt);
+  out << "  push() per sample <= 1000 / 5000 / 20000 / more instructions: " << c.bucket[0] << " / " << c.bucket[1]
+      << " / " << c.bucket[2] << " / " << c.bucket[3] << " samples\n";
+  print_cost(out, "push() max", float(c.push_max), c.ipt);
+  out << "  push() max at sample " << c.push_max_at << " (a section end: paper-method point + fold)\n";
+  print_cost(out, "solve() mid-stream", float(c.mid_solve), c.ipt);
+  print_cost(out, "solve() final (bands method)", float(c.final_solve), c.ipt);
+  print_cost(out, "solve(paper)", float(c.paper_solve), c.ipt);
+  print_cost(out, "hand-off per sample (ISR offer + push_from_isr + task pop)", float(c.handoff_ticks) / n, c.ipt);
+  print_cost(out, "feedforward() per call, at the trace's velocities (sample read included)",
+             float(c.feedforward_ticks) / n, c.ipt);
+  print_cost(out, "feedforward() per call, at v = vs (the Stribeck exp in full)", float(c.feedforward_vs_ticks) / n,
+             c.ipt);
+  out << "stack high-water mark: " << fw::stack_used_bytes() << " B of " << fw::stack_size_bytes() << " B\n";
+  out << "timed re-run reproduces the servo run bit for bit: " << (c.reproducible ? "yes" : "NO") << "\n";
+}
+
+/// Null when the run passes, else why not (first_failure: the comparison's).
+const char* verdict(const ServoRun& run, int failed, const char* first_failure, bool reproducible) {
+  if (run.mid_status != feedid::Status::ok || run.final_status != feedid::Status::ok) return "solve did not return ok";
+  if (run.overflow != 0 || run.skipped != 0 || run.duplicated != 0 || run.delivered != trace::count)
+    return "the queue lost, duplicated or reordered samples";
+  if (uint32_t(run.diag.samples_rejected) != trace::host_rejected) return "rejected samples differ from the host";
+  if (failed != 0) return first_failure;
+  if (!reproducible) return "the timed re-run differs from the servo run";
+  return nullptr;
+}
+
+void print_header(Console& out) {
   out << "feedid firmware on Cortex-M4F (QEMU mps2-an386): Estimator<float>, " << trace::count
       << " samples of a simulated 100 kg drive at ";
   out.real(trace::sample_rate_hz, 6) << " Hz in flash\n";
@@ -202,164 +381,41 @@ int main() {
       << "), Estimator<double> = " << uint32_t(sizeof(feedid::Estimator<double>))
       << " B, sample queue = " << uint32_t(sizeof(SampleQueue)) << " B (" << uint32_t(queue_capacity)
       << " x " << uint32_t(sizeof(ServoItem)) << " B)\n";
+  out << "servo: SysTick every " << servo_period_cycles << " cycles -> push_from_isr -> SpscQueue<"
+      << uint32_t(queue_capacity) << "> -> task -> push(); solve asked after sample " << trace::solve_request_after
+      << " and at the end\n";
+}
 
+}  // namespace
+
+int main() {
+  board::irq_disable();
+  fw::paint_stack();
+  board::counter_start();
+  Console out;
+  print_header(out);
   const feedid::Config<float> cfg = trace::config();
   if (g_axis.init(cfg) != feedid::Status::ok) {
     out << "FAIL: init: " << g_axis.config_error() << "\n";
     return 1;
   }
+  const ServoRun run = servo_run();
+  print_servo_run(out, run);
 
-  // --- 1. servo run: SysTick ISR -> queue -> task ---------------------------
-  out << "servo: SysTick every " << servo_period_cycles << " cycles -> push_from_isr -> SpscQueue<"
-      << uint32_t(queue_capacity) << "> -> task -> push(); solve asked after sample "
-      << trace::solve_request_after << " and at the end\n";
-  uint32_t expected = 0, duplicated = 0, skipped = 0, rejected = 0, max_depth = 0, delivered = 0;
-  feedid::Status mid_status = feedid::Status::not_initialized;
-  fw::Result mid{};
-  const uint32_t servo_t0 = board::counter_now();
-  board::systick_start(servo_period_cycles);
-  board::irq_enable();
-  for (;;) {
-    const uint32_t depth = static_cast<uint32_t>(g_queue.size());
-    if (depth > max_depth) max_depth = depth;
-    ServoItem item;
-    while (g_queue.pop(item)) {
-      const uint32_t left = static_cast<uint32_t>(g_queue.size()) + 1u;  // incl. the one just taken
-      if (left > max_depth) max_depth = left;
-      ++delivered;
-      if (item.index() < expected) ++duplicated;
-      else skipped += item.index() - expected;
-      expected = item.index() + 1;
-      if (g_axis.push(item.sample) != feedid::Status::ok) ++rejected;
-      if (item.solve_request()) {
-        // Background work while the ISR keeps queueing: the queue absorbs it.
-        mid_status = g_axis.solve();
-        mid = to_result(g_axis.estimate());
-      }
-    }
-    if (g_isr_done && g_queue.empty()) break;
-    board::sleep_while([] { return g_queue.empty() && !g_isr_done; });
-  }
-  board::systick_stop();
-  const uint32_t servo_ticks = board::counter_now() - servo_t0;
-  const feedid::Status final_status = g_axis.solve();
-  const fw::Result fin = to_result(g_axis.estimate());
-  const feedid::Diagnostics diag = g_axis.diagnostics();
-  const uint32_t bands_pos = g_axis.estimate().pos.bands_used, bands_neg = g_axis.estimate().neg.bands_used;
-  board::irq_disable();
-
-  const uint32_t overflow = g_queue.overflow_count();
-  out << "servo: " << delivered << " of " << trace::count << " samples delivered, " << overflow
-      << " lost to overflow, " << duplicated << " duplicated, max queue depth " << max_depth << "; core accepted "
-      << uint32_t(diag.samples_accepted) << ", rejected " << rejected << " (host " << trace::host_rejected
-      << "); " << diag.sections_complete[0] << "+" << diag.sections_complete[1] << " sections, "
-      << diag.mass_windows << " mass windows, bands used " << bands_pos << "+" << bands_neg << "\n";
-  out << "servo: whole run " << servo_ticks << " ticks\n";
-  out << "solve after sample " << trace::solve_request_after << ": " << feedid::status_name(mid_status)
-      << "; final solve: " << feedid::status_name(final_status) << "\n";
-
-  // --- 2. compare with the host double reference ----------------------------
+  // 2. Compare with the host double reference.
   const char* first_failure = nullptr;
-  int failed = 0;
-  failed += compare(out, "mid-stream solve", mid, trace::host_double_mid, nullptr, first_failure);
-  failed += compare(out, "final solve", fin, trace::host_double_final, &trace::host_float_final, first_failure);
-  out << "truth: m " << trace::truth.mass_kg << " kg; + sigma " << trace::truth.pos.viscous_Ns_m << " Fc "
-      << trace::truth.pos.coulomb_N << " Fs " << trace::truth.pos.breakaway_N << " vs "
-      << trace::truth.pos.stribeck_velocity_m_s << "; - sigma " << trace::truth.neg.viscous_Ns_m << " Fc "
-      << trace::truth.neg.coulomb_N << " Fs " << trace::truth.neg.breakaway_N << " vs "
-      << trace::truth.neg.stribeck_velocity_m_s << "\n";
+  int failed = compare(out, "mid-stream solve", run.mid, trace::host_double_mid, nullptr, first_failure);
+  failed += compare(out, "final solve", run.fin, trace::host_double_final, &trace::host_float_final, first_failure);
+  print_truth(out);
 
-  // --- 3. cost: the same stream, no interrupts, each call timed --------------
-  if (g_axis.init(cfg) != feedid::Status::ok) return 1;
-  uint32_t push_max = 0, push_max_at = 0, push_total = 0, mid_solve = 0;
-  // The scale: under -icount shift=0 this loop of 200000 instructions takes
-  // 5000 ticks (checked: 40.0 instructions per tick; shift=3 gives 5.0).
-  constexpr uint32_t calibration_turns = 100'000;
-  uint32_t calibration = 0;
-  const float ipt = fw::measured_instructions_per_tick(calibration_turns, calibration);
-  // Samples whose push() took at most 1000 / 5000 / 20000 instructions, and more.
-  const uint32_t bucket_ticks[3] = {uint32_t(1000.0f / ipt), uint32_t(5000.0f / ipt), uint32_t(20000.0f / ipt)};
-  uint32_t bucket[4] = {0, 0, 0, 0};
-  for (uint32_t k = 0; k < trace::count; ++k) {
-    const feedid::Sample<float> s = sample_at(k);
-    const uint32_t t0 = board::counter_now();
-    const feedid::Status st = g_axis.push(s);
-    const uint32_t dt = board::counter_now() - t0;
-    (void)st;
-    push_total += dt;
-    if (dt > push_max) { push_max = dt; push_max_at = k; }
-    ++bucket[dt <= bucket_ticks[0] ? 0 : dt <= bucket_ticks[1] ? 1 : dt <= bucket_ticks[2] ? 2 : 3];
-    if (k == trace::solve_request_after) {
-      const uint32_t s0 = board::counter_now();
-      (void)g_axis.solve();
-      mid_solve = board::counter_now() - s0;
-    }
-  }
-  uint32_t t0 = board::counter_now();
-  const feedid::Status bench_status = g_axis.solve();
-  const uint32_t final_solve = board::counter_now() - t0;
-  const bool reproducible = bench_status == final_status && same(to_result(g_axis.estimate()), fin);
-  t0 = board::counter_now();
-  (void)g_axis.solve(feedid::Method::paper);
-  const uint32_t paper_solve = board::counter_now() - t0;
-  // Mean without the per-call timer reads: one timed loop over the stream.
-  if (g_axis.init(cfg) != feedid::Status::ok) return 1;
-  t0 = board::counter_now();
-  for (uint32_t k = 0; k < trace::count; ++k) (void)g_axis.push(sample_at(k));
-  const uint32_t loop_ticks = board::counter_now() - t0;
-  // Hand-off per sample: the ISR's offer() plus the task's pop().
-  float lost_dt_s = 0.0f;
-  t0 = board::counter_now();
-  for (uint32_t k = 0; k < trace::count; ++k) {
-    offer(g_queue, k, lost_dt_s);
-    ServoItem item;
-    (void)g_queue.pop(item);
-  }
-  const uint32_t handoff_ticks = board::counter_now() - t0;
-  // Friction feed-forward from the estimate (the exp of the Stribeck dip
-  // included), at each sample's velocity as the reference.
-  const feedid::EstimateFriction<float> model{g_axis.estimate()};
-  const feedid::FeedforwardConfig<float> ff{0.0005f, g_axis.estimate().mass_kg};
-  volatile float ff_sink = 0.0f;  // keeps the loop from being optimised away
-  t0 = board::counter_now();
-  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, sample_at(k).velocity_m_s, 0.1f);
-  const uint32_t feedforward_ticks = board::counter_now() - t0;
-  // The same near the Stribeck velocity, where the exp is evaluated in full.
-  const float vs = g_axis.estimate().pos.stribeck_velocity_m_s > 0.0f ? g_axis.estimate().pos.stribeck_velocity_m_s : 0.002f;
-  t0 = board::counter_now();
-  for (uint32_t k = 0; k < trace::count; ++k) ff_sink = ff_sink + feedid::feedforward(model, ff, vs * (1.0f + 1e-5f * float(k & 63u)), 0.1f);
-  const uint32_t feedforward_vs_ticks = board::counter_now() - t0;
-  out << "cost (25 MHz counter ticks; a loop of " << 2 * calibration_turns << " instructions took " << calibration
-      << " ticks = ";
-  out.real(ipt, 4) << " instructions per tick; exact under qemu -icount shift=0 (" << fw::instructions_per_tick
-                   << "), host-time noise without -icount):\n";
-  print_cost(out, "push() mean per sample, loop over the trace", float(loop_ticks) / float(trace::count),
-             ipt);
-  print_cost(out, "push() mean per sample, each call timed", float(push_total) / float(trace::count), ipt);
-  out << "  push() per sample <= 1000 / 5000 / 20000 / more instructions: " << bucket[0] << " / " << bucket[1]
-      << " / " << bucket[2] << " / " << bucket[3] << " samples\n";
-  print_cost(out, "push() max", float(push_max), ipt);
-  out << "  push() max at sample " << push_max_at << " (a section end: paper-method point + fold)\n";
-  print_cost(out, "solve() mid-stream", float(mid_solve), ipt);
-  print_cost(out, "solve() final (bands method)", float(final_solve), ipt);
-  print_cost(out, "solve(paper)", float(paper_solve), ipt);
-  print_cost(out, "hand-off per sample (ISR offer + push_from_isr + task pop)",
-             float(handoff_ticks) / float(trace::count), ipt);
-  print_cost(out, "feedforward() per call, at the trace's velocities (sample read included)",
-             float(feedforward_ticks) / float(trace::count), ipt);
-  print_cost(out, "feedforward() per call, at v = vs (the Stribeck exp in full)",
-             float(feedforward_vs_ticks) / float(trace::count), ipt);
-  out << "stack high-water mark: " << fw::stack_used_bytes() << " B of " << fw::stack_size_bytes() << " B\n";
-  out << "timed re-run reproduces the servo run bit for bit: " << (reproducible ? "yes" : "NO") << "\n";
+  Cost cost;
+  cost.ipt = fw::measured_instructions_per_tick(calibration_turns, cost.calibration);
+  if (!time_each_call(cfg, cost)) return 1;
+  time_final_solves(run, cost);
+  if (!time_loops(cfg, cost)) return 1;
+  print_costs(out, cost);
 
-  // --- verdict ----------------------------------------------------------------
-  const char* why = nullptr;
-  if (mid_status != feedid::Status::ok || final_status != feedid::Status::ok) why = "solve did not return ok";
-  else if (overflow != 0 || skipped != 0 || duplicated != 0 || delivered != trace::count)
-    why = "the queue lost, duplicated or reordered samples";
-  else if (uint32_t(diag.samples_rejected) != trace::host_rejected) why = "rejected samples differ from the host";
-  else if (failed != 0) why = first_failure;
-  else if (!reproducible) why = "the timed re-run differs from the servo run";
+  const char* why = verdict(run, failed, first_failure, cost.reproducible);
   if (why == nullptr) {
     out << "PASS: M4 float matches host double on " << trace::count
         << " samples (m, sigma, Fc within 0.5 %, Fs, vs within 3 %, flags equal)\n";

@@ -567,27 +567,16 @@ struct RlsFilter {
   }
 };
 
-}  // namespace
-
-BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions& opt) {
-  const auto t0 = Clock::now();
-  BaselineResult out;
-  out.method = "rls";
-  const Prepared p = prepare(trace, opt);
+/// Every filter of the bank over the trace's sliding samples (one
+/// direction's velocity, within the gap limit): forgotten a-priori errors
+/// counted after a warm-up of the first 10 % of the samples, when every
+/// filter has left its P0 transient. Returns the samples used.
+std::size_t run_rls_bank(const Prepared& p, const BaselineOptions& opt, double lambda, std::vector<RlsFilter>& f) {
   const Signals& s = p.s;
-  const std::size_t n = s.t.size();
-  const int K = std::max(opt.rls_filters, 3);
-  std::vector<RlsFilter> f(static_cast<std::size_t>(K));
-  const double l0 = std::log(p.stribeck_lo), l1 = std::log(p.stribeck_hi);
-  const double lstep = (l1 - l0) / (K - 1);
-  for (int i = 0; i < K; ++i) f[static_cast<std::size_t>(i)].init(std::exp(l0 + lstep * i), opt.rls_initial_covariance);
-  const double dt_nom = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
-  const double lambda = std::clamp(1.0 - dt_nom / opt.rls_memory_s, 0.5, 1.0);
-  // Candidates are compared on a-priori errors after a warm-up (the first
-  // 10 % of the samples), when every filter has left its P0 transient.
-  const std::size_t warmup = n / 10;
+  const std::size_t n = s.t.size(), warmup = n / 10;
   const feedid::ForcePairing<double> pairing = s.pairing();
   const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  std::size_t rows = 0;
   for (std::size_t k = 1; k < n; ++k) {
     const double dt = s.t[k] - s.t[k - 1];
     if (!(dt > 0.0) || dt > p.max_gap) continue;
@@ -600,49 +589,73 @@ BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions
       if (count) { filt.err[0] *= lambda; filt.err[1] *= lambda; }
       filt.update(a, vm, u, lambda, count);
     }
-    ++out.rows;
+    ++rows;
     if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
   }
+  return rows;
+}
+
+/// Direction d's friction from the bank: the best filter by forgotten
+/// a-priori error, refined by a parabola through it and its neighbours in
+/// ln vs, the friction interpolated linearly between the two nearest
+/// filters. at_edge: the best filter is at the end of the grid.
+DirectionFriction rls_direction(const std::vector<RlsFilter>& f, int d, double l0, double lstep, bool& at_edge) {
+  const int K = static_cast<int>(f.size());
+  auto err = [&](int i) { return f[static_cast<std::size_t>(i)].err[d]; };
+  int b = 0;
+  for (int i = 1; i < K; ++i) if (err(i) < err(b)) b = i;
+  double off = 0.0;
+  if (b > 0 && b < K - 1) {
+    const double cm = err(b - 1), c0 = err(b), cp = err(b + 1);
+    const double den = cm - 2.0 * c0 + cp;
+    if (den > 0) off = std::clamp(0.5 * (cm - cp) / den, -0.5, 0.5);
+  } else {
+    at_edge = true;
+  }
+  const int nb = off < 0 ? b - 1 : b + 1;
+  const double w = std::fabs(off);
+  const RlsFilter& A = f[static_cast<std::size_t>(b)];
+  const RlsFilter& B = f[static_cast<std::size_t>(std::clamp(nb, 0, K - 1))];
+  const int o = d == 0 ? 1 : 4;
+  auto mix = [&](int i) { return (1.0 - w) * A.theta[i] + w * B.theta[i]; };
+  DirectionFriction df;
+  df.coulomb_N = mix(o);
+  df.viscous_Ns_m = mix(o + 1);
+  df.breakaway_N = mix(o + 2);
+  df.stribeck_velocity_m_s = std::exp(l0 + lstep * (b + off));
+  return df;
+}
+
+}  // namespace
+
+BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions& opt) {
+  const auto t0 = Clock::now();
+  BaselineResult out;
+  out.method = "rls";
+  const Prepared p = prepare(trace, opt);
+  const int K = std::max(opt.rls_filters, 3);
+  std::vector<RlsFilter> f(static_cast<std::size_t>(K));
+  const double l0 = std::log(p.stribeck_lo), l1 = std::log(p.stribeck_hi);
+  const double lstep = (l1 - l0) / (K - 1);
+  for (int i = 0; i < K; ++i) f[static_cast<std::size_t>(i)].init(std::exp(l0 + lstep * i), opt.rls_initial_covariance);
+  const double dt_nom = p.s.sample_rate_hz > 0 ? 1.0 / p.s.sample_rate_hz : 1e-3;
+  const double lambda = std::clamp(1.0 - dt_nom / opt.rls_memory_s, 0.5, 1.0);
+  out.rows = run_rls_bank(p, opt, lambda, f);
   out.iterations = static_cast<long>(out.rows);
   out.evaluations = 1;
-  // Per direction: best filter by forgotten a-priori error, refined by a
-  // parabola through it and its neighbours in ln vs; the direction's
-  // friction interpolated linearly between the two nearest filters.
-  DriveParams est;
+  // The mass from the filter best over both directions.
   int best_total = 0;
   for (int i = 1; i < K; ++i)
     if (f[static_cast<std::size_t>(i)].err[0] + f[static_cast<std::size_t>(i)].err[1] <
         f[static_cast<std::size_t>(best_total)].err[0] + f[static_cast<std::size_t>(best_total)].err[1])
       best_total = i;
-  double mass = f[static_cast<std::size_t>(best_total)].theta[0];
   bool at_edge = false;
-  for (int d = 0; d < 2; ++d) {
-    int b = 0;
-    for (int i = 1; i < K; ++i) if (f[static_cast<std::size_t>(i)].err[d] < f[static_cast<std::size_t>(b)].err[d]) b = i;
-    double off = 0.0;
-    if (b > 0 && b < K - 1) {
-      const double cm = f[static_cast<std::size_t>(b - 1)].err[d], c0 = f[static_cast<std::size_t>(b)].err[d],
-                   cp = f[static_cast<std::size_t>(b + 1)].err[d];
-      const double den = cm - 2.0 * c0 + cp;
-      if (den > 0) off = std::clamp(0.5 * (cm - cp) / den, -0.5, 0.5);
-    } else {
-      at_edge = true;
-    }
-    const int nb = off < 0 ? b - 1 : b + 1;
-    const double w = std::fabs(off);
-    const RlsFilter& A = f[static_cast<std::size_t>(b)];
-    const RlsFilter& B = f[static_cast<std::size_t>(std::clamp(nb, 0, K - 1))];
-    const int o = d == 0 ? 1 : 4;
-    auto mix = [&](int i) { return (1.0 - w) * A.theta[i] + w * B.theta[i]; };
-    DirectionFriction& df = d == 0 ? est.pos : est.neg;
-    df.coulomb_N = mix(o);
-    df.viscous_Ns_m = mix(o + 1);
-    df.breakaway_N = mix(o + 2);
-    df.stribeck_velocity_m_s = std::exp(l0 + lstep * (b + off));
-  }
-  est.mass_kg = mass;
+  DriveParams est;
+  est.pos = rls_direction(f, 0, l0, lstep, at_edge);
+  est.neg = rls_direction(f, 1, l0, lstep, at_edge);
+  est.mass_kg = f[static_cast<std::size_t>(best_total)].theta[0];
   out.params = est;
-  out.ok = out.rows > 20 && std::isfinite(mass);
+  out.ok = out.rows > 20 && std::isfinite(est.mass_kg);
   out.converged = !at_edge;
   char buf[200];
   std::snprintf(buf, sizeof buf, "%d filters over vs in [%.3g, %.3g] m/s, lambda = 1 - %.3g%s", K, p.stribeck_lo,

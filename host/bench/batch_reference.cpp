@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -306,40 +307,22 @@ void add_to_band(BandAcc& b, const Interval& iv) {
   b.dvel.add(sgn * iv.dv);
 }
 
-}  // namespace
-
-BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Config<double>& cfg_in) {
-  {
-    Estimator<double, kBands, kCandidates> probe;  // the core's own config check
-    if (probe.init(cfg_in) != Status::ok)
-      throw std::invalid_argument(std::string("batch_compute: invalid config: ") + probe.config_error());
-  }
+/// The result with the configuration as the core completes it (its own
+/// check and defaults), the band layout and the Stribeck candidates.
+BatchResult batch_setup(const Config<double>& cfg_in) {
+  auto probe = std::make_unique<Estimator<double, kBands, kCandidates>>();
+  if (probe->init(cfg_in) != Status::ok)
+    throw std::invalid_argument(std::string("batch_compute: invalid config: ") + probe->config_error());
   BatchResult r;
-  Config<double> c = cfg_in;
-  if (!(c.section_enter_m_s > 0.0)) c.section_enter_m_s = 2.0 * c.velocity_min_m_s;
-  r.config = c;
-  r.layout.init(c.velocity_min_m_s, c.velocity_max_m_s);
-  {
-    const double lo = detail::stribeck_lo(c), hi = detail::stribeck_hi(c);
-    for (int i = 0; i < kCandidates; ++i)
-      r.stats.vs_candidate[i] = r.magnitude.vs_candidate[i] =
-          lo * port::exp(port::log(hi / lo) * double(i) / double(kCandidates - 1));
-  }
-  Diagnostics& dg = r.diagnostics;
+  r.config = probe->config();
+  r.layout.init(r.config.velocity_min_m_s, r.config.velocity_max_m_s);
+  for (int i = 0; i < kCandidates; ++i)
+    r.stats.vs_candidate[i] = r.magnitude.vs_candidate[i] = detail::stribeck_candidate(r.config, i, kCandidates);
+  return r;
+}
 
-  // Pass 1: accepted samples and intervals.
-  const std::vector<Point> pts = validate(samples, c, dg);
-  const std::vector<Interval> ivs = intervals_of(pts, c, r.layout);
-
-  // Pass 2: sections.
-  std::vector<int> section_of;
-  std::vector<Section> secs = label_sections(pts, ivs, c, section_of);
-  mark_from_rest(pts, ivs, c, section_of, secs);
-
-  // Pass 3: mass windows.
-  const std::vector<Window> wins = cut_windows(ivs, c, dg.mass_windows);
-
-  // Pass 4a: friction bands over every quasi-steady moving interval.
+/// Pass 4a: friction bands over every quasi-steady moving interval.
+void store_bands(const std::vector<Interval>& ivs, BatchResult& r) {
   BandAcc bands[2][kBands];
   for (const Interval& iv : ivs)
     if (iv.steady) add_to_band(bands[iv.dir][iv.band], iv);
@@ -353,192 +336,233 @@ BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Conf
       store(bands[d][j].force, bv.force, bm.force);
       store(bands[d][j].dvel, bv.dvel, bm.dvel);
     }
+}
 
-  // Pass 4b: window projections.
-  {
-    Acc proj[2][kBands][3];
-    Acc dv_force[2], dv2[2], tau_dv2[2];
-    for (const Window& w : wins) {
-      const double sgn = w.dir == 0 ? 1.0 : -1.0;
-      const double dvw = sgn * ivs[w.last].v_end - sgn * ivs[w.first].v_start;
-      Acc t[kBands], s1[kBands], s2[kBands], force, tau;
-      for (std::size_t i = w.first; i <= w.last; ++i) {
-        const Interval& iv = ivs[i];
-        const LD dt = iv.dt, sp = iv.speed;
-        t[iv.band].add(dt);
-        s1[iv.band].add(sp * dt);
-        s2[iv.band].add(sp * sp * dt);
-        force.add(LD(sgn) * iv.u * dt);
-        tau.add(dt);
-      }
-      const Acc dvw_acc{dvw, std::fabs(dvw)};
-      for (int j = 0; j < kBands; ++j) {
-        if (t[j].magnitude == 0.0L) continue;
-        proj[w.dir][j][0].add_product(dvw_acc, t[j]);
-        proj[w.dir][j][1].add_product(dvw_acc, s1[j]);
-        proj[w.dir][j][2].add_product(dvw_acc, s2[j]);
-      }
-      dv_force[w.dir].add_product(dvw_acc, force);
-      dv2[w.dir].add_product(dvw_acc, dvw_acc);
-      const LD dvw2 = LD(dvw) * dvw;
-      tau_dv2[w.dir].add_product(tau, Acc{dvw2, dvw2});
-    }
-    for (int d = 0; d < 2; ++d) {
-      for (int j = 0; j < kBands; ++j) {
-        store(proj[d][j][0], r.stats.band[d][j].proj_time, r.magnitude.band[d][j].proj_time);
-        store(proj[d][j][1], r.stats.band[d][j].proj_speed, r.magnitude.band[d][j].proj_speed);
-        store(proj[d][j][2], r.stats.band[d][j].proj_speed2, r.magnitude.band[d][j].proj_speed2);
-      }
-      store(dv_force[d], r.stats.dir[d].win_dv_force, r.magnitude.dir[d].win_dv_force);
-      store(dv2[d], r.stats.dir[d].win_dv2, r.magnitude.dir[d].win_dv2);
-      store(tau_dv2[d], r.stats.dir[d].win_tau_dv2, r.magnitude.dir[d].win_tau_dv2);
-    }
-  }
-
-  // Pass 4c: interval totals and the force second differences (within a chain).
-  {
-    Acc time, d2sum;
-    uint64_t d2n = 0;
-    for (const Interval& iv : ivs) time.add(iv.dt);
-    std::size_t chain_begin = 0;
-    for (std::size_t k = 0; k < pts.size(); ++k) {
-      if (pts[k].position_only) continue;  // not part of any chain (its next accepted sample starts one)
-      if (pts[k].chain_start) chain_begin = k;
-      if (k - chain_begin < 2) continue;
-      const double d2 = pts[k].u - 2.0 * pts[k - 1].u + pts[k - 2].u;
-      d2sum.add(LD(d2) * d2);
-      ++d2n;
-    }
-    store(time, r.stats.total_interval_time, r.magnitude.total_interval_time);
-    r.stats.interval_count = r.magnitude.interval_count = ivs.size();
-    store(d2sum, r.stats.noise_d2, r.magnitude.noise_d2);
-    r.stats.noise_count = r.magnitude.noise_count = d2n;
-  }
-
-  // Pass 5: fold periods per direction, splits, and the paper points.
-  {
-    // Events around interval i, in the order they happen: a gap folds both
-    // directions before the next chain's first interval; a section opening
-    // with interval i starts a fold period of its direction (before i is
-    // summed); a quasi-steady interval adds to its direction's period, which
-    // is folded as soon as it reaches max_fold_s (splitting the section open
-    // during i if it has that direction); then a section ended by rest
-    // closes (its rest test ran on the sample ending i); a section ended by
-    // a reversal closes after i (its reversal test runs before the next
-    // interval). A section open at a gap or at the end of data is split.
-    std::vector<int> closes_after(ivs.size(), -1);
-    std::vector<int> opens_at(ivs.size(), -1);
-    for (std::size_t s = 0; s < secs.size(); ++s) {
-      if (secs[s].end == SectionEnd::rest || secs[s].end == SectionEnd::reversal)
-        closes_after[secs[s].last] = static_cast<int>(s);
-      opens_at[secs[s].first] = static_cast<int>(s);
-    }
-
-    double duration[2] = {0.0, 0.0};  // quasi-steady time of the open fold period, per direction
-    Acc sec_sums[2][9];  // tt tv vv tu vu uu xy xx yy
-    Acc cand[2][4][kCandidates];  // et ev eu ee
-    auto fold = [&](int d, bool count = true) {
-      duration[d] = 0.0;
-      if (count) ++dg.folds;
-    };
-    // The paper's section point: integral u dt = Fc T + sigma V + Fs E over
-    // the section's own moving intervals of its direction (quasi-steady or
-    // not), and its mass equation terms sum u dv, sum dv^2/dt over the same.
-    auto paper_point = [&](const Section& s) {
-      const int d = s.dir;
-      const LD sgn = d == 0 ? 1.0L : -1.0L;
-      Acc t[kBands], v1[kBands], v2[kBands];
-      Acc ts, vs, us, ua, aa;
-      for (std::size_t i = s.first; i <= s.last; ++i) {
-        const Interval& iv = ivs[i];
-        if (!iv.moving || iv.dir != d) continue;
-        const LD dt = iv.dt, sp = iv.speed, um = sgn * iv.u, dvm = sgn * iv.dv;
-        t[iv.band].add(dt);
-        v1[iv.band].add(sp * dt);
-        v2[iv.band].add(sp * sp * dt);
-        ts.add(dt);
-        vs.add(sp * dt);
-        us.add(um * dt);
-        ua.add(um * dvm);
-        aa.add(dvm * dvm / dt);
-      }
-      if (!(ts.value > 0.0L)) return;
-      for (int i = 0; i < kCandidates; ++i) {
-        LD e = 0.0L;
-        for (int j = 0; j < kBands; ++j)
-          if (t[j].value > 0.0L)
-            e += exp_integral_moments<double>(double(t[j].value), double(v1[j].value), double(v2[j].value),
-                                              r.stats.vs_candidate[i]);
-        const Acc ea{e, std::fabs(e)};
-        cand[d][0][i].add_product(ea, ts);
-        cand[d][1][i].add_product(ea, vs);
-        cand[d][2][i].add_product(ea, us);
-        cand[d][3][i].add_product(ea, ea);
-      }
-      sec_sums[d][0].add_product(ts, ts);
-      sec_sums[d][1].add_product(ts, vs);
-      sec_sums[d][2].add_product(vs, vs);
-      sec_sums[d][3].add_product(ts, us);
-      sec_sums[d][4].add_product(vs, us);
-      sec_sums[d][5].add_product(us, us);
-      sec_sums[d][6].add_product(aa, ua);
-      sec_sums[d][7].add_product(aa, aa);
-      sec_sums[d][8].add_product(ua, ua);
-      ++r.stats.dir[d].sections;
-      ++dg.sections_complete[d];
-    };
-    auto close_section = [&](std::size_t sidx) {
-      const Section& s = secs[sidx];
-      if (s.duration < c.min_section_s) ++dg.sections_short;
-      else if (s.from_rest && !s.split) paper_point(s);
-      fold(s.dir);
-    };
-    for (std::size_t i = 0; i < ivs.size(); ++i) {
+/// Pass 4b: each window's velocity change projected on its bands' time,
+/// speed and speed^2, and the mass sums.
+void store_window_projections(const std::vector<Interval>& ivs, const std::vector<Window>& wins, BatchResult& r) {
+  Acc proj[2][kBands][3];
+  Acc dv_force[2], dv2[2], tau_dv2[2];
+  for (const Window& w : wins) {
+    const double sgn = w.dir == 0 ? 1.0 : -1.0;
+    const double dvw = sgn * ivs[w.last].v_end - sgn * ivs[w.first].v_start;
+    Acc t[kBands], s1[kBands], s2[kBands], force, tau;
+    for (std::size_t i = w.first; i <= w.last; ++i) {
       const Interval& iv = ivs[i];
-      if (iv.chain_first && i > 0) {
-        // gap (possibly several): the chain before ended (its open section
-        // is split, counted below).
+      const LD dt = iv.dt, sp = iv.speed;
+      t[iv.band].add(dt);
+      s1[iv.band].add(sp * dt);
+      s2[iv.band].add(sp * sp * dt);
+      force.add(LD(sgn) * iv.u * dt);
+      tau.add(dt);
+    }
+    const Acc dvw_acc{dvw, std::fabs(dvw)};
+    for (int j = 0; j < kBands; ++j) {
+      if (t[j].magnitude == 0.0L) continue;
+      proj[w.dir][j][0].add_product(dvw_acc, t[j]);
+      proj[w.dir][j][1].add_product(dvw_acc, s1[j]);
+      proj[w.dir][j][2].add_product(dvw_acc, s2[j]);
+    }
+    dv_force[w.dir].add_product(dvw_acc, force);
+    dv2[w.dir].add_product(dvw_acc, dvw_acc);
+    const LD dvw2 = LD(dvw) * dvw;
+    tau_dv2[w.dir].add_product(tau, Acc{dvw2, dvw2});
+  }
+  for (int d = 0; d < 2; ++d) {
+    for (int j = 0; j < kBands; ++j) {
+      store(proj[d][j][0], r.stats.band[d][j].proj_time, r.magnitude.band[d][j].proj_time);
+      store(proj[d][j][1], r.stats.band[d][j].proj_speed, r.magnitude.band[d][j].proj_speed);
+      store(proj[d][j][2], r.stats.band[d][j].proj_speed2, r.magnitude.band[d][j].proj_speed2);
+    }
+    store(dv_force[d], r.stats.dir[d].win_dv_force, r.magnitude.dir[d].win_dv_force);
+    store(dv2[d], r.stats.dir[d].win_dv2, r.magnitude.dir[d].win_dv2);
+    store(tau_dv2[d], r.stats.dir[d].win_tau_dv2, r.magnitude.dir[d].win_tau_dv2);
+  }
+}
+
+/// Pass 4c: interval totals and the force second differences (within a chain).
+void store_totals_and_noise(const std::vector<Point>& pts, const std::vector<Interval>& ivs, BatchResult& r) {
+  Acc time, d2sum;
+  uint64_t d2n = 0;
+  for (const Interval& iv : ivs) time.add(iv.dt);
+  std::size_t chain_begin = 0;
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    if (pts[k].position_only) continue;  // not part of any chain (its next accepted sample starts one)
+    if (pts[k].chain_start) chain_begin = k;
+    if (k - chain_begin < 2) continue;
+    const double d2 = pts[k].u - 2.0 * pts[k - 1].u + pts[k - 2].u;
+    d2sum.add(LD(d2) * d2);
+    ++d2n;
+  }
+  store(time, r.stats.total_interval_time, r.magnitude.total_interval_time);
+  r.stats.interval_count = r.magnitude.interval_count = ivs.size();
+  store(d2sum, r.stats.noise_d2, r.magnitude.noise_d2);
+  r.stats.noise_count = r.magnitude.noise_count = d2n;
+}
+
+/// Pass 5: fold periods per direction, splits, and the paper points.
+///
+/// Events around interval i, in the order they happen: a gap folds both
+/// directions before the next chain's first interval; a section opening
+/// with interval i starts a fold period of its direction (before i is
+/// summed); a quasi-steady interval adds to its direction's period, which
+/// is folded as soon as it reaches max_fold_s (splitting the section open
+/// during i if it has that direction); then a section ended by rest
+/// closes (its rest test ran on the sample ending i); a section ended by
+/// a reversal closes after i (its reversal test runs before the next
+/// interval). A section open at a gap or at the end of data is split.
+class SectionFolds {
+ public:
+  SectionFolds(const std::vector<Interval>& ivs, std::vector<Section>& secs, const std::vector<int>& section_of,
+               BatchResult& r)
+      : ivs_(ivs), secs_(secs), section_of_(section_of), r_(r), c_(r.config), dg_(r.diagnostics) {}
+
+  void run() {
+    std::vector<int> closes_after(ivs_.size(), -1), opens_at(ivs_.size(), -1);
+    for (std::size_t s = 0; s < secs_.size(); ++s) {
+      if (secs_[s].end == SectionEnd::rest || secs_[s].end == SectionEnd::reversal)
+        closes_after[secs_[s].last] = static_cast<int>(s);
+      opens_at[secs_[s].first] = static_cast<int>(s);
+    }
+    for (std::size_t i = 0; i < ivs_.size(); ++i) {
+      const Interval& iv = ivs_[i];
+      if (iv.chain_first && i > 0) {  // a gap: the chain before ended (its open section is split)
         fold(0, false);  // counted below: two folds per continuity break
         fold(1, false);
       }
-      if (opens_at[i] >= 0) fold(secs[opens_at[i]].dir);
-      if (iv.steady) {
-        duration[iv.dir] += iv.dt;
-        if (duration[iv.dir] >= c.max_fold_s) {
-          const int open = section_of[i];  // open during interval i, even if it closes at rest after it
-          if (open >= 0 && secs[open].dir == iv.dir) secs[open].split = true;
-          fold(iv.dir);
-        }
-      }
-      if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::rest)
+      if (opens_at[i] >= 0) fold(secs_[opens_at[i]].dir);
+      if (iv.steady) add_steady(i);
+      if (closes_after[i] >= 0 && secs_[closes_after[i]].end == SectionEnd::rest)
         close_section(static_cast<std::size_t>(closes_after[i]));
-      if (closes_after[i] >= 0 && secs[closes_after[i]].end == SectionEnd::reversal)
+      if (closes_after[i] >= 0 && secs_[closes_after[i]].end == SectionEnd::reversal)
         close_section(static_cast<std::size_t>(closes_after[i]));
     }
+    count_splits_and_folds();
+    store_sums();
+  }
+
+ private:
+  void fold(int d, bool count = true) {
+    duration_[d] = 0.0;
+    if (count) ++dg_.folds;
+  }
+
+  void add_steady(std::size_t i) {
+    const Interval& iv = ivs_[i];
+    duration_[iv.dir] += iv.dt;
+    if (duration_[iv.dir] < c_.max_fold_s) return;
+    const int open = section_of_[i];  // open during interval i, even if it closes at rest after it
+    if (open >= 0 && secs_[open].dir == iv.dir) secs_[open].split = true;
+    fold(iv.dir);
+  }
+
+  void close_section(std::size_t sidx) {
+    const Section& s = secs_[sidx];
+    if (s.duration < c_.min_section_s) ++dg_.sections_short;
+    else if (s.from_rest && !s.split) paper_point(s);
+    fold(s.dir);
+  }
+
+  /// The paper's section point: integral u dt = Fc T + sigma V + Fs E over
+  /// the section's own moving intervals of its direction (quasi-steady or
+  /// not), and its mass equation terms sum u dv, sum dv^2/dt over the same.
+  void paper_point(const Section& s) {
+    const int d = s.dir;
+    const LD sgn = d == 0 ? 1.0L : -1.0L;
+    Acc t[kBands], v1[kBands], v2[kBands];
+    Acc ts, vs, us, ua, aa;
+    for (std::size_t i = s.first; i <= s.last; ++i) {
+      const Interval& iv = ivs_[i];
+      if (!iv.moving || iv.dir != d) continue;
+      const LD dt = iv.dt, sp = iv.speed, um = sgn * iv.u, dvm = sgn * iv.dv;
+      t[iv.band].add(dt);
+      v1[iv.band].add(sp * dt);
+      v2[iv.band].add(sp * sp * dt);
+      ts.add(dt);
+      vs.add(sp * dt);
+      us.add(um * dt);
+      ua.add(um * dvm);
+      aa.add(dvm * dvm / dt);
+    }
+    if (!(ts.value > 0.0L)) return;
+    for (int i = 0; i < kCandidates; ++i) {
+      LD e = 0.0L;
+      for (int j = 0; j < kBands; ++j)
+        if (t[j].value > 0.0L)
+          e += exp_integral_moments<double>(double(t[j].value), double(v1[j].value), double(v2[j].value),
+                                            r_.stats.vs_candidate[i]);
+      const Acc ea{e, std::fabs(e)};
+      cand_[d][0][i].add_product(ea, ts);
+      cand_[d][1][i].add_product(ea, vs);
+      cand_[d][2][i].add_product(ea, us);
+      cand_[d][3][i].add_product(ea, ea);
+    }
+    const Acc* pair[9][2] = {{&ts, &ts}, {&ts, &vs}, {&vs, &vs}, {&ts, &us}, {&vs, &us},
+                             {&us, &us}, {&aa, &ua}, {&aa, &aa}, {&ua, &ua}};
+    for (int k = 0; k < 9; ++k) sec_sums_[d][k].add_product(*pair[k][0], *pair[k][1]);
+    ++r_.stats.dir[d].sections;
+    ++dg_.sections_complete[d];
+  }
+
+  void count_splits_and_folds() {
     // Each section split at most once: by max_fold_s (any number of times),
     // by a gap, or still open at solve().
-    for (const Section& s : secs)
-      if (s.split || s.end == SectionEnd::gap || s.end == SectionEnd::end_of_data) ++dg.sections_split;
+    for (const Section& s : secs_)
+      if (s.split || s.end == SectionEnd::gap || s.end == SectionEnd::end_of_data) ++dg_.sections_split;
     // Two folds per gap (the validation pass counted the gaps) and two at solve().
-    dg.folds += 2u * dg.continuity_breaks + 2u;
+    dg_.folds += 2u * dg_.continuity_breaks + 2u;
+  }
 
+  void store_sums() {
     for (int d = 0; d < 2; ++d) {
-      DirectionSums<double, kCandidates>& sv = r.stats.dir[d];
-      DirectionSums<double, kCandidates>& sm = r.magnitude.dir[d];
+      DirectionSums<double, kCandidates>& sv = r_.stats.dir[d];
+      DirectionSums<double, kCandidates>& sm = r_.magnitude.dir[d];
       Sum<double>* vals[9] = {&sv.sec_tt, &sv.sec_tv, &sv.sec_vv, &sv.sec_tu, &sv.sec_vu,
                               &sv.sec_uu, &sv.sec_xy, &sv.sec_xx, &sv.sec_yy};
       Sum<double>* mags[9] = {&sm.sec_tt, &sm.sec_tv, &sm.sec_vv, &sm.sec_tu, &sm.sec_vu,
                               &sm.sec_uu, &sm.sec_xy, &sm.sec_xx, &sm.sec_yy};
-      for (int k = 0; k < 9; ++k) store(sec_sums[d][k], *vals[k], *mags[k]);
+      for (int k = 0; k < 9; ++k) store(sec_sums_[d][k], *vals[k], *mags[k]);
       for (int i = 0; i < kCandidates; ++i) {
-        store(cand[d][0][i], sv.cand_et[i], sm.cand_et[i]);
-        store(cand[d][1][i], sv.cand_ev[i], sm.cand_ev[i]);
-        store(cand[d][2][i], sv.cand_eu[i], sm.cand_eu[i]);
-        store(cand[d][3][i], sv.cand_ee[i], sm.cand_ee[i]);
+        store(cand_[d][0][i], sv.cand_et[i], sm.cand_et[i]);
+        store(cand_[d][1][i], sv.cand_ev[i], sm.cand_ev[i]);
+        store(cand_[d][2][i], sv.cand_eu[i], sm.cand_eu[i]);
+        store(cand_[d][3][i], sv.cand_ee[i], sm.cand_ee[i]);
       }
       sm.sections = sv.sections;
     }
   }
+
+  const std::vector<Interval>& ivs_;
+  std::vector<Section>& secs_;
+  const std::vector<int>& section_of_;
+  BatchResult& r_;
+  const Config<double>& c_;
+  Diagnostics& dg_;
+  double duration_[2] = {0.0, 0.0};  ///< quasi-steady time of the open fold period, per direction
+  Acc sec_sums_[2][9];               ///< tt tv vv tu vu uu xy xx yy
+  Acc cand_[2][4][kCandidates];      ///< et ev eu ee
+};
+
+}  // namespace
+
+BatchResult batch_compute(const std::vector<Sample<double>>& samples, const Config<double>& cfg_in) {
+  BatchResult r = batch_setup(cfg_in);
+  const Config<double>& c = r.config;
+  // Pass 1: accepted samples and intervals.
+  const std::vector<Point> pts = validate(samples, c, r.diagnostics);
+  const std::vector<Interval> ivs = intervals_of(pts, c, r.layout);
+  // Pass 2: sections.
+  std::vector<int> section_of;
+  std::vector<Section> secs = label_sections(pts, ivs, c, section_of);
+  mark_from_rest(pts, ivs, c, section_of, secs);
+  // Pass 3: mass windows.
+  const std::vector<Window> wins = cut_windows(ivs, c, r.diagnostics.mass_windows);
+  // Pass 4: bands, window projections, totals.
+  store_bands(ivs, r);
+  store_window_projections(ivs, wins, r);
+  store_totals_and_noise(pts, ivs, r);
+  // Pass 5: folds, splits, paper points.
+  SectionFolds(ivs, secs, section_of, r).run();
   return r;
 }
 

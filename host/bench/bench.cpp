@@ -527,18 +527,10 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
-int run_default(const BenchOptions& o, const std::vector<std::string>& methods) {
-  const auto t_all = Clock::now();
-  json out;
-  out["mode"] = o.quick ? "quick" : "default";
-  out["machine"] = machine_json();
-  BenchOptions oo = o;
-  if (o.quick) { oo.ga_generations = std::min(o.ga_generations, 40); oo.ga_population = std::min(o.ga_population, 24); }
-  out["budgets"] = budgets_json(oo);
-  const std::vector<Case> cases = default_cases(o.quick);
+/// Simulates every case and runs every method on it, printing each trace's table.
+std::vector<TraceRun> run_cases(const std::vector<Case>& cases, const BenchOptions& oo,
+                                const std::vector<std::string>& methods) {
   std::vector<TraceRun> runs;
-  std::fprintf(stderr, "bench: %zu traces x %zu methods; ga budget %d x %d evaluations per trace\n", cases.size(),
-               methods.size(), oo.ga_population, oo.ga_generations + 1);
   for (std::size_t i = 0; i < cases.size(); ++i) {
     TraceRun t;
     t.c = cases[i];
@@ -563,30 +555,46 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
     print_trace_table(t);
     runs.push_back(std::move(t));
   }
-  // Core alone: ns per sample over all traces (push only), and solve time,
-  // from the streaming runs above.
-  double pf = 0, pd = 0, sf = 0, sd = 0;
-  long n_all = 0;
+  return runs;
+}
+
+/// The core alone, from the streaming runs: push per sample (summed over
+/// the traces) and solve, float and double.
+struct CoreTiming {
+  double push_f = 0, push_d = 0, solve_f = 0, solve_d = 0;  ///< summed seconds
+  double ns_f = kNaN, ns_d = kNaN, solve_f_us = kNaN, solve_d_us = kNaN;
+  long samples = 0;
+};
+CoreTiming core_timing(const std::vector<TraceRun>& runs) {
+  CoreTiming c;
   int n_core = 0;
-  for (const auto& t : runs) {
-    n_all += static_cast<long>(t.samples);
+  for (const auto& t : runs)
     if (const MethodRun* r = t.find("streaming")) {
-      pf += r->core_push_f; pd += r->core_push_d; sf += r->core_solve_f; sd += r->core_solve_d;
+      c.push_f += r->core_push_f; c.push_d += r->core_push_d; c.solve_f += r->core_solve_f; c.solve_d += r->core_solve_d;
+      c.samples += static_cast<long>(t.samples);
       ++n_core;
     }
-  }
-  const long n_core_samples = [&] { long n = 0; for (const auto& t : runs) if (t.find("streaming")) n += static_cast<long>(t.samples); return n; }();
-  const double ns_f = n_core ? 1e9 * pf / static_cast<double>(n_core_samples) : kNaN;
-  const double ns_d = n_core ? 1e9 * pd / static_cast<double>(n_core_samples) : kNaN;
-  const double solve_f_us = n_core ? 1e6 * sf / n_core : kNaN, solve_d_us = n_core ? 1e6 * sd / n_core : kNaN;
-  out["core"] = {{"state_bytes_float", sizeof(feedid::Estimator<float>)},
-                 {"state_bytes_double", sizeof(feedid::Estimator<double>)},
-                 {"ns_per_sample", jnum(ns_f)}, {"ns_per_sample_float", jnum(ns_f)}, {"ns_per_sample_double", jnum(ns_d)},
-                 {"solve_us_float", jnum(solve_f_us)}, {"solve_us_double", jnum(solve_d_us)},
-                 {"samples_timed", n_core_samples},
-                 {"rule", "push of every trace sample from a prepared array (fastest of `repeats` runs), summed over the traces; ns_per_sample is float, the firmware precision"}};
+  if (n_core == 0) return c;
+  c.ns_f = 1e9 * c.push_f / static_cast<double>(c.samples);
+  c.ns_d = 1e9 * c.push_d / static_cast<double>(c.samples);
+  c.solve_f_us = 1e6 * c.solve_f / n_core;
+  c.solve_d_us = 1e6 * c.solve_d / n_core;
+  return c;
+}
 
-  // Per method over all traces.
+json core_json(const CoreTiming& c) {
+  return {{"state_bytes_float", sizeof(feedid::Estimator<float>)},
+          {"state_bytes_double", sizeof(feedid::Estimator<double>)},
+          {"ns_per_sample", jnum(c.ns_f)}, {"ns_per_sample_float", jnum(c.ns_f)}, {"ns_per_sample_double", jnum(c.ns_d)},
+          {"solve_us_float", jnum(c.solve_f_us)}, {"solve_us_double", jnum(c.solve_d_us)},
+          {"samples_timed", c.samples},
+          {"rule", "push of every trace sample from a prepared array (fastest of `repeats` runs), summed over the traces; ns_per_sample is float, the firmware precision"}};
+}
+
+/// Per method over all traces: the summary table and its JSON.
+json method_summary(const std::vector<TraceRun>& runs, const std::vector<std::string>& methods, const CoreTiming& c) {
+  long n_all = 0;
+  for (const auto& t : runs) n_all += static_cast<long>(t.samples);
   json jm;
   std::printf("\n== summary over %zu traces (%ld samples)\n", runs.size(), n_all);
   std::printf("  %-10s %11s %11s %10s %13s %13s %10s %9s %12s\n", "method", "time (s)", "CPU (s)", "vs stream", "worst err",
@@ -624,13 +632,16 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
                 human_bytes(static_cast<double>(peak)).c_str());
   }
   if (jm.contains("streaming")) {
-    jm["streaming"]["core_seconds"] = pd + sd;
-    jm["streaming"]["core_float_seconds"] = pf + sf;
+    jm["streaming"]["core_seconds"] = c.push_d + c.solve_d;
+    jm["streaming"]["core_float_seconds"] = c.push_f + c.solve_f;
     jm["streaming"]["state_bytes"] = sizeof(Core);
   }
-  out["methods"] = jm;
+  return jm;
 
-  // Targets: speed and accuracy against batch_lm where it converged.
+}
+
+/// The bars: speed and accuracy against batch_lm where it converged, and the state size.
+json targets(const std::vector<TraceRun>& runs, const json& jm, const CoreTiming& c) {
   json tg;
   if (jm.contains("streaming") && jm.contains("batch_lm")) {
     double lm_s = 0, st_s = 0, core_s = 0, lm_cpu = 0, st_cpu = 0, ratio_worst = 0, lm_worst = 0, st_worst = 0;
@@ -666,10 +677,13 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
                 conv, runs.size(), 100 * st_worst, 100 * lm_worst, lm_worst > 0 ? st_worst / lm_worst : kNaN, ratio_worst);
   }
   std::printf("  state: float core %zu bytes (target <= %zu), double %zu bytes; push %.1f ns/sample float, %.1f ns/sample double; solve %.0f us float, %.0f us double\n",
-              sizeof(feedid::Estimator<float>), static_cast<std::size_t>(feedid::fw::estimator_float_ram_budget), sizeof(feedid::Estimator<double>), ns_f, ns_d,
-              solve_f_us, solve_d_us);
-  out["targets"] = tg;
+              sizeof(feedid::Estimator<float>), static_cast<std::size_t>(feedid::fw::estimator_float_ram_budget), sizeof(feedid::Estimator<double>), c.ns_f, c.ns_d,
+              c.solve_f_us, c.solve_d_us);
+  return tg;
 
+}
+
+json traces_json(const std::vector<TraceRun>& runs) {
   json jt = json::array();
   for (const auto& t : runs) {
     json j = {{"name", t.c.name}, {"drive", t.c.drive}, {"seed", t.c.sim.seed}, {"samples", t.samples},
@@ -679,19 +693,18 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
     for (const auto& r : t.runs) j["methods"][r.method] = run_json(r);
     jt.push_back(j);
   }
-  out["traces"] = jt;
-  out["machine"]["load_average_end"] = read_first("/proc/loadavg", "");
-  out["total_seconds"] = since(t_all);
-  std::printf("\nbench finished in %.1f s\n", since(t_all));
+  return jt;
+}
 
-  int rc = 0;
-  if (!o.plot_dir.empty()) {
+/// bench_time_vs_error.svg in the plot folder; false when it cannot be written.
+bool plot_time_vs_error(const BenchOptions& o, const std::vector<TraceRun>& runs, const std::vector<std::string>& methods,
+                        const json& machine) {
     PlotSpec p;
     p.title = "Wall time against worst parameter error (one point per trace)";
     p.x = {"wall time per trace (s)", true};
     p.y = {"worst relative error over the nine parameters (%)", true};
     p.legend = "top-right";
-    p.note = out["machine"]["cpu"].get<std::string>() + ", " + out["machine"]["date_utc"].get<std::string>();
+    p.note = machine["cpu"].get<std::string>() + ", " + machine["date_utc"].get<std::string>();
     for (const auto& m : methods) {
       PlotSeries s;
       s.label = m;
@@ -702,9 +715,33 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
     }
     std::string err;
     const std::string path = o.plot_dir + "/bench_time_vs_error.svg";
-    if (!write_svg(path, p, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); rc = 1; }
-    else std::printf("wrote %s\n", path.c_str());
-  }
+    if (!write_svg(path, p, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return false; }
+    std::printf("wrote %s\n", path.c_str());
+    return true;
+}
+
+int run_default(const BenchOptions& o, const std::vector<std::string>& methods) {
+  const auto t_all = Clock::now();
+  json out;
+  out["mode"] = o.quick ? "quick" : "default";
+  out["machine"] = machine_json();
+  BenchOptions oo = o;
+  if (o.quick) { oo.ga_generations = std::min(o.ga_generations, 40); oo.ga_population = std::min(o.ga_population, 24); }
+  out["budgets"] = budgets_json(oo);
+  const std::vector<Case> cases = default_cases(o.quick);
+  std::fprintf(stderr, "bench: %zu traces x %zu methods; ga budget %d x %d evaluations per trace\n", cases.size(),
+               methods.size(), oo.ga_population, oo.ga_generations + 1);
+  const std::vector<TraceRun> runs = run_cases(cases, oo, methods);
+  const CoreTiming timing = core_timing(runs);
+  out["core"] = core_json(timing);
+  out["methods"] = method_summary(runs, methods, timing);
+  out["targets"] = targets(runs, out["methods"], timing);
+  out["traces"] = traces_json(runs);
+  out["machine"]["load_average_end"] = read_first("/proc/loadavg", "");
+  out["total_seconds"] = since(t_all);
+  std::printf("\nbench finished in %.1f s\n", since(t_all));
+  int rc = 0;
+  if (!o.plot_dir.empty() && !plot_time_vs_error(o, runs, methods, out["machine"])) rc = 1;
   if (!o.json_path.empty()) {
     if (!write_text(o.json_path, out.dump(2) + "\n")) rc = 1;
     else std::printf("wrote %s\n", o.json_path.c_str());
@@ -715,6 +752,165 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
 // ---------------------------------------------------------------------------
 // --scaling
 // ---------------------------------------------------------------------------
+
+/// One trace length of --scaling: every method's run (or the GA's
+/// extrapolation past --ga-max-samples) and the core's own time.
+struct ScalingPoint {
+  long n = 0;
+  double duration_s = 0;
+  std::vector<MethodRun> runs;
+  double core_d = kNaN, core_f = kNaN;
+};
+/// The GA's cost per (row x evaluation) and rows per sample, from its largest run.
+struct GaCost {
+  double per_row_eval = kNaN, rows_per_sample = kNaN;
+};
+
+MethodRun extrapolated_ga(long n, const BenchOptions& o, const GaCost& ga) {
+  MethodRun r;
+  r.method = "ga";
+  r.skipped = true;
+  r.extrapolated = std::isfinite(ga.per_row_eval);
+  const double rows_est = static_cast<double>(n) * ga.rows_per_sample;
+  r.seconds = ga.per_row_eval * rows_est * o.ga_population * (o.ga_generations + 1);
+  r.status = "not run (--ga-max-samples); time extrapolated from the largest GA run";
+  return r;
+}
+
+void print_scaling_row(long n, const std::string& m, const MethodRun& r) {
+  std::printf("  %-10ld %-10s %11s %12s %8s%% %-7s  %s\n", n, m.c_str(),
+              (fmt("%.4g", r.seconds) + (r.extrapolated ? "*" : "")).c_str(),
+              human_bytes(static_cast<double>(r.peak_rss_bytes)).c_str(), fmt("%.3g", 100 * r.max_rel_error).c_str(),
+              r.worst >= 0 ? kParamNames[r.worst] : "-", r.skipped ? "skipped, * = extrapolated" : r.converged ? "" : "not converged");
+  std::fflush(stdout);
+}
+
+ScalingPoint run_scaling_point(long n, const BenchOptions& o, const std::vector<std::string>& methods, GaCost& ga) {
+  SimConfig sc = drive_config("default", 1, static_cast<double>(n - 1) / 2000.0);
+  std::fprintf(stderr, "scaling: %ld samples: simulating ...", n);
+  const auto t0 = Clock::now();
+  const Trace tr = simulate(sc, [](double) {});
+  std::fprintf(stderr, " %.1f s\n", since(t0));
+  IdentifyOptions io;
+  const Signals sig = prepare_signals(tr, io);
+  const feedid::Config<double> cfg = auto_config(sig, io);
+  ScalingPoint pt;
+  pt.n = n;
+  pt.duration_s = sc.motion.duration_s;
+  const int reps = n <= 100000 ? o.repeats : 1;
+  for (const auto& m : methods) {
+    MethodRun r;
+    if (m == "ga" && n > o.ga_max_samples) {
+      r = extrapolated_ga(n, o, ga);
+    } else {
+      std::fprintf(stderr, "scaling: %ld samples: %-9s ...", n, m.c_str());
+      r = run_method(m, tr, sig, cfg, o, reps);
+      score(r, sc.drive, cfg.velocity_min_m_s, cfg.velocity_max_m_s);
+      std::fprintf(stderr, " %.3g s\n", r.seconds);
+      if (m == "ga" && r.rows > 0 && r.evaluations > 0) {
+        ga.per_row_eval = r.seconds / (static_cast<double>(r.rows) * static_cast<double>(r.evaluations));
+        ga.rows_per_sample = static_cast<double>(r.rows) / static_cast<double>(n);
+      }
+      if (m == "streaming") { pt.core_d = r.core_seconds; pt.core_f = r.core_float_seconds; }
+    }
+    print_scaling_row(n, m, r);
+    pt.runs.push_back(r);
+  }
+  return pt;
+}
+
+json scaling_row_json(const ScalingPoint& pt) {
+  json jr = {{"samples", pt.n}, {"duration_s", pt.duration_s}};
+  for (const auto& r : pt.runs) jr["methods"][r.method] = run_json(r);
+  jr["core"] = {{"seconds_double", jnum(pt.core_d)}, {"seconds_float", jnum(pt.core_f)},
+                {"state_bytes_float", sizeof(feedid::Estimator<float>)},
+                {"state_bytes_double", sizeof(feedid::Estimator<double>)}};
+  return jr;
+}
+
+/// A series against trace length, one point per scaling point.
+PlotSeries against_length(const std::string& label, const std::vector<ScalingPoint>& pts,
+                          const std::function<double(const ScalingPoint&)>& y) {
+  PlotSeries s = named(label);
+  for (const auto& p : pts) {
+    s.x.push_back(static_cast<double>(p.n));
+    s.y.push_back(y(p));
+  }
+  return s;
+}
+
+const char* const kScalingPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"};
+
+/// Wall time against trace length: each method, the GA's extrapolation
+/// dashed in its colour, and the streaming core alone.
+PlotSpec scaling_time_plot(const std::vector<ScalingPoint>& pts, const std::vector<std::string>& methods,
+                           const std::string& note) {
+  PlotSpec pt_time;
+  pt_time.title = "Wall time against trace length";
+  pt_time.x = {"trace length (samples)", true};
+  pt_time.y = {"wall time (s)", true};
+  pt_time.note = note;
+  for (std::size_t mi = 0; mi < methods.size(); ++mi) {
+    PlotSeries st = against_length(methods[mi], pts, [mi](const ScalingPoint& p) {
+      return p.runs[mi].skipped ? kNaN : p.runs[mi].seconds;
+    });
+    st.color = kScalingPalette[mi % 6];
+    PlotSeries ext;
+    ext.dashed = true;
+    ext.markers = true;
+    for (const auto& p : pts)
+      if (p.runs[mi].extrapolated) { ext.x.push_back(static_cast<double>(p.n)); ext.y.push_back(p.runs[mi].seconds); }
+    if (!ext.x.empty()) {  // continue the measured line into its extrapolation
+      for (std::size_t k = st.y.size(); k-- > 0;)
+        if (std::isfinite(st.y[k])) { ext.x.insert(ext.x.begin(), st.x[k]); ext.y.insert(ext.y.begin(), st.y[k]); break; }
+      ext.color = st.color;
+      ext.label = methods[mi] + " (extrapolated)";
+    }
+    pt_time.series.push_back(st);
+    if (!ext.x.empty()) pt_time.series.push_back(ext);
+  }
+  PlotSeries core = against_length("streaming core alone (push + solve, float)", pts, [](const ScalingPoint& p) { return p.core_f; });
+  core.dashed = true;
+  core.color = "#1f77b4";
+  if (std::find(methods.begin(), methods.end(), "streaming") != methods.end()) pt_time.series.push_back(core);
+  return pt_time;
+}
+
+/// Peak memory against trace length: each method, the core's state and the RLS bank's.
+PlotSpec scaling_memory_plot(const std::vector<ScalingPoint>& pts, const std::vector<std::string>& methods,
+                             const std::string& note) {
+  PlotSpec pt_mem;
+  pt_mem.title = "Peak memory against trace length";
+  pt_mem.x = {"trace length (samples)", true};
+  pt_mem.y = {"peak resident memory above the loaded trace (bytes)", true};
+  pt_mem.note = note;
+  pt_mem.legend = "bottom-right";
+  for (std::size_t mi = 0; mi < methods.size(); ++mi) {
+    PlotSeries sm = against_length(methods[mi], pts, [mi](const ScalingPoint& p) {
+      return p.runs[mi].peak_rss_bytes > 0 ? static_cast<double>(p.runs[mi].peak_rss_bytes) : kNaN;
+    });
+    sm.color = kScalingPalette[mi % 6];
+    pt_mem.series.push_back(sm);
+  }
+  PlotSeries sf = against_length("core state, float", pts, [](const ScalingPoint&) { return static_cast<double>(sizeof(feedid::Estimator<float>)); });
+  PlotSeries sd = against_length("core state, double", pts, [](const ScalingPoint&) { return static_cast<double>(sizeof(feedid::Estimator<double>)); });
+  sf.color = "#555555";
+  sd.color = "#999999";
+  sf.markers = sd.markers = false;
+  sd.dashed = true;
+  pt_mem.series.push_back(sf);
+  pt_mem.series.push_back(sd);
+  const auto rls_it = std::find(methods.begin(), methods.end(), "rls");
+  if (rls_it != methods.end()) {
+    const auto ri = static_cast<std::size_t>(rls_it - methods.begin());
+    PlotSeries sr = against_length("rls filter bank state", pts, [ri](const ScalingPoint& p) { return static_cast<double>(p.runs[ri].state_bytes); });
+    sr.color = "#ff7f0e";
+    sr.markers = false;
+    sr.dashed = true;
+    pt_mem.series.push_back(sr);
+  }
+  return pt_mem;
+}
 
 int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) {
   const auto t_all = Clock::now();
@@ -727,58 +923,13 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
   out["machine"] = machine_json();
   out["budgets"] = budgets_json(o);
   out["drive"] = "default";
-  json rows = json::array();
-  struct Point { long n; std::vector<MethodRun> runs; double core_d, core_f; };
-  std::vector<Point> pts;
-  double ga_cost_per_row_eval = kNaN;  // s per (row x evaluation), from the largest GA run
-  double ga_rows_per_sample = kNaN;    // rows that enter the fit per trace sample, same run
   std::printf("  %-10s %-10s %11s %12s %9s %-7s  %s\n", "samples", "method", "time (s)", "peak mem", "max err", "worst", "note");
+  std::vector<ScalingPoint> pts;
+  GaCost ga;
+  json rows = json::array();
   for (long n : lengths) {
-    SimConfig sc = drive_config("default", 1, static_cast<double>(n - 1) / 2000.0);
-    std::fprintf(stderr, "scaling: %ld samples: simulating ...", n);
-    const auto t0 = Clock::now();
-    const Trace tr = simulate(sc, [](double) {});
-    std::fprintf(stderr, " %.1f s\n", since(t0));
-    IdentifyOptions io;
-    const Signals sig = prepare_signals(tr, io);
-    const feedid::Config<double> cfg = auto_config(sig, io);
-    Point pt{n, {}, kNaN, kNaN};
-    const int reps = n <= 100000 ? o.repeats : 1;
-    for (const auto& m : methods) {
-      MethodRun r;
-      if (m == "ga" && n > o.ga_max_samples) {
-        r.method = m;
-        r.skipped = true;
-        r.extrapolated = std::isfinite(ga_cost_per_row_eval);
-        const double rows_est = static_cast<double>(n) * ga_rows_per_sample;
-        r.seconds = ga_cost_per_row_eval * rows_est * o.ga_population * (o.ga_generations + 1);
-        r.status = "not run (--ga-max-samples); time extrapolated from the largest GA run";
-      } else {
-        std::fprintf(stderr, "scaling: %ld samples: %-9s ...", n, m.c_str());
-        r = run_method(m, tr, sig, cfg, o, reps);
-        score(r, sc.drive, cfg.velocity_min_m_s, cfg.velocity_max_m_s);
-        std::fprintf(stderr, " %.3g s\n", r.seconds);
-        if (m == "ga" && r.rows > 0 && r.evaluations > 0) {
-          ga_cost_per_row_eval = r.seconds / (static_cast<double>(r.rows) * static_cast<double>(r.evaluations));
-          ga_rows_per_sample = static_cast<double>(r.rows) / static_cast<double>(n);
-        }
-        if (m == "streaming") { pt.core_d = r.core_seconds; pt.core_f = r.core_float_seconds; }
-      }
-      std::printf("  %-10ld %-10s %11s %12s %8s%% %-7s  %s\n", n, m.c_str(),
-                  (fmt("%.4g", r.seconds) + (r.extrapolated ? "*" : "")).c_str(),
-                  human_bytes(static_cast<double>(r.peak_rss_bytes)).c_str(),
-                  fmt("%.3g", 100 * r.max_rel_error).c_str(), r.worst >= 0 ? kParamNames[r.worst] : "-",
-                  r.skipped ? "skipped, * = extrapolated" : r.converged ? "" : "not converged");
-      std::fflush(stdout);
-      pt.runs.push_back(r);
-    }
-    json jr = {{"samples", n}, {"duration_s", sc.motion.duration_s}};
-    for (const auto& r : pt.runs) jr["methods"][r.method] = run_json(r);
-    jr["core"] = {{"seconds_double", jnum(pt.core_d)}, {"seconds_float", jnum(pt.core_f)},
-                  {"state_bytes_float", sizeof(feedid::Estimator<float>)},
-                  {"state_bytes_double", sizeof(feedid::Estimator<double>)}};
-    rows.push_back(jr);
-    pts.push_back(std::move(pt));
+    pts.push_back(run_scaling_point(n, o, methods, ga));
+    rows.push_back(scaling_row_json(pts.back()));
   }
   out["scaling"] = rows;
   out["machine"]["load_average_end"] = read_first("/proc/loadavg", "");
@@ -787,78 +938,11 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
   if (!o.plot_dir.empty()) {
     const std::string note = out["machine"]["cpu"].get<std::string>() + ", " + out["machine"]["date_utc"].get<std::string>() +
                              "; default drive, 2 kHz; dashed: extrapolated or constant";
-    PlotSpec pt_time, pt_mem;
-    pt_time.title = "Wall time against trace length";
-    pt_time.x = {"trace length (samples)", true};
-    pt_time.y = {"wall time (s)", true};
-    pt_time.note = note;
-    pt_mem.title = "Peak memory against trace length";
-    pt_mem.x = {"trace length (samples)", true};
-    pt_mem.y = {"peak resident memory above the loaded trace (bytes)", true};
-    pt_mem.note = note;
-    pt_mem.legend = "bottom-right";
-    for (std::size_t mi = 0; mi < methods.size(); ++mi) {
-      PlotSeries st = named(methods[mi]), sm = named(methods[mi]);
-      PlotSeries ext;
-      ext.dashed = true;
-      ext.markers = true;
-      for (const auto& p : pts) {
-        const MethodRun& r = p.runs[mi];
-        st.x.push_back(static_cast<double>(p.n));
-        st.y.push_back(r.skipped ? kNaN : r.seconds);
-        if (r.extrapolated) { ext.x.push_back(static_cast<double>(p.n)); ext.y.push_back(r.seconds); }
-        sm.x.push_back(static_cast<double>(p.n));
-        sm.y.push_back(r.peak_rss_bytes > 0 ? static_cast<double>(r.peak_rss_bytes) : kNaN);
-      }
-      // Continue the measured GA line into its extrapolation, dashed, same colour.
-      static const char* const palette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"};
-      st.color = sm.color = palette[mi % 6];
-      if (!ext.x.empty()) {
-        for (std::size_t k = st.y.size(); k-- > 0;)
-          if (std::isfinite(st.y[k])) { ext.x.insert(ext.x.begin(), st.x[k]); ext.y.insert(ext.y.begin(), st.y[k]); break; }
-        ext.color = st.color;
-        ext.label = methods[mi] + " (extrapolated)";
-      }
-      pt_time.series.push_back(st);
-      if (!ext.x.empty()) pt_time.series.push_back(ext);
-      pt_mem.series.push_back(sm);
-    }
-    PlotSeries core = named("streaming core alone (push + solve, float)");
-    PlotSeries sf = named("core state, float"), sd = named("core state, double");
-    core.dashed = true;
-    core.color = "#1f77b4";
-    sf.color = "#555555";
-    sd.color = "#999999";
-    sf.markers = sd.markers = false;
-    sd.dashed = true;
-    for (const auto& p : pts) {
-      core.x.push_back(static_cast<double>(p.n));
-      core.y.push_back(p.core_f);
-      sf.x.push_back(static_cast<double>(p.n));
-      sf.y.push_back(static_cast<double>(sizeof(feedid::Estimator<float>)));
-      sd.x.push_back(static_cast<double>(p.n));
-      sd.y.push_back(static_cast<double>(sizeof(feedid::Estimator<double>)));
-    }
-    if (std::find(methods.begin(), methods.end(), "streaming") != methods.end()) pt_time.series.push_back(core);
-    pt_mem.series.push_back(sf);
-    pt_mem.series.push_back(sd);
-    const auto rls_it = std::find(methods.begin(), methods.end(), "rls");
-    if (rls_it != methods.end()) {
-      PlotSeries sr = named("rls filter bank state");
-      sr.color = "#ff7f0e";
-      sr.markers = false;
-      sr.dashed = true;
-      for (const auto& p : pts) {
-        sr.x.push_back(static_cast<double>(p.n));
-        sr.y.push_back(static_cast<double>(p.runs[static_cast<std::size_t>(rls_it - methods.begin())].state_bytes));
-      }
-      pt_mem.series.push_back(sr);
-    }
     std::string err;
-    for (const auto& [name, spec] : {std::pair<std::string, const PlotSpec*>{"bench_scaling_time.svg", &pt_time},
-                                     {"bench_scaling_memory.svg", &pt_mem}}) {
+    for (const auto& [name, spec] : {std::pair<std::string, PlotSpec>{"bench_scaling_time.svg", scaling_time_plot(pts, methods, note)},
+                                     {"bench_scaling_memory.svg", scaling_memory_plot(pts, methods, note)}}) {
       const std::string path = o.plot_dir + "/" + name;
-      if (!write_svg(path, *spec, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); rc = 1; }
+      if (!write_svg(path, spec, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); rc = 1; }
       else std::printf("wrote %s\n", path.c_str());
     }
   }

@@ -213,14 +213,14 @@ struct CaseMix {
   std::vector<Program> programs;
 };
 
-BlindCase make_case(std::uint64_t seed, int index, const std::string& label, const CaseMix& mix) {
-  Rng rng(splitmix64(seed * 0x100000001B3ull + static_cast<std::uint64_t>(index) + 1));
-  SimConfig c;
+namespace {
+// The draws of one case, in the order the generator makes them (the order
+// fixes the case for a seed).
 
-  // Drive: mass log-uniform 20..400 kg; each friction magnitude of the
-  // default drive scaled by U(0.5, 1.5), vs U(1, 5) mm/s; the negative side
-  // differs from the positive by U(0.9, 1.1) per parameter.
-  DriveParams& d = c.drive;
+/// Drive: mass log-uniform 20..400 kg; each friction magnitude of the
+/// default drive scaled by U(0.5, 1.5), vs U(1, 5) mm/s; the negative side
+/// differs from the positive by U(0.9, 1.1) per parameter.
+void draw_drive(Rng& rng, DriveParams& d) {
   d.mass_kg = rng.log_uniform(20.0, 400.0);
   d.pos.viscous_Ns_m = 700.0 * rng.uniform(0.5, 1.5);
   d.pos.coulomb_N = 25.0 * rng.uniform(0.5, 1.5);
@@ -230,14 +230,18 @@ BlindCase make_case(std::uint64_t seed, int index, const std::string& label, con
   d.neg.coulomb_N = d.pos.coulomb_N * rng.uniform(0.9, 1.1);
   d.neg.breakaway_N = d.pos.breakaway_N * rng.uniform(0.9, 1.1);
   d.neg.stribeck_velocity_m_s = d.pos.stribeck_velocity_m_s * rng.uniform(0.9, 1.1);
+}
 
-  // Servo and sensors.
-  c.controller.servo_rate_hz = 10.0 * std::round(rng.log_uniform(100.0, 800.0));  // 1..8 kHz
+/// Servo rate 1..8 kHz, loop bandwidth, encoder and force noise.
+void draw_servo_and_sensors(Rng& rng, SimConfig& c) {
+  c.controller.servo_rate_hz = 10.0 * std::round(rng.log_uniform(100.0, 800.0));
   c.controller.velocity_bandwidth_hz = rng.uniform(25.0, 50.0);
   c.sensors.encoder_resolution_m = rng.log_uniform(1e-8, 1e-7);
   c.sensors.force_noise_N = rng.uniform(0.1, 1.0);
+}
 
-  // Motion.
+/// Motion, the simulator's seed, the plant and the program.
+void draw_motion(Rng& rng, SimConfig& c, const CaseMix& mix) {
   MotionParams& m = c.motion;
   m.duration_s = rng.uniform(40.0, 90.0);
   m.max_travel_m = rng.uniform(0.1, 0.4);
@@ -250,19 +254,12 @@ BlindCase make_case(std::uint64_t seed, int index, const std::string& label, con
   c.seed = rng.next();
   c.plant = mix.plants[static_cast<std::size_t>(rng.integer(0, static_cast<int>(mix.plants.size()) - 1))];
   m.program = mix.programs[static_cast<std::size_t>(rng.integer(0, static_cast<int>(mix.programs.size()) - 1))];
+}
 
-  const Span span = visited_span(m, c.seed);
-  const double travel = span.width;
-  const double dt = 1.0 / c.controller.servo_rate_hz;
-  const double sigma = 0.5 * (d.pos.viscous_Ns_m + d.neg.viscous_Ns_m);
-  const double fc = 0.5 * (d.pos.coulomb_N + d.neg.coulomb_N);
-  const double v_fast = m.fastest_speed_m_s;
-
-  Truth t;
-  t.label = label;
-  const EffectScale scale{span.lo, travel, dt, sigma, fc, v_fast, m.duration_s};
+/// The label's effect(s) into c and the truth: none, one, or a pair of two
+/// different effects the diagnosis can see while the axis moves.
+void draw_effects(Rng& rng, const std::string& label, const EffectScale& scale, SimConfig& c, Truth& t) {
   if (label == "pair") {
-    // Two different effects the diagnosis can see while the axis moves.
     std::vector<std::string> pool;
     for (const std::string& k : effect_kinds())
       if (k != "offset") pool.push_back(k);
@@ -275,53 +272,75 @@ BlindCase make_case(std::uint64_t seed, int index, const std::string& label, con
   } else if (label != "none") {
     t.effect = draw_effect(label, rng, scale, c);
   }
-  draw_logging(rng, c.logging, dt);
+}
 
-  t.setup = {{"plant", plant_name(c.plant)},
-             {"program", program_name(m.program)},
-             {"drive", model_json(d)},
-             {"rate_hz", c.controller.servo_rate_hz},
-             {"velocity_bandwidth_hz", c.controller.velocity_bandwidth_hz},
-             {"encoder_m", c.sensors.encoder_resolution_m},
-             {"force_noise_N", c.sensors.force_noise_N},
-             {"duration_s", m.duration_s},
-             {"visited_m", {span.lo, span.lo + span.width}},
-             {"fastest_speed_m_s", m.fastest_speed_m_s},
-             {"slowest_speed_m_s", m.slowest_speed_m_s},
-             {"speed_levels", m.speed_levels},
-             {"acceleration_m_s2", m.acceleration_m_s2},
-             {"cruise_time_s", m.cruise_time_s},
-             {"dwell_s", m.dwell_s},
-             {"max_travel_m", m.max_travel_m},
-             {"sim_seed", c.seed},
-             {"force_log", force_log_name(c.logging.force)},
-             {"velocity_log", velocity_log_name(c.logging.velocity)},
-             {"velocity_log_samples", c.logging.velocity_average_samples},
-             {"velocity_log_tau_s", c.logging.velocity_time_constant_s}};
+nlohmann::json setup_json(const SimConfig& c, const Span& span) {
+  const MotionParams& m = c.motion;
+  return {{"plant", plant_name(c.plant)},
+          {"program", program_name(m.program)},
+          {"drive", model_json(c.drive)},
+          {"rate_hz", c.controller.servo_rate_hz},
+          {"velocity_bandwidth_hz", c.controller.velocity_bandwidth_hz},
+          {"encoder_m", c.sensors.encoder_resolution_m},
+          {"force_noise_N", c.sensors.force_noise_N},
+          {"duration_s", m.duration_s},
+          {"visited_m", {span.lo, span.lo + span.width}},
+          {"fastest_speed_m_s", m.fastest_speed_m_s},
+          {"slowest_speed_m_s", m.slowest_speed_m_s},
+          {"speed_levels", m.speed_levels},
+          {"acceleration_m_s2", m.acceleration_m_s2},
+          {"cruise_time_s", m.cruise_time_s},
+          {"dwell_s", m.dwell_s},
+          {"max_travel_m", m.max_travel_m},
+          {"sim_seed", c.seed},
+          {"force_log", force_log_name(c.logging.force)},
+          {"velocity_log", velocity_log_name(c.logging.velocity)},
+          {"velocity_log_samples", c.logging.velocity_average_samples},
+          {"velocity_log_tau_s", c.logging.velocity_time_constant_s}};
+}
+
+/// Size of the effects in the recorded force: RMS of the difference to the
+/// same case simulated without them (same seed, same noise draws), over the
+/// samples moving in both; for the scorer's report only.
+double effect_rms_N(const SimConfig& c, const Trace& with) {
+  SimConfig clean = c;
+  clean.effects = Effects{};
+  const Trace ref = simulate(clean);
+  double ss = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < ref.samples.size() && k < with.samples.size(); ++k) {
+    if (ref.samples[k].v_m_s == 0.0 || with.samples[k].v_m_s == 0.0) continue;
+    const double dd = with.samples[k].u_N - ref.samples[k].u_N;
+    ss += dd * dd;
+    ++n;
+  }
+  return n ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
+}
+
+}  // namespace
+
+BlindCase make_case(std::uint64_t seed, int index, const std::string& label, const CaseMix& mix) {
+  Rng rng(splitmix64(seed * 0x100000001B3ull + static_cast<std::uint64_t>(index) + 1));
+  SimConfig c;
+  draw_drive(rng, c.drive);
+  draw_servo_and_sensors(rng, c);
+  draw_motion(rng, c, mix);
+
+  const Span span = visited_span(c.motion, c.seed);
+  const double dt = 1.0 / c.controller.servo_rate_hz;
+  const double sigma = 0.5 * (c.drive.pos.viscous_Ns_m + c.drive.neg.viscous_Ns_m);
+  const double fc = 0.5 * (c.drive.pos.coulomb_N + c.drive.neg.coulomb_N);
+  Truth t;
+  t.label = label;
+  draw_effects(rng, label, EffectScale{span.lo, span.width, dt, sigma, fc, c.motion.fastest_speed_m_s, c.motion.duration_s},
+               c, t);
+  draw_logging(rng, c.logging, dt);
+  t.setup = setup_json(c, span);
 
   BlindCase out;
   out.trace = simulate(c);
   out.trace.source = "blind case " + std::to_string(index + 1);  // no hint of the label
-
-  // Size of the effect in the recorded force: RMS of the difference to the
-  // same case simulated without it (same seed, same noise draws), over the
-  // samples moving in both; for the scorer's report only.
-  if (label != "none") {
-    SimConfig clean = c;
-    clean.effects = Effects{};
-    const Trace ref = simulate(clean);
-    double ss = 0.0;
-    std::size_t n = 0;
-    for (std::size_t k = 0; k < ref.samples.size() && k < out.trace.samples.size(); ++k) {
-      if (ref.samples[k].v_m_s == 0.0 || out.trace.samples[k].v_m_s == 0.0) continue;
-      const double dd = out.trace.samples[k].u_N - ref.samples[k].u_N;
-      ss += dd * dd;
-      ++n;
-    }
-    t.effect_rms_N = n ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
-  } else {
-    t.effect_rms_N = 0.0;
-  }
+  t.effect_rms_N = label != "none" ? effect_rms_N(c, out.trace) : 0.0;
   out.truth = std::move(t);
   return out;
 }
@@ -909,32 +928,144 @@ int write_case(const BlindOptions& opt, const std::vector<std::string>& schedule
   return key ? 0 : 2;
 }
 
+namespace {
+
+/// The command line that repeats this run (printed and stored with the results).
+std::string rerun_command(const BlindOptions& opt) {
+  std::string command = "feedid blind-bench --cases " + std::to_string(opt.cases) + " --seed " + std::to_string(opt.seed);
+  if (opt.plants != BlindOptions{}.plants) command += " --plants " + opt.plants;
+  if (opt.programs != BlindOptions{}.programs) command += " --programs " + opt.programs;
+  if (!opt.labels.empty()) command += " --labels " + opt.labels;
+  return command;
+}
+
+/// The labels the cases are dealt from: all, or --labels; false naming an unknown one.
+bool label_deal(const BlindOptions& opt, std::vector<std::string>& deal) {
+  deal = labels();
+  if (opt.labels.empty()) return true;
+  deal.clear();
+  std::stringstream list(opt.labels);
+  for (std::string l; std::getline(list, l, ',');) {
+    if (std::find(labels().begin(), labels().end(), l) == labels().end()) {
+      std::fprintf(stderr, "--labels: unknown label '%s'\n", l.c_str());
+      return false;
+    }
+    deal.push_back(l);
+  }
+  return true;
+}
+
+/// The answer key (truths) and the verdicts live in separate vectors; a
+/// worker moves each truth into the key before the trace goes to diagnosis.
+struct BlindRun {
+  std::vector<Truth> answer_key;
+  std::vector<Verdict> verdicts;
+  std::vector<CaseRecord> recs;
+  double wall_s = 0.0;
+};
+
+/// Case i: generate, keep its truth in the key, diagnose the trace alone.
+void run_case(int i, const BlindOptions& opt, const std::vector<std::string>& schedule, const CaseMix& mix, BlindRun& run) {
+  const auto i_sz = static_cast<std::size_t>(i);
+  const auto t0 = std::chrono::steady_clock::now();
+  double gen_s = 0.0, diag_s = 0.0;
+  std::size_t samples = 0;
+  try {
+    BlindCase bc = make_case(opt.seed, i, schedule[i_sz], mix);
+    run.answer_key[i_sz] = std::move(bc.truth);
+    const Trace trace = std::move(bc.trace);
+    samples = trace.samples.size();
+    const auto t1 = std::chrono::steady_clock::now();
+    gen_s = std::chrono::duration<double>(t1 - t0).count();
+    run.verdicts[i_sz] = diagnose_blind(trace);  // the trace only
+    diag_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  } catch (const std::exception& ex) {
+    run.answer_key[i_sz].label = schedule[i_sz];
+    run.verdicts[i_sz].effect = "error";
+    run.verdicts[i_sz].error = std::string("case generation failed: ") + ex.what();
+  }
+  run.recs[i_sz].generate_s = gen_s;
+  run.recs[i_sz].diagnose_s = diag_s;
+  run.recs[i_sz].samples = samples;
+}
+
+/// One line per case, printed by the scorer after the diagnosis.
+void print_case_line(int i, int cases, const Truth& t, const Verdict& v, double seconds) {
+  std::string truth = t.label;
+  if (t.label == "pair") truth = t.pair[0] + "+" + t.pair[1];
+  std::printf("%3d/%-3d %-22s %7.3g %-22s %3s %9s %9s %9s %7s %7.1f\n", i + 1, cases, truth.c_str(), t.effect_rms_N,
+              verdict_text(v).c_str(), named_right(t, v) ? "ok" : "NO", fmt("%.3g", v.rms_base_N).c_str(),
+              fmt("%.3g", v.rms_augmented_N).c_str(), fmt("%.3g", v.noise_floor_N).c_str(),
+              catalogued(t.label) ? pct(v.closed_fraction, 0).c_str() : "-", seconds);
+  if (!v.error.empty()) std::printf("        error: %s\n", v.error.c_str());
+  std::fflush(stdout);
+}
+
+/// Every case on `threads` threads, each taking the next case number.
+BlindRun run_cases(const BlindOptions& opt, const std::vector<std::string>& schedule, const CaseMix& mix, int threads) {
+  const auto n = static_cast<std::size_t>(opt.cases);
+  BlindRun run{std::vector<Truth>(n), std::vector<Verdict>(n), std::vector<CaseRecord>(n), 0.0};
+  std::atomic<int> next{0}, done{0};
+  std::mutex print_mutex;
+  const auto t_start = std::chrono::steady_clock::now();
+  auto worker = [&] {
+    for (int i; (i = next.fetch_add(1)) < opt.cases;) {
+      run_case(i, opt, schedule, mix, run);
+      const int n_done = done.fetch_add(1) + 1;
+      std::lock_guard<std::mutex> lock(print_mutex);
+      const auto i_sz = static_cast<std::size_t>(i);
+      if (!opt.quiet)
+        print_case_line(i, opt.cases, run.answer_key[i_sz], run.verdicts[i_sz],
+                        run.recs[i_sz].generate_s + run.recs[i_sz].diagnose_s);
+      if (opt.progress) opt.progress(static_cast<double>(n_done) / opt.cases);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < threads; ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return run;
+}
+
+void print_scores(const Scores& s, double wall_s, int threads, double gen_total, double diag_total,
+                  const std::string& command) {
+  std::printf("\nconfusion matrix (rows: true, columns: named)\n%s", confusion_text(s).c_str());
+  std::printf("\n%s", per_effect_text(s).c_str());
+  std::printf("\n%s", cells_text(s).c_str());
+  std::printf("\nright effect named: %s (%d of %d)  bar >= 90 %%: %s\n", pct(s.accuracy).c_str(), s.correct, s.total,
+              s.bar_accuracy ? "met" : "MISSED");
+  std::printf("false alarms on effect-free traces: %d of %d  bar <= 1 in 10: %s\n", s.false_alarms, s.none_cases,
+              s.bar_false_alarms ? "met" : "MISSED");
+  std::printf("median held-out gap closed (catalogued effects): %s  bar >= 80 %%: %s   (named right only: %s)\n",
+              pct(s.median_closed_catalogued).c_str(), s.bar_closed ? "met" : "MISSED",
+              pct(s.median_closed_named_right).c_str());
+  std::printf("wall time %.1f s on %s, %d threads (simulation %.1f s, diagnosis %.1f s summed over cases)\n", wall_s,
+              machine_description().c_str(), threads, gen_total, diag_total);
+  std::printf("command: %s\n", command.c_str());
+}
+
+/// Writes `text` to path; false (and a message) when it cannot.
+bool write_output(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) std::fprintf(stderr, "error: %s: cannot write\n", path.c_str());
+  return static_cast<bool>(f);
+}
+
+}  // namespace
+
 int run_blind_bench(const BlindOptions& opt) {
   if (opt.cases < 1) {
     std::fprintf(stderr, "error: --cases (count) must be >= 1, got %d\n", opt.cases);
     return 2;
   }
-  std::string command =
-      "feedid blind-bench --cases " + std::to_string(opt.cases) + " --seed " + std::to_string(opt.seed);
-  if (opt.plants != BlindOptions{}.plants) command += " --plants " + opt.plants;
-  if (opt.programs != BlindOptions{}.programs) command += " --programs " + opt.programs;
-  if (!opt.labels.empty()) command += " --labels " + opt.labels;
+  const std::string command = rerun_command(opt);
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
   const int threads = std::max(1, std::min(opt.cases, opt.threads > 0 ? opt.threads : static_cast<int>(std::min(hw, 8u))));
-  std::vector<std::string> deal = labels();
-  if (!opt.labels.empty()) {
-    deal.clear();
-    std::stringstream list(opt.labels);
-    for (std::string l; std::getline(list, l, ',');) {
-      if (std::find(labels().begin(), labels().end(), l) == labels().end()) {
-        std::fprintf(stderr, "--labels: unknown label '%s'\n", l.c_str());
-        return 2;
-      }
-      deal.push_back(l);
-    }
-  }
+  std::vector<std::string> deal;
+  if (!label_deal(opt, deal)) return 2;
   const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed, deal);
-
   CaseMix mix;
   try {
     mix = parse_mix(opt);
@@ -949,106 +1080,25 @@ int run_blind_bench(const BlindOptions& opt) {
   if (!opt.quiet)
     std::printf("%6s  %-22s %7s %-22s %3s %9s %9s %9s %7s %7s\n", "case", "true", "size N", "named", "ok", "base N",
                 "aug N", "floor N", "closed", "time s");
-
-  // The answer key (truths) and the verdicts live in separate vectors; the
-  // worker moves each truth into the key before the trace goes to diagnosis.
-  std::vector<Truth> answer_key(static_cast<std::size_t>(opt.cases));
-  std::vector<Verdict> verdicts(static_cast<std::size_t>(opt.cases));
-  std::vector<CaseRecord> recs(static_cast<std::size_t>(opt.cases));
-  std::atomic<int> next{0};
-  std::atomic<int> done{0};
-  std::mutex print_mutex;
-  const auto t_start = std::chrono::steady_clock::now();
-
-  auto worker = [&] {
-    for (;;) {
-      const int i = next.fetch_add(1);
-      if (i >= opt.cases) return;
-      const auto i_sz = static_cast<std::size_t>(i);
-      const auto t0 = std::chrono::steady_clock::now();
-      double gen_s = 0.0, diag_s = 0.0;
-      std::size_t samples = 0;
-      try {
-        BlindCase bc = make_case(opt.seed, i, schedule[i_sz], mix);
-        answer_key[i_sz] = std::move(bc.truth);
-        const Trace trace = std::move(bc.trace);
-        samples = trace.samples.size();
-        const auto t1 = std::chrono::steady_clock::now();
-        gen_s = std::chrono::duration<double>(t1 - t0).count();
-        verdicts[i_sz] = diagnose_blind(trace);  // the trace only
-        diag_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-      } catch (const std::exception& ex) {
-        answer_key[i_sz].label = schedule[i_sz];
-        verdicts[i_sz].effect = "error";
-        verdicts[i_sz].error = std::string("case generation failed: ") + ex.what();
-      }
-      recs[i_sz].generate_s = gen_s;
-      recs[i_sz].diagnose_s = diag_s;
-      recs[i_sz].samples = samples;
-      const int n_done = done.fetch_add(1) + 1;
-      std::lock_guard<std::mutex> lock(print_mutex);
-      if (!opt.quiet) {
-        const Verdict& v = verdicts[i_sz];
-        const Truth& t = answer_key[i_sz];  // scorer-side print, after the diagnosis
-        std::string truth = t.label;
-        if (t.label == "pair") truth = t.pair[0] + "+" + t.pair[1];
-        std::printf("%3d/%-3d %-22s %7.3g %-22s %3s %9s %9s %9s %7s %7.1f\n", i + 1, opt.cases, truth.c_str(),
-                    t.effect_rms_N, verdict_text(v).c_str(), named_right(t, v) ? "ok" : "NO", fmt("%.3g", v.rms_base_N).c_str(),
-                    fmt("%.3g", v.rms_augmented_N).c_str(), fmt("%.3g", v.noise_floor_N).c_str(),
-                    catalogued(t.label) ? pct(v.closed_fraction, 0).c_str() : "-", gen_s + diag_s);
-        if (!v.error.empty()) std::printf("        error: %s\n", v.error.c_str());
-        std::fflush(stdout);
-      }
-      if (opt.progress) opt.progress(static_cast<double>(n_done) / opt.cases);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int k = 1; k < threads; ++k) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  BlindRun run = run_cases(opt, schedule, mix, threads);
 
   // Scoring: join the answer key with the verdicts.
   double gen_total = 0.0, diag_total = 0.0;
-  for (std::size_t i = 0; i < recs.size(); ++i) {
-    recs[i].truth = answer_key[i];
-    recs[i].verdict = verdicts[i];
-    gen_total += recs[i].generate_s;
-    diag_total += recs[i].diagnose_s;
+  for (std::size_t i = 0; i < run.recs.size(); ++i) {
+    run.recs[i].truth = run.answer_key[i];
+    run.recs[i].verdict = run.verdicts[i];
+    gen_total += run.recs[i].generate_s;
+    diag_total += run.recs[i].diagnose_s;
   }
-  const Scores s = score(recs);
-
-  std::printf("\nconfusion matrix (rows: true, columns: named)\n%s", confusion_text(s).c_str());
-  std::printf("\n%s", per_effect_text(s).c_str());
-  std::printf("\n%s", cells_text(s).c_str());
-  std::printf("\nright effect named: %s (%d of %d)  bar >= 90 %%: %s\n", pct(s.accuracy).c_str(), s.correct, s.total,
-              s.bar_accuracy ? "met" : "MISSED");
-  std::printf("false alarms on effect-free traces: %d of %d  bar <= 1 in 10: %s\n", s.false_alarms, s.none_cases,
-              s.bar_false_alarms ? "met" : "MISSED");
-  std::printf("median held-out gap closed (catalogued effects): %s  bar >= 80 %%: %s   (named right only: %s)\n",
-              pct(s.median_closed_catalogued).c_str(), s.bar_closed ? "met" : "MISSED",
-              pct(s.median_closed_named_right).c_str());
-  std::printf("wall time %.1f s on %s, %d threads (simulation %.1f s, diagnosis %.1f s summed over cases)\n", wall_s,
-              machine_description().c_str(), threads, gen_total, diag_total);
-  std::printf("command: %s\n", command.c_str());
+  const Scores s = score(run.recs);
+  print_scores(s, run.wall_s, threads, gen_total, diag_total, command);
 
   int rc = s.bar_accuracy && s.bar_closed && s.bar_false_alarms ? 0 : 3;
-  if (!opt.json_path.empty()) {
-    std::ofstream f(opt.json_path);
-    f << to_json(recs, s, opt, command, wall_s, threads).dump(2) << "\n";
-    if (!f) {
-      std::fprintf(stderr, "error: %s: cannot write\n", opt.json_path.c_str());
-      rc = 2;
-    }
-  }
-  if (!opt.markdown_path.empty()) {
-    std::ofstream f(opt.markdown_path);
-    f << markdown(s, command, wall_s, threads, gen_total, diag_total, opt);
-    if (!f) {
-      std::fprintf(stderr, "error: %s: cannot write\n", opt.markdown_path.c_str());
-      rc = 2;
-    }
-  }
+  if (!opt.json_path.empty() && !write_output(opt.json_path, to_json(run.recs, s, opt, command, run.wall_s, threads).dump(2) + "\n"))
+    rc = 2;
+  if (!opt.markdown_path.empty() &&
+      !write_output(opt.markdown_path, markdown(s, command, run.wall_s, threads, gen_total, diag_total, opt)))
+    rc = 2;
   return rc;
 }
 

@@ -49,6 +49,104 @@ IdentifyOptions stated_from(const Signals& head, IdentifyOptions o) {
   return o;
 }
 
+/// The whole-trace core and the jackknife's groups: blocks of kGroupBlock_s
+/// dealt round-robin to kJackknifeChunks cores (the whole trace is not
+/// there to cut in ten), fed sample by sample.
+struct StreamedCores {
+  Core core;
+  std::vector<std::unique_ptr<Core>> groups;
+  std::vector<double> group_last = std::vector<double>(kJackknifeChunks, -INFINITY);  ///< -inf: no data yet
+  double t_first = 0.0, t_pushed = -INFINITY;
+  std::size_t pushed = 0;
+
+  /// False with the core's reason when the configuration is invalid.
+  bool init(const feedid::Config<double>& cfg, double t0, std::string& error) {
+    if (core.init(cfg) != feedid::Status::ok) {
+      error = std::string("invalid configuration: ") + core.config_error();
+      return false;
+    }
+    for (int g = 0; g < kJackknifeChunks; ++g) {
+      groups.push_back(std::make_unique<Core>());
+      (void)groups.back()->init(cfg);
+    }
+    t_first = t0;
+    return true;
+  }
+
+  /// The filtered chunk's samples after those already pushed and before t_end.
+  void push(const Signals& s, double t_end, std::vector<Rejection>& first_rejections) {
+    for (std::size_t k = 0; k < s.t.size(); ++k) {
+      if (!(s.t[k] > t_pushed) || !(s.t[k] < t_end)) continue;
+      feedid::Sample<double> smp;
+      smp.dt_s = pushed == 0 ? 0.0 : s.t[k] - t_pushed;
+      smp.position_m = s.x[k];
+      smp.velocity_m_s = s.v[k];
+      smp.force_N = s.u[k];
+      const feedid::Status st = core.push(smp);
+      if (st != feedid::Status::ok && first_rejections.size() < 10) first_rejections.push_back({pushed, st});
+      const auto g = static_cast<std::size_t>(std::floor((s.t[k] - t_first) / kGroupBlock_s)) % groups.size();
+      smp.dt_s = std::isfinite(group_last[g]) ? s.t[k] - group_last[g] : 0.0;  // a gap across the other groups' blocks
+      (void)groups[g]->push(smp);
+      group_last[g] = s.t[k];
+      t_pushed = s.t[k];
+      ++pushed;
+    }
+  }
+
+  /// The groups that saw data: an empty one would leave the full estimate
+  /// out of nothing and pull every standard error to zero.
+  std::vector<std::unique_ptr<Core>> filled_groups() {
+    std::vector<std::unique_ptr<Core>> filled;
+    for (std::size_t g = 0; g < groups.size(); ++g)
+      if (std::isfinite(group_last[g])) filled.push_back(std::move(groups[g]));
+    return filled;
+  }
+};
+
+/// The chunk's last two margins (one to filter again, one as the filter's lead-in).
+void keep_tail(Trace& chunk, double t_end, double margin_s) {
+  std::vector<TraceSample> tail;
+  for (const auto& smp : chunk.samples)
+    if (smp.t_s >= t_end - margin_s) tail.push_back(smp);
+  chunk.samples.swap(tail);
+}
+
+/// Jackknife over the groups with data (the core's own below kMinGroups)
+/// plus the timing term measured on the head, at the whole trace's parameters.
+void apply_streamed_standard_errors(IdentifyResult& r, StreamedCores& cores, const IdentifyOptions& opt) {
+  Uncertainty u;
+  u.model_se = standard_errors(r.estimate);
+  std::vector<std::unique_ptr<Core>> filled = cores.filled_groups();
+  if (static_cast<int>(filled.size()) >= kMinGroups) u.chunks_used = jackknife_over(filled, opt.method, u.jackknife_se);
+  // The timing term is a sensitivity, not noise that averages out.
+  u.timing_se = timing_standard_errors(r.signals, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
+  apply_standard_errors(r.estimate, u);
+  r.jackknife_chunks = u.chunks_used;
+  r.se_model = u.model_se;
+  r.se_jackknife = u.jackknife_se;
+}
+
+/// Solve, model selection, standard errors and the friction curve.
+void finish(IdentifyResult& r, StreamedCores& cores, const CsvStream& in, const std::string& source,
+            const IdentifyOptions& opt) {
+  r.rows_skipped = in.rows_skipped();
+  r.rows_repeated = in.rows_repeated();
+  r.skipped_rows = in.skipped_rows();
+  r.status = cores.core.solve(opt.method);
+  r.estimate = cores.core.estimate();
+  r.diagnostics = cores.core.diagnostics();
+  if (r.status == feedid::Status::ok && opt.select_friction_model)
+    r.friction_model = select_friction_models(cores.core, r.estimate);
+  if (r.status == feedid::Status::ok && opt.honest_standard_errors) apply_streamed_standard_errors(r, cores, opt);
+  fill_friction_curve(cores.core, r);
+  r.streamed = true;
+  if (r.status == feedid::Status::insufficient_data) {
+    std::ostringstream o;
+    o << source << ": not enough motion to identify in " << r.duration_s << " s";
+    r.error = o.str();
+  }
+}
+
 }  // namespace
 
 IdentifyResult identify_stream(CsvStream& in, const std::string& source, const IdentifyOptions& opt,
@@ -69,55 +167,23 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   }
   // Conventions, velocity and band edges from the head.
   r.signals = prepare_signals(chunk, opt);
-  r.config = auto_config(r.signals, opt);
   const IdentifyOptions fixed = stated_from(r.signals, opt);
-  Core core;
-  r.status = core.init(r.config);
-  if (r.status != feedid::Status::ok) {
-    r.error = std::string("invalid configuration: ") + core.config_error();
+  auto cores = std::make_unique<StreamedCores>();
+  if (!cores->init(auto_config(r.signals, opt), chunk.samples.front().t_s, r.error)) {
+    r.status = feedid::Status::invalid_config;
     return r;
   }
-  r.config = core.config();  // as init() completed it: what the core ran with
-  // The jackknife's groups: blocks of kGroupBlock_s dealt round-robin to
-  // kJackknifeChunks cores; the whole trace is not there to cut in ten.
-  std::vector<std::unique_ptr<Core>> groups;
-  std::vector<double> group_last(kJackknifeChunks, -INFINITY);  // -inf: the group has no data yet
-  for (int g = 0; g < kJackknifeChunks; ++g) {
-    groups.push_back(std::make_unique<Core>());
-    (void)groups.back()->init(r.config);
-  }
-  const double t_first = chunk.samples.front().t_s;
-  double t_pushed = -INFINITY, t_last = t_first;
-  std::size_t pushed = 0;
+  r.config = cores->core.config();  // as init() completed it: what the core ran with
+  double t_last = cores->t_first;
   for (;;) {
     // Filter the chunk with its margins; push what lies past the samples
     // already pushed and, unless it is the last chunk, before the trailing margin.
-    const Signals s = prepare_signals(chunk, fixed);
     const double t_end = more ? chunk.samples.back().t_s - so.margin_s : INFINITY;
-    for (std::size_t k = 0; k < s.t.size(); ++k) {
-      if (!(s.t[k] > t_pushed) || !(s.t[k] < t_end)) continue;
-      feedid::Sample<double> smp;
-      smp.dt_s = pushed == 0 ? 0.0 : s.t[k] - t_pushed;
-      smp.position_m = s.x[k];
-      smp.velocity_m_s = s.v[k];
-      smp.force_N = s.u[k];
-      const feedid::Status st = core.push(smp);
-      if (st != feedid::Status::ok && r.first_rejections.size() < 10) r.first_rejections.push_back({pushed, st});
-      const auto g = static_cast<std::size_t>(std::floor((s.t[k] - t_first) / kGroupBlock_s)) % groups.size();
-      smp.dt_s = std::isfinite(group_last[g]) ? s.t[k] - group_last[g] : 0.0;  // a gap across the other groups' blocks
-      (void)groups[g]->push(smp);
-      group_last[g] = s.t[k];
-      t_pushed = s.t[k];
-      ++pushed;
-    }
+    cores->push(prepare_signals(chunk, fixed), t_end, r.first_rejections);
     t_last = chunk.samples.back().t_s;
-    if (opt.progress) opt.progress(t_last - t_first);
+    if (opt.progress) opt.progress(t_last - cores->t_first);
     if (!more) break;
-    // Keep 2 margins of the chunk's tail (one refiltered, one as the filter's lead-in).
-    std::vector<TraceSample> tail;
-    for (const auto& smp : chunk.samples)
-      if (smp.t_s >= t_end - so.margin_s) tail.push_back(smp);
-    chunk.samples.swap(tail);
+    keep_tail(chunk, t_end, so.margin_s);
     more = read_span(in, chunk, so.chunk_s + 2.0 * so.margin_s, next, have_next);
   }
   if (!in.error().empty()) {
@@ -125,38 +191,8 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     r.error = in.error();
     return r;
   }
-  r.rows_skipped = in.rows_skipped();
-  r.rows_repeated = in.rows_repeated();
-  r.skipped_rows = in.skipped_rows();
-  r.duration_s = t_last - t_first;
-  r.status = core.solve(opt.method);
-  r.estimate = core.estimate();
-  r.diagnostics = core.diagnostics();
-  if (r.status == feedid::Status::ok && opt.select_friction_model) r.friction_model = select_friction_models(core, r.estimate);
-  if (r.status == feedid::Status::ok && opt.honest_standard_errors) {
-    Uncertainty u;
-    u.model_se = standard_errors(r.estimate);
-    // Only groups that saw data: an empty one would leave the full estimate
-    // out of nothing and pull every standard error to zero.
-    std::vector<std::unique_ptr<Core>> filled;
-    for (std::size_t g = 0; g < groups.size(); ++g)
-      if (std::isfinite(group_last[g])) filled.push_back(std::move(groups[g]));
-    if (static_cast<int>(filled.size()) >= kMinGroups) u.chunks_used = jackknife_over(filled, opt.method, u.jackknife_se);
-    // The timing term is a sensitivity, not noise that averages out: the
-    // head's, at the whole trace's parameters.
-    u.timing_se = timing_standard_errors(r.signals, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
-    apply_standard_errors(r.estimate, u);
-    r.jackknife_chunks = u.chunks_used;
-    r.se_model = u.model_se;
-    r.se_jackknife = u.jackknife_se;
-  }
-  fill_friction_curve(core, r);
-  r.streamed = true;
-  if (r.status == feedid::Status::insufficient_data) {
-    std::ostringstream o;
-    o << source << ": not enough motion to identify in " << r.duration_s << " s";
-    r.error = o.str();
-  }
+  r.duration_s = t_last - cores->t_first;
+  finish(r, *cores, in, source, opt);
   return r;
 }
 

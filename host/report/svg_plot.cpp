@@ -107,68 +107,85 @@ Scale make_scale(const PlotAxis& ax, const std::vector<double>& data) {
   return s;
 }
 
-}  // namespace
+/// The plot area inside the canvas and the maps from axis to pixel coordinates.
+struct Frame {
+  Scale sx, sy;
+  double W, H, left, top, pw, ph;
+  bool legend_below;
+  double px(double axis_x) const { return left + (axis_x - sx.lo) / (sx.hi - sx.lo) * pw; }
+  double py(double axis_y) const { return top + ph - (axis_y - sy.lo) / (sy.hi - sy.lo) * ph; }
+};
 
-std::string render_svg(const PlotSpec& p) {
+Frame make_frame(const PlotSpec& p) {
   std::vector<double> xs, ys;
   for (const auto& s : p.series) {
     xs.insert(xs.end(), s.x.begin(), s.x.end());
     ys.insert(ys.end(), s.y.begin(), s.y.end());
   }
-  const Scale sx = make_scale(p.x, xs), sy = make_scale(p.y, ys);
-  const double W = p.width_px, H = p.height_px;
-  const double left = 78, right = 24, top = p.title.empty() ? 20 : 44;
-  const bool below = p.legend == "below";
-  const double bottom = (p.note.empty() ? 58 : 76) + (below ? 22 : 0);
-  const double pw = W - left - right, ph = H - top - bottom;
-  auto px = [&](double axis_x) { return left + (axis_x - sx.lo) / (sx.hi - sx.lo) * pw; };
-  auto py = [&](double axis_y) { return top + ph - (axis_y - sy.lo) / (sy.hi - sy.lo) * ph; };
+  Frame f{make_scale(p.x, xs), make_scale(p.y, ys), static_cast<double>(p.width_px), static_cast<double>(p.height_px), 78, p.title.empty() ? 20.0 : 44.0, 0, 0,
+          p.legend == "below"};
+  const double right = 24, bottom = (p.note.empty() ? 58 : 76) + (f.legend_below ? 22 : 0);
+  f.pw = f.W - f.left - right;
+  f.ph = f.H - f.top - bottom;
+  return f;
+}
 
-  std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" viewBox=\"0 0 "
-    << W << " " << H << "\" font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
+std::string series_color(const PlotSpec& p, std::size_t i) {
+  const PlotSeries& s = p.series[i];
+  return s.color.empty() ? kPalette[i % (sizeof kPalette / sizeof *kPalette)] : s.color;
+}
+
+/// Canvas, clip path and title.
+void write_canvas(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << f.W << "\" height=\"" << f.H << "\" viewBox=\"0 0 "
+    << f.W << " " << f.H << "\" font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
   o << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  o << "<defs><clipPath id=\"" << escape(p.id) << "\"><rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw
-    << "\" height=\"" << ph << "\"/></clipPath></defs>\n";
+  o << "<defs><clipPath id=\"" << escape(p.id) << "\"><rect x=\"" << f.left << "\" y=\"" << f.top << "\" width=\""
+    << f.pw << "\" height=\"" << f.ph << "\"/></clipPath></defs>\n";
   if (!p.title.empty())
-    o << "<text x=\"" << W / 2 << "\" y=\"26\" text-anchor=\"middle\" font-size=\"15\" font-weight=\"bold\">"
+    o << "<text x=\"" << f.W / 2 << "\" y=\"26\" text-anchor=\"middle\" font-size=\"15\" font-weight=\"bold\">"
       << escape(p.title) << "</text>\n";
+}
 
-  // Grid and ticks.
+/// Grid, frame, tick labels, axis labels and the note.
+void write_axes(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
+  const double left = f.left, top = f.top, pw = f.pw, ph = f.ph;
   o << "<g stroke=\"#e4e4e4\" stroke-width=\"1\">\n";
-  for (double t : sx.minor) o << "<line x1=\"" << num(px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(px(t), 6) << "\" y2=\"" << top + ph << "\" stroke=\"#f2f2f2\"/>\n";
-  for (double t : sy.minor) o << "<line x1=\"" << left << "\" y1=\"" << num(py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(py(t), 6) << "\" stroke=\"#f2f2f2\"/>\n";
-  for (double t : sx.major) o << "<line x1=\"" << num(px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(px(t), 6) << "\" y2=\"" << top + ph << "\"/>\n";
-  for (double t : sy.major) o << "<line x1=\"" << left << "\" y1=\"" << num(py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(py(t), 6) << "\"/>\n";
+  for (double t : f.sx.minor) o << "<line x1=\"" << num(f.px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(f.px(t), 6) << "\" y2=\"" << top + ph << "\" stroke=\"#f2f2f2\"/>\n";
+  for (double t : f.sy.minor) o << "<line x1=\"" << left << "\" y1=\"" << num(f.py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(f.py(t), 6) << "\" stroke=\"#f2f2f2\"/>\n";
+  for (double t : f.sx.major) o << "<line x1=\"" << num(f.px(t), 6) << "\" y1=\"" << top << "\" x2=\"" << num(f.px(t), 6) << "\" y2=\"" << top + ph << "\"/>\n";
+  for (double t : f.sy.major) o << "<line x1=\"" << left << "\" y1=\"" << num(f.py(t), 6) << "\" x2=\"" << left + pw << "\" y2=\"" << num(f.py(t), 6) << "\"/>\n";
   o << "</g>\n";
   o << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
     << "\" fill=\"none\" stroke=\"#333\"/>\n";
-  for (std::size_t i = 0; i < sx.major.size(); ++i)
-    o << "<text x=\"" << num(px(sx.major[i]), 6) << "\" y=\"" << top + ph + 18 << "\" text-anchor=\"middle\">"
-      << sx.labels[i] << "</text>\n";
-  for (std::size_t i = 0; i < sy.major.size(); ++i)
-    o << "<text x=\"" << left - 6 << "\" y=\"" << num(py(sy.major[i]) + 4, 6) << "\" text-anchor=\"end\">"
-      << sy.labels[i] << "</text>\n";
+  for (std::size_t i = 0; i < f.sx.major.size(); ++i)
+    o << "<text x=\"" << num(f.px(f.sx.major[i]), 6) << "\" y=\"" << top + ph + 18 << "\" text-anchor=\"middle\">"
+      << f.sx.labels[i] << "</text>\n";
+  for (std::size_t i = 0; i < f.sy.major.size(); ++i)
+    o << "<text x=\"" << left - 6 << "\" y=\"" << num(f.py(f.sy.major[i]) + 4, 6) << "\" text-anchor=\"end\">"
+      << f.sy.labels[i] << "</text>\n";
   o << "<text x=\"" << left + pw / 2 << "\" y=\"" << top + ph + 40 << "\" text-anchor=\"middle\">"
     << escape(p.x.label) << "</text>\n";
   o << "<text transform=\"translate(18," << top + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
     << escape(p.y.label) << "</text>\n";
   if (!p.note.empty())
-    o << "<text x=\"" << left << "\" y=\"" << H - 8 << "\" font-size=\"10\" fill=\"#555\">" << escape(p.note)
+    o << "<text x=\"" << left << "\" y=\"" << f.H - 8 << "\" font-size=\"10\" fill=\"#555\">" << escape(p.note)
       << "</text>\n";
+}
 
-  // Series, clipped to the plot area; invalid points break the line.
+/// Series, clipped to the plot area; invalid points break the line.
+void write_series(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
   o << "<g clip-path=\"url(#" << escape(p.id) << ")\" fill=\"none\" stroke-width=\"1.8\">\n";
   for (std::size_t i = 0; i < p.series.size(); ++i) {
     const PlotSeries& s = p.series[i];
-    const std::string color = s.color.empty() ? kPalette[i % (sizeof kPalette / sizeof *kPalette)] : s.color;
+    const std::string color = series_color(p, i);
     const std::size_t n = std::min(s.x.size(), s.y.size());
     if (s.line) {
       std::string d;
       bool pen = false;
       for (std::size_t k = 0; k < n; ++k) {
         if (!usable(s.x[k], p.x.log) || !usable(s.y[k], p.y.log)) { pen = false; continue; }
-        d += (pen ? " L" : " M") + num(px(sx.to_axis(s.x[k])), 6) + "," + num(py(sy.to_axis(s.y[k])), 6);
+        d += (pen ? " L" : " M") + num(f.px(f.sx.to_axis(s.x[k])), 6) + "," + num(f.py(f.sy.to_axis(s.y[k])), 6);
         pen = true;
       }
       if (!d.empty())
@@ -178,44 +195,56 @@ std::string render_svg(const PlotSpec& p) {
     if (s.markers)
       for (std::size_t k = 0; k < n; ++k)
         if (usable(s.x[k], p.x.log) && usable(s.y[k], p.y.log))
-          o << "<circle cx=\"" << num(px(sx.to_axis(s.x[k])), 6) << "\" cy=\"" << num(py(sy.to_axis(s.y[k])), 6)
+          o << "<circle cx=\"" << num(f.px(f.sx.to_axis(s.x[k])), 6) << "\" cy=\"" << num(f.py(f.sy.to_axis(s.y[k])), 6)
             << "\" r=\"3\" fill=\"" << color << "\" stroke=\"none\"/>\n";
   }
   o << "</g>\n";
+}
 
-  // Legend.
+/// The legend of the labelled series: in a box at a corner, or in one row below the plot.
+void write_legend(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
   std::vector<std::size_t> shown;
   std::size_t longest = 0;
   for (std::size_t i = 0; i < p.series.size(); ++i)
     if (!p.series[i].label.empty()) { shown.push_back(i); longest = std::max(longest, p.series[i].label.size()); }
-  if (!shown.empty()) {
-    const double lw = 40 + 6.6 * static_cast<double>(longest), lh = 8 + 18.0 * static_cast<double>(shown.size());
-    const bool at_right = p.legend.find("right") != std::string::npos;
-    const bool at_bottom = p.legend.find("bottom") != std::string::npos;
-    const double lx = at_right ? left + pw - lw - 8 : left + 8;
-    const double ly = below ? top + ph + 46 : (at_bottom ? top + ph - lh - 8 : top + 8);
-    o << "<g>";
-    if (!below)
-      o << "<rect x=\"" << lx << "\" y=\"" << ly << "\" width=\"" << num(lw, 6) << "\" height=\"" << lh
-        << "\" fill=\"white\" fill-opacity=\"0.9\" stroke=\"#999\"/>";
-    o << "\n";
-    for (std::size_t r = 0; r < shown.size(); ++r) {
-      const PlotSeries& s = p.series[shown[r]];
-      const std::string color =
-          s.color.empty() ? kPalette[shown[r] % (sizeof kPalette / sizeof *kPalette)] : s.color;
-      // Below the plot the entries run in one row, each as wide as the longest.
-      const double lx_r = below ? left + (lw + 10) * static_cast<double>(r) : lx;
-      const double yy = below ? ly + 12 : ly + 16 + 18.0 * static_cast<double>(r);
-      if (s.line)
-        o << "<line x1=\"" << lx_r + 6 << "\" y1=\"" << yy - 4 << "\" x2=\"" << lx_r + 28 << "\" y2=\"" << yy - 4
-          << "\" stroke=\"" << color << "\" stroke-width=\"1.8\"" << (s.dashed ? " stroke-dasharray=\"6,4\"" : "")
-          << "/>\n";
-      if (s.markers)
-        o << "<circle cx=\"" << lx_r + 17 << "\" cy=\"" << yy - 4 << "\" r=\"3\" fill=\"" << color << "\"/>\n";
-      o << "<text x=\"" << lx_r + 34 << "\" y=\"" << yy << "\">" << escape(s.label) << "</text>\n";
-    }
-    o << "</g>\n";
+  if (shown.empty()) return;
+  const bool below = f.legend_below;
+  const double lw = 40 + 6.6 * static_cast<double>(longest), lh = 8 + 18.0 * static_cast<double>(shown.size());
+  const bool at_right = p.legend.find("right") != std::string::npos;
+  const bool at_bottom = p.legend.find("bottom") != std::string::npos;
+  const double lx = at_right ? f.left + f.pw - lw - 8 : f.left + 8;
+  const double ly = below ? f.top + f.ph + 46 : (at_bottom ? f.top + f.ph - lh - 8 : f.top + 8);
+  o << "<g>";
+  if (!below)
+    o << "<rect x=\"" << lx << "\" y=\"" << ly << "\" width=\"" << num(lw, 6) << "\" height=\"" << lh
+      << "\" fill=\"white\" fill-opacity=\"0.9\" stroke=\"#999\"/>";
+  o << "\n";
+  for (std::size_t r = 0; r < shown.size(); ++r) {
+    const PlotSeries& s = p.series[shown[r]];
+    const std::string color = series_color(p, shown[r]);
+    // Below the plot the entries run in one row, each as wide as the longest.
+    const double lx_r = below ? f.left + (lw + 10) * static_cast<double>(r) : lx;
+    const double yy = below ? ly + 12 : ly + 16 + 18.0 * static_cast<double>(r);
+    if (s.line)
+      o << "<line x1=\"" << lx_r + 6 << "\" y1=\"" << yy - 4 << "\" x2=\"" << lx_r + 28 << "\" y2=\"" << yy - 4
+        << "\" stroke=\"" << color << "\" stroke-width=\"1.8\"" << (s.dashed ? " stroke-dasharray=\"6,4\"" : "")
+        << "/>\n";
+    if (s.markers)
+      o << "<circle cx=\"" << lx_r + 17 << "\" cy=\"" << yy - 4 << "\" r=\"3\" fill=\"" << color << "\"/>\n";
+    o << "<text x=\"" << lx_r + 34 << "\" y=\"" << yy << "\">" << escape(s.label) << "</text>\n";
   }
+  o << "</g>\n";
+}
+
+}  // namespace
+
+std::string render_svg(const PlotSpec& p) {
+  const Frame f = make_frame(p);
+  std::ostringstream o;
+  write_canvas(o, p, f);
+  write_axes(o, p, f);
+  write_series(o, p, f);
+  write_legend(o, p, f);
   o << "</svg>\n";
   return o.str();
 }

@@ -551,98 +551,112 @@ PlantKind parse_plant(const std::string& s) {
   throw std::invalid_argument("--plant must be closed or open, not '" + s + "'");
 }
 
-Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress) {
-  validate(cfg);
-  if (cfg.plant == PlantKind::open_loop) return simulate_open_loop(cfg, progress);
+namespace {
+/// The recorded force of a drive whose log lags the applied force by
+/// delay_s: u_rec[k] = u(t_k - delay), linear between the applied samples
+/// (history kept only when a delay is set).
+class DelayedForceRecord {
+ public:
+  DelayedForceRecord(double delay_s, double dt, std::size_t n_samples) : delay_samples_(delay_s / dt), on_(delay_s > 0.0) {
+    if (on_) applied_.reserve(n_samples);
+  }
+  /// The recorded value at sample k, given the force u applied from t_k.
+  double recorded(double u, std::size_t k) {
+    if (!on_) return u;
+    applied_.push_back(u);
+    const double pos = static_cast<double>(k) - delay_samples_;  // fractional sample index
+    if (pos <= 0.0) return applied_.front();
+    const auto i0 = static_cast<std::size_t>(std::floor(pos));
+    const double alpha = pos - static_cast<double>(i0);
+    return i0 + 1 < applied_.size() ? (1.0 - alpha) * applied_[i0] + alpha * applied_[i0 + 1] : applied_[i0];
+  }
 
-  const ControllerParams& kc = cfg.controller;
-  const double m = cfg.drive.mass_kg;
-  const double dt = 1.0 / kc.servo_rate_hz;
-  const double h = dt / cfg.plant_substeps;
-  const double q = cfg.sensors.encoder_resolution_m;
+ private:
+  double delay_samples_;
+  bool on_;
+  std::vector<double> applied_;
+};
 
-  CascadeController control(kc, m);
+/// Wandering load force: Ornstein-Uhlenbeck, w <- a w + sqrt(1 - a^2) s n,
+/// a = exp(-dt / tau), stationary from the start; its own random stream.
+class WanderingLoad {
+ public:
+  WanderingLoad(const Effects& fx, double dt, std::uint64_t seed) : rng_(seed ^ 0x9E3779B97F4A7C15ull), on_(fx.wander_force_N > 0.0) {
+    a_ = on_ ? std::exp(-dt / fx.wander_time_constant_s) : 0.0;
+    b_ = fx.wander_force_N * std::sqrt(std::max(0.0, 1.0 - a_ * a_));
+    w_ = on_ ? fx.wander_force_N * normal_(rng_) : 0.0;
+  }
+  bool on() const { return on_; }
+  /// The load over this servo period; moves on to the next.
+  double next() {
+    const double w = w_;
+    w_ = a_ * w_ + b_ * normal_(rng_);
+    return w;
+  }
 
-  // Samples at t_k = k dt for k dt <= duration (with a tolerance of 1e-9 dt).
-  const auto n_samples =
-      static_cast<std::size_t>(std::floor(cfg.motion.duration_s / dt + 1e-9)) + 1;
+ private:
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};  // own object: normal_distribution caches draws
+  bool on_;
+  double a_ = 0.0, b_ = 0.0, w_ = 0.0;
+};
 
-  std::mt19937_64 rng(cfg.seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-
-  MotionPath path(cfg.motion, cfg.seed);
-  Plant plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change);
-
-  // Delay of the recorded force: u_rec[k] = u(t_k - delay), linear between
-  // the applied samples (history kept only when a delay is set).
-  const Effects& fx = cfg.effects;
-  const double delay_samples = fx.delay_s / dt;
-  std::vector<double> u_applied;
-  if (fx.delay_s > 0.0) u_applied.reserve(n_samples);
-
-  // Wandering load force: Ornstein-Uhlenbeck, w <- a w + sqrt(1 - a^2) s n,
-  // a = exp(-dt / tau), stationary from the start; its own random stream.
-  std::mt19937_64 wander_rng(cfg.seed ^ 0x9E3779B97F4A7C15ull);
-  std::normal_distribution<double> wander_normal(0.0, 1.0);  // own object: normal_distribution caches draws
-  const double wander_a = fx.wander_force_N > 0.0 ? std::exp(-dt / fx.wander_time_constant_s) : 0.0;
-  const double wander_b = fx.wander_force_N * std::sqrt(std::max(0.0, 1.0 - wander_a * wander_a));
-  double wander = fx.wander_force_N > 0.0 ? fx.wander_force_N * wander_normal(wander_rng) : 0.0;
-
-  HeldForceLog force_log(cfg.logging.force);
-  LoggedVelocity velocity_log(cfg.logging, dt);
+Trace simulator_trace(std::size_t n_samples) {
   Trace trace;
   trace.source = "simulator";
   trace.has_position = true;
   trace.has_velocity = true;
   trace.samples.reserve(n_samples);
+  return trace;
+}
+}  // namespace
+
+Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress) {
+  validate(cfg);
+  if (cfg.plant == PlantKind::open_loop) return simulate_open_loop(cfg, progress);
+
+  const ControllerParams& kc = cfg.controller;
+  const double dt = 1.0 / kc.servo_rate_hz;
+  const double h = dt / cfg.plant_substeps;
+  // Samples at t_k = k dt for k dt <= duration (with a tolerance of 1e-9 dt).
+  const auto n_samples = static_cast<std::size_t>(std::floor(cfg.motion.duration_s / dt + 1e-9)) + 1;
+
+  CascadeController control(kc, cfg.drive.mass_kg);
+  std::mt19937_64 rng(cfg.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  MotionPath path(cfg.motion, cfg.seed);
+  Plant plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change);
+  DelayedForceRecord delayed(cfg.effects.delay_s, dt, n_samples);
+  WanderingLoad wander(cfg.effects, dt, cfg.seed);
+  HeldForceLog force_log(cfg.logging.force);
+  LoggedVelocity velocity_log(cfg.logging, dt);
+  Trace trace = simulator_trace(n_samples);
 
   const std::size_t progress_every = std::max<std::size_t>(1, (n_samples + 99) / 100);
   double x_meas_prev = 0.0;
   PathPoint r_next = path.at(0.0);  // reference at t_k, carried from tick to tick
-
   for (std::size_t k = 0; k < n_samples; ++k) {
     const double t = static_cast<double>(k) * dt;
-
     // Encoder and drive velocity: v_meas = (x_meas[k] - x_meas[k-1]) / dt.
-    const double x_meas = quantise(plant.x(), q);
+    const double x_meas = quantise(plant.x(), cfg.sensors.encoder_resolution_m);
     const double v_meas = k == 0 ? 0.0 : (x_meas - x_meas_prev) / dt;
     x_meas_prev = x_meas;
 
     const PathPoint r = r_next;
     r_next = path.at(static_cast<double>(k + 1) * dt);
     const double u = control.command(r, r_next, x_meas, v_meas, 0.0);
-
     // Noise draws in a fixed order so a seed gives one trace.
     const double w_meas = normal(rng) * cfg.sensors.force_noise_N;
     const double w_proc = normal(rng) * cfg.sensors.force_process_noise_N;
-
-    double u_rec = u;
-    if (fx.delay_s > 0.0) {
-      u_applied.push_back(u);
-      const double pos = static_cast<double>(k) - delay_samples;  // fractional sample index
-      if (pos <= 0.0) {
-        u_rec = u_applied.front();
-      } else {
-        const auto i0 = static_cast<std::size_t>(std::floor(pos));
-        const double alpha = pos - static_cast<double>(i0);
-        u_rec = i0 + 1 < u_applied.size() ? (1.0 - alpha) * u_applied[i0] + alpha * u_applied[i0 + 1]
-                                          : u_applied[i0];
-      }
-    }
+    const double u_rec = delayed.recorded(u, k);
     trace.samples.push_back(TraceSample{t, x_meas, velocity_log.next(v_meas), force_log.next(u_rec) + w_meas});
 
     // Plant over [t_k, t_k + dt) with u held.
     if (k + 1 < n_samples) {
-      const double f_in = u + w_proc;
-      if (fx.wander_force_N > 0.0) {
-        plant.set_held_load(wander);
-        wander = wander_a * wander + wander_b * wander_normal(wander_rng);
-      }
-      for (int j = 0; j < cfg.plant_substeps; ++j) plant.step(t + j * h, h, f_in);
+      if (wander.on()) plant.set_held_load(wander.next());
+      for (int j = 0; j < cfg.plant_substeps; ++j) plant.step(t + j * h, h, u + w_proc);
     }
-
-    if (progress && (k % progress_every == 0))
-      progress(static_cast<double>(k) / static_cast<double>(n_samples));
+    if (progress && (k % progress_every == 0)) progress(static_cast<double>(k) / static_cast<double>(n_samples));
   }
   if (progress) progress(1.0);
   return trace;

@@ -1,0 +1,86 @@
+// What the subcommands share: option groups, reading the input, writing
+// JSON and reports, and the Command interface each subcommand implements
+// (one file per subcommand in this folder; main.cpp lists them).
+#pragma once
+#include <CLI/CLI.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "diagnose/diagnose.hpp"
+#include "identify/identify.hpp"
+#include "io/csv_trace.hpp"
+#include "monitor/monitor.hpp"
+#include "sim/drive_sim.hpp"
+
+namespace feedid::host::cli {
+
+/// The drive, controller, motion and sensor options of simulate and demo.
+void add_sim_options(CLI::App* c, SimConfig& s);
+
+/// --bad-rows, for every command that reads a trace CSV.
+void add_bad_row_option(CLI::App* c, CsvColumns& cols);
+
+/// The input options beside the columns: axis and force label (units.hpp), and a list of recordings.
+struct InputOptions {
+  Axis axis = Axis::linear;
+  std::string force_label;
+  std::string in_list;  ///< --in-list: recordings with their own options (read_input_list)
+  Units units() const { return units_for(axis, force_label); }
+};
+
+/// Reads the traces (--in, then --in-list); prints the error, or a note of
+/// the rows left out.
+bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, const CsvColumns& cols, CsvResult& out);
+
+/// Columns, scales, units and bad rows: the input options of every command
+/// that reads a trace CSV.
+void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u);
+
+/// The options of identify and diagnose: input, conventions, method.
+void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method);
+
+/// Writes j to path; prints the error and returns false when it cannot.
+bool write_json(const std::string& path, const nlohmann::json& j);
+
+/// simulate() with progress on stderr.
+Trace run_simulation(const SimConfig& cfg);
+
+/// Prints the identify summary, writes its JSON if asked; the exit code.
+int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth);
+
+/// Whether identify streams: asked, or one CSV above 512 MB (loading it
+/// would take several times its size in memory).
+bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool asked);
+
+/// `feedid monitor` on one log, streamed; the exit code.
+int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
+                const std::string& plot_path, MonitorOptions opt);
+
+/// The diagnosis page, if a folder was given; the exit code.
+int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source);
+
+/// One subcommand: its options (add) and what it does (run).
+struct Command {
+  CLI::App* app = nullptr;
+  virtual ~Command() = default;
+  virtual void add(CLI::App& parent) = 0;
+  virtual int run() = 0;
+};
+
+std::unique_ptr<Command> make_simulate_command();
+std::unique_ptr<Command> make_identify_command();
+std::unique_ptr<Command> make_validate_command();
+std::unique_ptr<Command> make_diagnose_command();
+std::unique_ptr<Command> make_monitor_command();
+std::unique_ptr<Command> make_compensate_command();
+std::unique_ptr<Command> make_circle_command();
+std::unique_ptr<Command> make_blind_bench_command();
+std::unique_ptr<Command> make_coverage_command();
+std::unique_ptr<Command> make_bench_command();
+std::unique_ptr<Command> make_demo_command();
+
+}  // namespace feedid::host::cli

@@ -1,0 +1,41 @@
+// `feedid monitor` (cli_common.hpp: the shared options and the Command interface).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "monitor/monitor.hpp"
+#include "cli_common.hpp"
+
+
+namespace feedid::host::cli {
+namespace {
+
+struct MonitorCommand : Command {
+  MonitorOptions opt;
+  CsvColumns cols;
+  InputOptions input;
+  std::string in_path, json_path, plot_path;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
+    app->add_option("--in", in_path, "log CSV, read row by row")->required();
+    app->add_option("--json", json_path, "write epochs and alarms as JSON");
+    app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
+    app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
+    app->add_option("--reference-epochs", opt.detector.reference_epochs, "epochs pooled into each parameter's reference")
+        ->capture_default_str()->check(CLI::Range(3, 16));
+    app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
+        ->capture_default_str();
+    add_input_options(app, cols, input);
+  }
+  int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, opt); }
+};
+
+}  // namespace
+
+std::unique_ptr<Command> make_monitor_command() { return std::make_unique<MonitorCommand>(); }
+
+}  // namespace feedid::host::cli

@@ -1,0 +1,57 @@
+// `feedid validate` (cli_common.hpp: the shared options and the Command interface).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "report/report.hpp"
+#include "validate/validate.hpp"
+#include "cli_common.hpp"
+
+namespace feedid::host::cli {
+namespace {
+
+struct ValidateCommand : Command {
+  std::vector<std::string> in_path;
+  std::string model_path, json_path, plot_path;
+  CsvColumns cols;
+  InputOptions input;
+  ValidateOptions opt;
+  void add(CLI::App& parent) override {
+    app = parent.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
+    app->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
+    app->add_option("--in", in_path, "trace CSV or .mat to predict; repeat for several recordings");
+    app->add_option("--json", json_path, "write the result as JSON");
+    add_input_options(app, cols, input);
+    app->add_option("--filter", opt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();
+    app->add_option("--decimate", opt.decimate, "decimation factor of the protocol (1 = none)")->capture_default_str();
+    app->add_option("--drop-first", opt.drop_first, "samples dropped at the start")->capture_default_str();
+    app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
+  }
+  int run() override {
+    const DriveParams model = model_from_json(read_json_file(model_path));  // errors reach main's handler
+    CsvResult csv;
+    if (!read_trace(in_path, input, cols, csv)) return 2;
+    opt.units = input.units();
+    const ValidateResult r = validate(model, csv.trace, opt);
+    std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
+                r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
+                r.units.force.c_str());
+    if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
+    std::string err;
+    if (!plot_path.empty() && !write_force_plot_svg(r, plot_path, "Cross-test: " + csv.trace.source, err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    return 0;
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Command> make_validate_command() { return std::make_unique<ValidateCommand>(); }
+
+}  // namespace feedid::host::cli
