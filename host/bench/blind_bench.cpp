@@ -147,52 +147,80 @@ struct EffectScale {
 /// diagnosis's names. Delays start at 1.5 periods: up to about one period
 /// (0.6 beyond a held command's -1/2) a lag is what logging conventions
 /// explain, and the diagnosis does not name it (docs/diagnosis.md, "Timing").
+/// Draws an effect outside the catalogue: a vibrating auxiliary unit, or a load force that wanders.
+void draw_unexplained(Rng& rng, Effects& e) {
+  if (rng.integer(0, 1) == 0) {
+    e.disturbance_amplitude_N = rng.uniform(3.0, 15.0);
+    e.disturbance_frequency_hz = rng.log_uniform(0.7, 7.0);
+    e.disturbance_phase_rad = rng.uniform(0.0, 2.0 * kPi);
+  } else {
+    e.wander_force_N = rng.uniform(3.0, 10.0);
+    e.wander_time_constant_s = rng.uniform(1.0, 5.0);
+  }
+}
+
+/// Draws one catalogue effect's parameters into e; the force at top speed
+/// of a quadratic viscous term (0 for the others).
+double draw_catalogue_effect(Effect which, Rng& rng, const EffectScale& s, Effects& e) {
+  switch (which) {
+    case Effect::offset: {
+      const double sign = rng.sign();  // draws in a fixed order (operand order is unspecified)
+      e.offset_N = sign * rng.uniform(3.0, 20.0);
+      break;
+    }
+    case Effect::position_ripple:
+      e.ripple_amplitude_N = rng.uniform(2.0, 10.0);
+      e.ripple_period_m = rng.log_uniform(2e-3, std::min(20e-3, s.travel / 5.0));
+      e.ripple_phase_rad = rng.uniform(0.0, 2.0 * kPi);
+      break;
+    case Effect::position_friction: {
+      e.position_friction_N = rng.uniform(5.0, 20.0);
+      const double width = rng.uniform(0.2, 0.4) * s.travel;
+      e.position_friction_x_min_m = s.x_lo + rng.uniform(0.05 * s.travel, 0.95 * s.travel - width);
+      e.position_friction_x_max_m = e.position_friction_x_min_m + width;
+      break;
+    }
+    case Effect::thermal_drift:
+      e.drift_fraction = rng.uniform(0.2, 0.6);
+      e.drift_time_constant_s = rng.uniform(10.0, std::min(40.0, s.duration / 2.0));
+      break;
+    case Effect::quadratic_viscous: {
+      // c2 v_fast^2 = r sigma v_fast, r in U(0.1, 0.25), and at least 8 N.
+      const double top_speed_force = std::max(rng.uniform(0.1, 0.25) * s.sigma * s.v_fast, 8.0);
+      e.quadratic_c2_Ns2_m2 = top_speed_force / (s.v_fast * s.v_fast);
+      return top_speed_force;
+    }
+    case Effect::presliding_hysteresis:
+      e.presliding_force_N = rng.uniform(0.3, 0.8) * s.fc;
+      e.presliding_distance_m = rng.log_uniform(5e-6, 50e-6);
+      break;
+    case Effect::compliance:
+      e.compliance_frequency_hz = rng.uniform(15.0, 60.0);
+      e.compliance_mass_fraction = rng.uniform(0.2, 0.5);
+      e.compliance_damping_ratio = rng.uniform(0.03, 0.08);
+      break;
+    case Effect::delay: e.delay_s = rng.uniform(1.5, 5.0) * s.dt; break;
+    case Effect::disturbance:
+    case Effect::wander: break;  // drawn by draw_unexplained
+  }
+  return 0.0;
+}
+
+/// Sets one effect's parameters in c.effects; returns its truth in the
+/// diagnosis's names. Delays start at 1.5 periods: up to about one period
+/// (0.6 beyond a held command's -1/2) a lag is what logging conventions
+/// explain, and the diagnosis does not name it (docs/diagnosis.md, "Timing").
 nlohmann::json draw_effect(const std::string& label, Rng& rng, const EffectScale& s, SimConfig& c) {
   Effects& e = c.effects;
   double top_speed_force = 0.0;
-  if (label == "offset") {
-    const double sign = rng.sign();  // draws in a fixed order (operand order is unspecified)
-    e.offset_N = sign * rng.uniform(3.0, 20.0);
-  } else if (label == "position_ripple") {
-    e.ripple_amplitude_N = rng.uniform(2.0, 10.0);
-    e.ripple_period_m = rng.log_uniform(2e-3, std::min(20e-3, s.travel / 5.0));
-    e.ripple_phase_rad = rng.uniform(0.0, 2.0 * kPi);
-  } else if (label == "position_friction") {
-    e.position_friction_N = rng.uniform(5.0, 20.0);
-    const double width = rng.uniform(0.2, 0.4) * s.travel;
-    e.position_friction_x_min_m = s.x_lo + rng.uniform(0.05 * s.travel, 0.95 * s.travel - width);
-    e.position_friction_x_max_m = e.position_friction_x_min_m + width;
-  } else if (label == "thermal_drift") {
-    e.drift_fraction = rng.uniform(0.2, 0.6);
-    e.drift_time_constant_s = rng.uniform(10.0, std::min(40.0, s.duration / 2.0));
-  } else if (label == "quadratic_viscous") {
-    // c2 v_fast^2 = r sigma v_fast, r in U(0.1, 0.25), and at least 8 N.
-    top_speed_force = std::max(rng.uniform(0.1, 0.25) * s.sigma * s.v_fast, 8.0);
-    e.quadratic_c2_Ns2_m2 = top_speed_force / (s.v_fast * s.v_fast);
-  } else if (label == "presliding_hysteresis") {
-    e.presliding_force_N = rng.uniform(0.3, 0.8) * s.fc;
-    e.presliding_distance_m = rng.log_uniform(5e-6, 50e-6);
-  } else if (label == "compliance") {
-    e.compliance_frequency_hz = rng.uniform(15.0, 60.0);
-    e.compliance_mass_fraction = rng.uniform(0.2, 0.5);
-    e.compliance_damping_ratio = rng.uniform(0.03, 0.08);
-  } else if (label == "delay") {
-    e.delay_s = rng.uniform(1.5, 5.0) * s.dt;
-  } else if (label == "unexplained") {
-    // Outside the catalogue: a vibrating auxiliary unit, or a load force that wanders.
-    if (rng.integer(0, 1) == 0) {
-      e.disturbance_amplitude_N = rng.uniform(3.0, 15.0);
-      e.disturbance_frequency_hz = rng.log_uniform(0.7, 7.0);
-      e.disturbance_phase_rad = rng.uniform(0.0, 2.0 * kPi);
-    } else {
-      e.wander_force_N = rng.uniform(3.0, 10.0);
-      e.wander_time_constant_s = rng.uniform(1.0, 5.0);
-    }
-  }
+  if (label == "unexplained") draw_unexplained(rng, e);
+  else if (const EffectInfo* info = find_effect(label)) top_speed_force = draw_catalogue_effect(info->effect, rng, s, e);
   const nlohmann::json on = effects_json(e, c.drive);
-  nlohmann::json truth = on.at(label != "unexplained" ? label : (e.wander_force_N > 0 ? "wander" : "disturbance"));
-  if (label == "quadratic_viscous") truth["force_at_top_speed_N"] = top_speed_force;
-  if (label == "delay") truth["delay_samples"] = e.delay_s / s.dt;
+  const char* key = label != "unexplained" ? label.c_str()
+                                           : effect_name(e.wander_force_N > 0 ? Effect::wander : Effect::disturbance);
+  nlohmann::json truth = on.at(key);
+  if (label == effect_name(Effect::quadratic_viscous)) truth["force_at_top_speed_N"] = top_speed_force;
+  if (label == effect_name(Effect::delay)) truth["delay_samples"] = e.delay_s / s.dt;
   return truth;
 }
 
@@ -262,7 +290,7 @@ void draw_effects(Rng& rng, const std::string& label, const EffectScale& scale, 
   if (label == "pair") {
     std::vector<std::string> pool;
     for (const std::string& k : effect_kinds())
-      if (k != "offset") pool.push_back(k);
+      if (k != effect_name(Effect::offset)) pool.push_back(k);
     const std::size_t a = static_cast<std::size_t>(rng.integer(0, static_cast<int>(pool.size()) - 1));
     std::size_t b = static_cast<std::size_t>(rng.integer(0, static_cast<int>(pool.size()) - 2));
     if (b >= a) ++b;
@@ -373,7 +401,7 @@ Verdict diagnose_blind(const Trace& trace) {
     // by direction (the data cannot separate them): that report names it.
     for (const auto& a : r.ambiguities)
       if (r.effect == "none" && a.contains("offset_N")) {
-        v.effect = "offset";
+        v.effect = effect_name(Effect::offset);
         v.parameters = {{"force_N", a["offset_N"]}};
       }
     for (const auto& e : r.effects) v.named.push_back(e.kind);
@@ -444,17 +472,10 @@ struct ParamError {
   double key = kNaN, second = kNaN;
 };
 
-/// Name of the key and secondary parameter per effect (diagnosis JSON names).
+/// Name of the key and secondary parameter per effect (diagnosis JSON names; effects.hpp).
 std::pair<std::string, std::string> param_names(const std::string& kind) {
-  if (kind == "offset") return {"force_N", ""};
-  if (kind == "position_ripple") return {"period_m", "amplitude_N"};
-  if (kind == "position_friction") return {"x_min_m..x_max_m (error / width)", "delta_N"};
-  if (kind == "thermal_drift") return {"time_constant_s", "viscous_change_Ns_m"};
-  if (kind == "quadratic_viscous") return {"c2", ""};
-  if (kind == "presliding_hysteresis") return {"distance_m", "force_N"};
-  if (kind == "compliance") return {"frequency_hz", "load_mass_kg"};
-  if (kind == "delay") return {"delay_s", ""};
-  return {"", ""};
+  const EffectInfo* i = find_effect(kind);
+  return i ? std::pair<std::string, std::string>{i->key, i->second} : std::pair<std::string, std::string>{"", ""};
 }
 
 ParamError parameter_error(const std::string& kind, const nlohmann::json& truth, const nlohmann::json& fit) {
@@ -496,13 +517,8 @@ std::string fmt(const char* f, double x) {
 
 /// Short column names for the confusion matrix.
 std::string short_name(const std::string& l) {
-  if (l == "position_ripple") return "ripple";
-  if (l == "position_friction") return "pos_fric";
-  if (l == "thermal_drift") return "drift";
-  if (l == "quadratic_viscous") return "quadratic";
-  if (l == "presliding_hysteresis") return "presliding";
-  if (l == "unexplained") return "unexplained";
-  return l;
+  const EffectInfo* i = find_effect(l);
+  return i ? i->short_name : l;
 }
 
 std::string machine_description() {
@@ -857,36 +873,44 @@ nlohmann::json effects_json(const Effects& e, const DriveParams& d) {
   const double sigma = 0.5 * (d.pos.viscous_Ns_m + d.neg.viscous_Ns_m);
   const double fc = 0.5 * (d.pos.coulomb_N + d.neg.coulomb_N);
   nlohmann::json j = nlohmann::json::object();
-  for (const std::string& k : active_effects(e)) {
-    if (k == "offset") {
-      j[k] = {{"force_N", e.offset_N}};
-    } else if (k == "position_ripple") {
-      j[k] = {{"period_m", e.ripple_period_m}, {"amplitude_N", e.ripple_amplitude_N}, {"phase_rad", e.ripple_phase_rad}};
-    } else if (k == "position_friction") {
-      j[k] = {{"x_min_m", e.position_friction_x_min_m}, {"x_max_m", e.position_friction_x_max_m},
-              {"delta_N", e.position_friction_N}};
-    } else if (k == "thermal_drift") {
-      j[k] = {{"time_constant_s", e.drift_time_constant_s}, {"fraction", e.drift_fraction},
-              {"viscous_change_Ns_m", e.drift_fraction * sigma}, {"coulomb_change_N", 0.3 * e.drift_fraction * fc}};
-    } else if (k == "quadratic_viscous") {
-      j[k] = {{"c2", e.quadratic_c2_Ns2_m2}, {"c2_unit", "N s^2/m^2"}};
-    } else if (k == "presliding_hysteresis") {
-      j[k] = {{"distance_m", e.presliding_distance_m}, {"force_N", e.presliding_force_N}};
-    } else if (k == "compliance") {
-      const double mu = e.compliance_mass_fraction;
-      j[k] = {{"frequency_hz", e.compliance_frequency_hz},
-              {"load_frequency_hz", e.compliance_frequency_hz * std::sqrt(1.0 - mu)},
-              {"load_mass_kg", d.mass_kg * mu},
-              {"mass_fraction", mu},
-              {"damping_ratio", e.compliance_damping_ratio}};
-    } else if (k == "delay") {
-      j[k] = {{"delay_s", e.delay_s}};
-    } else if (k == "disturbance") {
-      j[k] = {{"disturbance_amplitude_N", e.disturbance_amplitude_N},
-              {"disturbance_frequency_hz", e.disturbance_frequency_hz},
-              {"disturbance_phase_rad", e.disturbance_phase_rad}};
-    } else if (k == "wander") {
-      j[k] = {{"wander_force_N", e.wander_force_N}, {"wander_time_constant_s", e.wander_time_constant_s}};
+  for (const EffectInfo& info : effect_table()) {
+    if (!effect_on(e, info.effect)) continue;
+    nlohmann::json& x = j[info.name];
+    switch (info.effect) {
+      case Effect::offset: x = {{"force_N", e.offset_N}}; break;
+      case Effect::position_ripple:
+        x = {{"period_m", e.ripple_period_m}, {"amplitude_N", e.ripple_amplitude_N}, {"phase_rad", e.ripple_phase_rad}};
+        break;
+      case Effect::position_friction:
+        x = {{"x_min_m", e.position_friction_x_min_m}, {"x_max_m", e.position_friction_x_max_m},
+             {"delta_N", e.position_friction_N}};
+        break;
+      case Effect::thermal_drift:
+        x = {{"time_constant_s", e.drift_time_constant_s}, {"fraction", e.drift_fraction},
+             {"viscous_change_Ns_m", e.drift_fraction * sigma}, {"coulomb_change_N", 0.3 * e.drift_fraction * fc}};
+        break;
+      case Effect::quadratic_viscous: x = {{"c2", e.quadratic_c2_Ns2_m2}, {"c2_unit", "N s^2/m^2"}}; break;
+      case Effect::presliding_hysteresis:
+        x = {{"distance_m", e.presliding_distance_m}, {"force_N", e.presliding_force_N}};
+        break;
+      case Effect::compliance: {
+        const double mu = e.compliance_mass_fraction;
+        x = {{"frequency_hz", e.compliance_frequency_hz},
+             {"load_frequency_hz", e.compliance_frequency_hz * std::sqrt(1.0 - mu)},
+             {"load_mass_kg", d.mass_kg * mu},
+             {"mass_fraction", mu},
+             {"damping_ratio", e.compliance_damping_ratio}};
+        break;
+      }
+      case Effect::delay: x = {{"delay_s", e.delay_s}}; break;
+      case Effect::disturbance:
+        x = {{"disturbance_amplitude_N", e.disturbance_amplitude_N},
+             {"disturbance_frequency_hz", e.disturbance_frequency_hz},
+             {"disturbance_phase_rad", e.disturbance_phase_rad}};
+        break;
+      case Effect::wander:
+        x = {{"wander_force_N", e.wander_force_N}, {"wander_time_constant_s", e.wander_time_constant_s}};
+        break;
     }
   }
   return j;

@@ -582,7 +582,7 @@ void report_offset_ambiguity(const Model& m, const DiagnoseOptions& opt, Diagnos
   if (!(mean_fc > 0) || std::fabs(asym) <= opt.offset_asymmetry_ratio * mean_fc) return;
   const std::string& N = opt.identify.units.force;
   out.ambiguities.push_back(
-      {{"kinds", {"offset", "coulomb_asymmetry"}},
+      {{"kinds", {effect_name(Effect::offset), "coulomb_asymmetry"}},
        {"offset_N", asym},
        {"coulomb_difference_N", fcp - fcn},
        {"note", "Coulomb friction differs by " + fmt(fcp - fcn, N) + " between directions (" +

@@ -11,15 +11,9 @@
 
 #include "identify/identify.hpp"
 #include "io/trace.hpp"
+#include "model/effects.hpp"
 
 namespace feedid::host {
-
-/// The catalogue (NOTES.md), plus the two verdicts.
-inline const std::vector<std::string>& effect_kinds() {
-  static const std::vector<std::string> k = {"offset", "position_ripple", "position_friction", "thermal_drift",
-                                             "quadratic_viscous", "presliding_hysteresis", "compliance", "delay"};
-  return k;
-}
 
 struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)

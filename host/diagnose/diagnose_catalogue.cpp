@@ -1,5 +1,7 @@
 #include "diagnose_catalogue.hpp"
 
+#include "model/effects.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -17,7 +19,7 @@ double sign_of(const Segment& sg) { return sg.v > 0 ? 1.0 : -1.0; }
 
 EffectModel offset_model(const Observations& obs) {
   EffectModel m;
-  m.kind = "offset";
+  m.kind = effect_name(Effect::offset);
   m.columns = [&obs](double, Observations::Resolution r) {
     return obs.segment_columns(1, false, r, [](std::size_t, const Segment&, double* out) { out[0] = 1.0; });
   };
@@ -31,7 +33,7 @@ EffectModel offset_model(const Observations& obs) {
 /// end's e^{i phi} serves twice: one sincos per segment.
 EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
-  m.kind = "position_ripple";
+  m.kind = effect_name(Effect::position_ripple);
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
   m.continuous = true;
   m.columns = [&obs](double p, Observations::Resolution r) {
@@ -63,7 +65,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
 EffectModel position_friction_model(const Observations& obs, const TraceExtent& e) {
   constexpr int cells = 200, coarse = 10;
   EffectModel m;
-  m.kind = "position_friction";
+  m.kind = effect_name(Effect::position_friction);
   for (int a = 0; a < cells; a += coarse)
     for (int b = a + coarse; b <= cells; b += coarse)
       if (!(a == 0 && b == cells)) m.grid.push_back(a * 1000 + b);
@@ -99,7 +101,7 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
 /// Viscous and Coulomb friction decaying with time constant tc as the drive warms.
 EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
-  m.kind = "thermal_drift";
+  m.kind = effect_name(Effect::thermal_drift);
   m.grid = log_grid(std::max(1.0, 0.02 * e.duration), 5.0 * e.duration, 40);
   m.continuous = true;
   m.columns = [&obs, t0 = e.t0](double tc, Observations::Resolution r) {
@@ -118,7 +120,7 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e) {
 /// c2 v|v|, at every interval (no grid, one pass).
 EffectModel quadratic_viscous_model(const Observations& obs) {
   EffectModel m;
-  m.kind = "quadratic_viscous";
+  m.kind = effect_name(Effect::quadratic_viscous);
   m.columns = [&obs](double, Observations::Resolution) {
     Mat c(static_cast<Eigen::Index>(obs.size()), 1);
     c.col(0) = obs.sample_column([&obs](std::size_t j) {
@@ -138,7 +140,7 @@ EffectModel quadratic_viscous_model(const Observations& obs) {
 /// the last reversal or start from rest.
 EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
-  m.kind = "presliding_hysteresis";
+  m.kind = effect_name(Effect::presliding_hysteresis);
   m.fine_grid = true;  // it builds up within a few ms of a reversal: a whole block is too coarse
   m.grid = log_grid(1e-6, std::min(2e-3, e.travel / 4), 40);
   const std::size_t n = m.grid.size();
@@ -196,7 +198,7 @@ std::vector<double> load_acceleration(const Observations& obs, Observations::Res
 /// Compliance: the base model misses m2 (a2 - a1).
 EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
-  m.kind = "compliance";
+  m.kind = effect_name(Effect::compliance);
   const double f_top = std::min(0.25 * e.sample_rate_hz, 400.0);
   m.grid = log_grid(3.0, f_top, 50);
   m.continuous = true;
@@ -227,7 +229,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
 /// near -1), d by grid search. Exact for any d, unlike u - d du/dt.
 EffectModel delay_model(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s) {
   EffectModel m;
-  m.kind = "delay";
+  m.kind = effect_name(Effect::delay);
   m.grid = log_grid(0.2 / e.sample_rate_hz, 25.0 / e.sample_rate_hz, 40);
   m.continuous = true;
   m.columns = [&obs, h = 0.5 / e.sample_rate_hz](double d, Observations::Resolution r) {

@@ -437,18 +437,26 @@ class Plant {
 
 }  // namespace
 
+bool effect_on(const Effects& e, Effect which) {
+  switch (which) {
+    case Effect::offset: return e.offset_N != 0.0;
+    case Effect::position_ripple: return e.ripple_amplitude_N != 0.0;
+    case Effect::position_friction: return e.position_friction_N != 0.0;
+    case Effect::thermal_drift: return e.drift_fraction != 0.0;
+    case Effect::quadratic_viscous: return e.quadratic_c2_Ns2_m2 != 0.0;
+    case Effect::presliding_hysteresis: return e.presliding_force_N != 0.0;
+    case Effect::compliance: return e.compliance_frequency_hz != 0.0;
+    case Effect::delay: return e.delay_s != 0.0;
+    case Effect::disturbance: return e.disturbance_amplitude_N != 0.0;
+    case Effect::wander: return e.wander_force_N != 0.0;
+  }
+  return false;
+}
+
 std::vector<std::string> active_effects(const Effects& e) {
   std::vector<std::string> on;
-  if (e.offset_N != 0.0) on.push_back("offset");
-  if (e.ripple_amplitude_N != 0.0) on.push_back("position_ripple");
-  if (e.position_friction_N != 0.0) on.push_back("position_friction");
-  if (e.drift_fraction != 0.0) on.push_back("thermal_drift");
-  if (e.quadratic_c2_Ns2_m2 != 0.0) on.push_back("quadratic_viscous");
-  if (e.presliding_force_N != 0.0) on.push_back("presliding_hysteresis");
-  if (e.compliance_frequency_hz != 0.0) on.push_back("compliance");
-  if (e.delay_s != 0.0) on.push_back("delay");
-  if (e.disturbance_amplitude_N != 0.0) on.push_back("disturbance");
-  if (e.wander_force_N != 0.0) on.push_back("wander");
+  for (const EffectInfo& i : effect_table())
+    if (effect_on(e, i.effect)) on.push_back(i.name);
   return on;
 }
 

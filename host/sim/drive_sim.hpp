@@ -15,6 +15,7 @@
 #include "motion_path.hpp"
 #include "io/trace.hpp"
 #include "model/drive_model.hpp"
+#include "model/effects.hpp"
 
 namespace feedid::host {
 
@@ -144,6 +145,8 @@ double load_force(const Effects& e, double t_s, double x_m);
 /// catalogue order, followed by "disturbance" / "wander" for the two outside
 /// the catalogue. Empty when none is on.
 std::vector<std::string> active_effects(const Effects& e);
+/// Whether one effect is switched on in e.
+bool effect_on(const Effects& e, Effect which);
 
 /// A change in service at one instant (friction health, `feedid monitor`):
 /// from time_s on, the Coulomb and viscous friction of the chosen

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "diagnose/diagnose.hpp"  // effect_kinds() only (inline, no link dependency)
+#include "model/effects.hpp"
 #include "sim/drive_sim.hpp"
 
 namespace {
