@@ -21,7 +21,7 @@ enum class Status : uint8_t {
   rejected_out_of_range,         ///< |v| > max_speed_m_s or |u| > max_force_N
   rejected_velocity_jump,        ///< |dv| > max_acceleration_m_s2*dt + 4*velocity_resolution
   insufficient_data,             ///< solve(): nothing identifiable yet (see estimate flags)
-  numerical_error,               ///< solve(): normal equations singular or result not finite
+  numerical_error,               ///< solve(): a running sum or the result is not finite (a singular fit sets flag_fit_failed instead)
 };
 
 inline const char* status_name(Status s) {
@@ -166,7 +166,7 @@ struct Diagnostics {
   uint32_t continuity_breaks = 0;    ///< gaps longer than max_gap_s
   uint32_t sections_complete[2] = {0, 0};  ///< [pos, neg] rest-to-rest sections
   uint32_t sections_short = 0;       ///< opened and closed within min_section_s
-  uint32_t sections_split = 0;       ///< folded early (max_fold_s or a gap)
+  uint32_t sections_split = 0;       ///< folded early (max_fold_s, a gap, or a solve() while it was open)
   uint32_t mass_windows = 0;
   uint32_t folds = 0;
 };

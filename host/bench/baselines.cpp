@@ -92,6 +92,8 @@ RegressionRows rows_from(const Prepared& p, const BaselineOptions& opt) {
   const std::size_t n = s.t.size();
   r.velocity_min_m_s = p.v_min;
   r.velocity_max_m_s = p.v_max;
+  r.stribeck_lo_m_s = p.stribeck_lo;
+  r.stribeck_hi_m_s = p.stribeck_hi;
   r.sample_rate_hz = s.sample_rate_hz;
   std::vector<double> vf, uf;
   if (opt.filter_hz > 0 && n > 16) {
@@ -441,12 +443,12 @@ BaselineResult genetic_algorithm(const Trace& trace, const BaselineOptions& opt)
   if (!rows_for(trace, opt, "ga", t0, out, r)) return out;
   // Search box around the linear start (a practitioner's "order of magnitude"
   // box): m, sigma in [0.5, 2] x start; Fc, Fs in [0, 2 |Fc start| + 1 N];
-  // ln vs over the core's Stribeck search range [v_min/2, v_max/4].
+  // ln vs over the core's Stribeck search range (detail::stribeck_lo/hi).
   out.start = linear_start(r);
   const X c = to_x(out.start);
   X lo{}, hi{};
   lo[0] = 0.5 * std::fabs(c[0]); hi[0] = 2.0 * std::fabs(c[0]) + 1e-3;
-  const double vlo = std::log(0.5 * r.velocity_min_m_s), vhi = std::log(0.25 * r.velocity_max_m_s);
+  const double vlo = std::log(r.stribeck_lo_m_s), vhi = std::log(r.stribeck_hi_m_s);
   for (int o : {1, 5}) {
     const double fc = std::fabs(c[static_cast<std::size_t>(o)]) ;
     lo[o] = 0.0; hi[o] = 2.0 * fc + 1.0;
@@ -638,7 +640,7 @@ BaselineResult recursive_least_squares(const Trace& trace, const BaselineOptions
   const double l0 = std::log(p.stribeck_lo), l1 = std::log(p.stribeck_hi);
   const double lstep = (l1 - l0) / (K - 1);
   for (int i = 0; i < K; ++i) f[static_cast<std::size_t>(i)].init(std::exp(l0 + lstep * i), opt.rls_initial_covariance);
-  const double dt_nom = p.s.sample_rate_hz > 0 ? 1.0 / p.s.sample_rate_hz : 1e-3;
+  const double dt_nom = p.s.period_s();
   const double lambda = std::clamp(1.0 - dt_nom / opt.rls_memory_s, 0.5, 1.0);
   out.rows = run_rls_bank(p, opt, lambda, f);
   out.iterations = static_cast<long>(out.rows);

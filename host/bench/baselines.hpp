@@ -102,6 +102,7 @@ struct RegressionRows {
   std::vector<double> v, a, u;    ///< m/s, m/s^2, N
   std::size_t n_pos = 0;
   double velocity_min_m_s = 0.0, velocity_max_m_s = 0.0;
+  double stribeck_lo_m_s = 0.0, stribeck_hi_m_s = 0.0;  ///< the core's Stribeck search range for this trace
   double filter_hz = 0.0;         ///< cut-off actually used
   double sample_rate_hz = 0.0;
 };

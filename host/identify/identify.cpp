@@ -95,7 +95,7 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
 /// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
                  const LagEstimate* found = nullptr) {
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double dt = s.period_s();
   double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
   if (std::isfinite(opt.force_lag_s)) {
@@ -294,7 +294,10 @@ Signals read_signals(const Trace& trace) {
     s.u[k] = trace.samples[k].u_N;
   }
   const double dt = median_step(s.t);
-  s.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
+  // Readers reject non-increasing time, so only a trace of fewer than two
+  // samples gets here without a rate; nothing downstream can use it.
+  if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to identify with");
+  s.sample_rate_hz = 1.0 / dt;
   s.has_position = trace.has_position;
   s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
   if (!trace.has_velocity && !trace.has_position)
@@ -327,7 +330,7 @@ struct VelocityTiming {
 };
 
 VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double dt = s.period_s();
   const double stated = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : std::numeric_limits<double>::quiet_NaN();
   VelocityTiming v;
   if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
@@ -434,7 +437,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
 
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
   feedid::Config<double> c;
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double dt = s.period_s();
   // Velocity resolution: the encoder quantum per sample period, or the white
   // noise of the velocity (second differences), whichever is larger; a
   // velocity column that was integrated and derived again keeps its own.

@@ -114,7 +114,8 @@ struct Signals {
     return p;
   }
   bool has_position = false;          ///< x is a logged position (not zeros)
-  double sample_rate_hz = 0.0;        ///< from the median time step
+  double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
+  double period_s() const { return 1.0 / sample_rate_hz; }
   double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
   /// Sample noise of a velocity column that was integrated and derived
   /// again (no position logged), kept for the velocity resolution (m/s).

@@ -199,6 +199,52 @@ std::pair<int, int> complete_strokes(const host::MotionParams& m) {
   return {counts[0], counts[1]};
 }
 
+// solve() on target runs periodically while samples keep arriving. It folds
+// and splits the section open at that moment (docs/reference.md, "solve()
+// while moving"): that one section no longer counts for the paper method,
+// and nothing else changes.
+TEST(Stream, PeriodicSolveSplitsOnlyTheOpenSectionAndKeepsTheBandsEstimate) {
+  // GIVEN 60 s of the default drive streamed twice, once solved every 5 s on the way
+  test::SimSpec spec;
+  spec.rate_hz = 4000.0;
+  const host::SimConfig sc = test::sim_config(spec);
+  const host::Trace tr = host::simulate(sc);
+  auto once = std::make_unique<Estimator<double>>(), periodic = std::make_unique<Estimator<double>>();
+  ASSERT_EQ(once->init(test::default_config<double>(sc)), Status::ok);
+  ASSERT_EQ(periodic->init(test::default_config<double>(sc)), Status::ok);
+  const std::size_t every = static_cast<std::size_t>(5.0 * spec.rate_hz);
+  unsigned mid_solves = 0;
+  for (std::size_t k = 0; k < tr.samples.size(); ++k) {
+    const double dt = k == 0 ? 0.0 : tr.samples[k].t_s - tr.samples[k - 1].t_s;
+    (void)once->push(test::to_sample<double>(tr.samples[k], dt));
+    (void)periodic->push(test::to_sample<double>(tr.samples[k], dt));
+    if (k > 0 && k % every == 0) {
+      EXPECT_EQ(periodic->solve(), Status::ok) << "mid-stream solve at sample " << k;
+      ++mid_solves;
+    }
+  }
+  ASSERT_EQ(once->solve(), Status::ok);
+  ASSERT_EQ(periodic->solve(), Status::ok);
+  // THEN at most one section per mid-stream solve is split and lost to the paper method
+  const Diagnostics& a = once->diagnostics();
+  const Diagnostics& b = periodic->diagnostics();
+  EXPECT_GE(b.sections_split, a.sections_split);
+  EXPECT_LE(b.sections_split, a.sections_split + mid_solves);
+  const unsigned complete_a = a.sections_complete[0] + a.sections_complete[1];
+  const unsigned complete_b = b.sections_complete[0] + b.sections_complete[1];
+  EXPECT_LE(complete_b, complete_a);
+  EXPECT_GE(complete_b + mid_solves, complete_a);
+  EXPECT_GT(complete_b, 20u) << "the paper method keeps the sections no solve fell into";
+  // AND the bands estimate is the same (the bands do not need whole sections)
+  const Estimate<double>& ea = once->estimate();
+  const Estimate<double>& eb = periodic->estimate();
+  EXPECT_NEAR(eb.mass_kg, ea.mass_kg, 1e-3 * ea.mass_kg);
+  EXPECT_NEAR(eb.pos.coulomb_N, ea.pos.coulomb_N, 1e-3 * ea.pos.coulomb_N);
+  EXPECT_NEAR(eb.neg.viscous_Ns_m, ea.neg.viscous_Ns_m, 1e-3 * ea.neg.viscous_Ns_m);
+  // AND the paper method still solves on what is left
+  EXPECT_EQ(periodic->solve(Method::paper), Status::ok);
+}
+
 struct SectionCase {
   double mass_kg, rate_hz;
 };

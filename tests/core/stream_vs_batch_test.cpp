@@ -90,7 +90,7 @@ StreamResult run_stream(const std::vector<Sample<double>>& samples, const Config
   for (const auto& s : samples) r.verdicts.push_back(core->push(s));
   r.bands_status = core->solve(Method::bands);
   r.stats = core->statistics();
-  r.diag = core->diagnostics();  // before a second solve() counts the open section again
+  r.diag = core->diagnostics();  // before a second solve() adds its own two folds
   r.bands = core->estimate();
   r.paper_status = core->solve(Method::paper);
   r.paper = core->estimate();
