@@ -456,8 +456,7 @@ template <typename T, int Bands = 32, int Candidates = 16> class Estimator {
   FEEDID_RARE T chain_start_force_and_noise() {
     ++u_history_;
     if (u_history_ >= 3) accumulate_noise();
-    const int oldest = u_history_ - 1;
-    return pairing_.interval_force([this, oldest](int age) { return force_at(age < oldest ? age : oldest); });
+    return pairing_.interval_force_in_chain([this](int age) { return force_at(age); }, u_history_ - 1);
   }
 
   FEEDID_HOT_INLINE void accumulate_noise() {

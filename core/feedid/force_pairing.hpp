@@ -68,6 +68,12 @@ template <typename T> struct ForcePairing {
     const T a = force_at(newest_age);
     return T(0.5) * (a + force_at(newest_age + 1)) + w_oldest * (force_at(newest_age + 2) - a);
   }
+
+  /// The same within a chain that began `oldest_age` samples ago: taps
+  /// older than its start take its first force (no force from before a gap).
+  template <typename ForceAt> T interval_force_in_chain(const ForceAt& force_at, int oldest_age) const {
+    return interval_force([&force_at, oldest_age](int age) { return force_at(age < oldest_age ? age : oldest_age); });
+  }
 };
 
 }  // namespace feedid

@@ -156,7 +156,8 @@ std::vector<Interval> intervals_of(const std::vector<Point>& pts, const Config<d
     iv.end = k;
     iv.dt = pts[k].dt;
     const std::size_t in_chain = k - chain_begin;  // >= 1
-    iv.u = pairing.interval_force([&](int age) { return pts[k - std::min<std::size_t>(age, in_chain)].u; });
+    iv.u = pairing.interval_force_in_chain([&](int age) { return pts[k - static_cast<std::size_t>(age)].u; },
+                                           static_cast<int>(std::min<std::size_t>(in_chain, ForcePairing<double>::history)));
     iv.v_start = pts[k - 1].v;
     iv.v_end = pts[k].v;
     iv.v = 0.5 * (iv.v_start + iv.v_end);

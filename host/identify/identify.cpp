@@ -141,13 +141,9 @@ nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
 
 double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
                     std::size_t first) {
-  return p.interval_force([&](int age) {
-    const std::size_t back = std::min<std::size_t>(static_cast<std::size_t>(age), k - first);
-    return u[k - back];
-  });
+  const auto oldest = static_cast<int>(std::min<std::size_t>(k - first, feedid::ForcePairing<double>::history));
+  return p.interval_force_in_chain([&](int age) { return u[k - static_cast<std::size_t>(age)]; }, oldest);
 }
-
-double interval_force(const Signals& s, std::size_t k) { return paired_force(s.u, s.pairing(), k); }
 
 namespace {
 /// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.

@@ -219,8 +219,6 @@ template <typename To, typename From> feedid::Config<To> config_as(const feedid:
 /// of the chain) take u[first]. k > first.
 double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
                     std::size_t first = 0);
-/// The same for a trace's signals, with their lag.
-double interval_force(const Signals& s, std::size_t k);
 
 /// The core configuration the data calls for (docs/reference.md explains each choice).
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt);

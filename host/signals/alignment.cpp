@@ -10,14 +10,19 @@
 namespace feedid::host {
 namespace {
 
-/// v and x of `from` delayed by `delay` whole samples (the first ones repeat
-/// the first value), into `to`, which has the other columns of `from`.
+/// v and x of `from` delayed by `delay` whole samples into `to`, which has
+/// the other columns of `from` (`to` may be `from`). The first samples repeat
+/// the first value; a source across a time gap (another recording,
+/// Trace::runs) is not taken: the few samples after a gap keep their own.
 void delay_motion(const Signals& from, int delay, Signals& to) {
-  const std::size_t n = from.v.size();
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t j = k >= static_cast<std::size_t>(delay) ? k - static_cast<std::size_t>(delay) : 0;
-    to.v[k] = from.v[j];
-    to.x[k] = from.x[j];
+  const auto d = static_cast<std::size_t>(std::max(delay, 0));
+  const double span_max = from.sample_rate_hz > 0 ? 5.0 * static_cast<double>(d) / from.sample_rate_hz : 0.0;
+  // Newest first, so in place every sample reads its source before it is overwritten.
+  for (std::size_t k = from.v.size(); k-- > 0;) {
+    std::size_t src = k >= d ? k - d : 0;
+    if (d > 0 && span_max > 0 && from.t[k] - from.t[src] > span_max) src = k;
+    to.v[k] = from.v[src];
+    to.x[k] = from.x[src];
   }
   to.velocity_delay_samples = delay;
 }
@@ -211,18 +216,7 @@ double estimate_velocity_lag(const Signals& s) {
 
 void apply_force_lag(Signals& s, double lag_samples) {
   const int delay = whole_delay_for(lag_samples);
-  // Newest first, so every sample reads its source before it is overwritten.
-  // A source across a time gap (another recording, Trace::runs) is not
-  // taken: the few samples after a gap keep their own values.
-  const auto d = static_cast<std::size_t>(delay);
-  const double span_max = s.sample_rate_hz > 0 ? 5.0 * static_cast<double>(d) / s.sample_rate_hz : 0.0;
-  for (std::size_t k = s.v.size(); delay > 0 && k-- > 0;) {
-    std::size_t src = k >= d ? k - d : 0;
-    if (span_max > 0 && s.t[k] - s.t[src] > span_max) src = k;
-    s.v[k] = s.v[src];
-    s.x[k] = s.x[src];
-  }
-  s.velocity_delay_samples = delay;
+  delay_motion(s, delay, s);
   s.force_lag_samples = lag_samples - delay;
 }
 
