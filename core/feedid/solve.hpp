@@ -25,6 +25,9 @@ template <typename T> uint32_t stribeck_uncertainty_flags(const DirectionEstimat
                          e.stribeck_velocity_se > T(0.25) * e.stribeck_velocity_m_s;
   return uncertain ? static_cast<uint32_t>(flag_stribeck_uncertain) : 0u;
 }
+template <typename T> uint32_t coulomb_uncertainty_flags(const DirectionEstimate<T>& e) {
+  return e.coulomb_se > T(0.25) * port::abs(e.coulomb_N) ? static_cast<uint32_t>(flag_coulomb_uncertain) : 0u;
+}
 template <typename T> uint32_t mass_uncertainty_flags(T mass, T mass_se) {
   return mass_se > T(0.1) * port::abs(mass) ? static_cast<uint32_t>(flag_no_acceleration) : 0u;
 }
@@ -218,6 +221,7 @@ uint32_t friction_evidence_flags(const Statistics<T, Bands, C>& s, const Config<
   const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
   if (vs < floor_v) f |= flag_stribeck_below_resolution;
   f |= stribeck_uncertainty_flags(e);
+  f |= coulomb_uncertainty_flags(e);
   f |= stribeck_coverage_flags(s, d, vs);
   if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) f |= flag_not_physical;
   return f;

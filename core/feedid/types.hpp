@@ -122,6 +122,7 @@ enum Flag : uint32_t {
   flag_no_acceleration = 1u << 5,      ///< mass: too little velocity change to see inertia
   flag_not_physical = 1u << 6,         ///< a magnitude came out negative
   flag_fit_failed = 1u << 7,           ///< normal equations singular
+  flag_coulomb_uncertain = 1u << 8,    ///< rel. std error of Fc > 25 %: the data do not fix the force at zero speed
 };
 
 /// Flags that make Fs and vs of a direction unusable (the rest may be fine).
@@ -142,6 +143,8 @@ template <typename T> struct DirectionEstimate {
   uint32_t flags = 0;         ///< Flag bits
   bool friction_identified() const { return (flags & (flag_no_data | flag_fit_failed)) == 0; }
   bool stribeck_identified() const { return friction_identified() && (flags & stribeck_flags) == 0; }
+  /// Fc itself, beyond the fit: known to better than a quarter of its value.
+  bool coulomb_identified() const { return friction_identified() && (flags & flag_coulomb_uncertain) == 0; }
 };
 
 template <typename T> struct Estimate {

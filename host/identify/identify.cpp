@@ -130,7 +130,7 @@ nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
   return {
       {"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s},
       {"sigma_se", d.viscous_se}, {"fc_se", d.coulomb_se}, {"fs_se", d.breakaway_se}, {"vs_se", d.stribeck_velocity_se},
-      {"identifiable", {{"sigma", fr}, {"fc", fr}, {"fs", st}, {"vs", st}}},
+      {"identifiable", {{"sigma", fr}, {"fc", d.coulomb_identified()}, {"fs", st}, {"vs", st}}},
       {"flags", flag_names(d.flags)},
       {"sections", d.sections}, {"bands_used", d.bands_used}, {"time_in_bands_s", d.time_in_bands_s},
       {"friction_r2", d.friction_r2}, {"friction_rms_N", d.friction_rms_N},
@@ -631,8 +631,9 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
   de.viscous_se = std::sqrt(s2 * inv2.v[1]);
   de.breakaway_N = 0.0;
   de.stribeck_velocity_m_s = 0.0;
-  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical);
+  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical | feedid::flag_coulomb_uncertain);
   if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
+  de.flags |= feedid::detail::coulomb_uncertainty_flags(de);
   if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
   return m;
 }
@@ -681,7 +682,8 @@ nlohmann::json friction_model_json(const IdentifyResult& r) {
                      "velocity bands); otherwise Coulomb + viscous, with Fs = vs = 0";
   const SymmetricFriction sym = symmetric_friction(r);
   friction["symmetric"] = sym.agree ? nlohmann::json{{"fc", sym.coulomb_N}, {"fc_se", sym.coulomb_se},
-                                                     {"sigma", sym.viscous_Ns_m}, {"sigma_se", sym.viscous_se}}
+                                                     {"sigma", sym.viscous_Ns_m}, {"sigma_se", sym.viscous_se},
+                                                     {"fc_identifiable", sym.coulomb_identified()}}
                                     : nlohmann::json();
   return {{"friction", friction}};
 }
@@ -790,7 +792,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     const char* s = d == 0 ? "+" : "-";
     std::string n;
     n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
-    n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.friction_identified());
+    n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.coulomb_identified());
     n = std::string("break-away Fs") + s; line(n.c_str(), u.force, de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
     n = std::string("Stribeck vel. vs") + s; line(n.c_str(), u.velocity(), de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
     if (de.flags) {
@@ -805,7 +807,8 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   if (sym.agree) {
     const Rounded fc = round_to_se(sym.coulomb_N, sym.coulomb_se), sg = round_to_se(sym.viscous_Ns_m, sym.viscous_se);
     o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
-      << u.force << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+      << u.force << (sym.coulomb_identified() ? "" : " (not identifiable: its standard error is over 25 % of it)")
+      << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
   }
   std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
   o << buf;

@@ -131,6 +131,8 @@ void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
     *f[i] = resolved[i] ? widened : std::max(widened, u.model_se[i]);
   }
   for (auto* d : {&e.pos, &e.neg}) {
+    // Fc's rule on its widened standard error, whatever the core's said.
+    d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::detail::coulomb_uncertainty_flags(*d);
     if (d->flags & feedid::flag_stribeck_uncertain) continue;
     d->flags |= feedid::detail::stribeck_uncertainty_flags(*d);
   }

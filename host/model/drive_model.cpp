@@ -64,6 +64,7 @@ std::vector<std::string> flag_names(uint32_t flags) {
       {feedid::flag_no_acceleration, "no_acceleration"},
       {feedid::flag_not_physical, "not_physical"},
       {feedid::flag_fit_failed, "fit_failed"},
+      {feedid::flag_coulomb_uncertain, "coulomb_uncertain"},
   };
   std::vector<std::string> out;
   for (const auto& [bit, name] : names)

@@ -163,13 +163,17 @@ TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
   const nlohmann::json j = to_json(r, MonitorOptions{});
   EXPECT_EQ(j["alarms"][0]["parameter"], "fc");
   EXPECT_EQ(j["alarms"][0]["direction"], "neg");
-  // Production motion carries Fc in every epoch, vs only in those with a slow jog.
+  // Production motion carries Fc in most epochs (those whose moves in that
+  // direction pin it to a quarter of its value: the flag rule), vs only in
+  // those with a slow jog; an epoch that cannot carry Fc says so.
   int with_vs = 0, with_fc = 0;
   for (const auto& ep : j["epochs"]) {
     with_vs += ep["pos"]["identifiable"]["vs"].get<bool>();
-    with_fc += ep["pos"]["identifiable"]["fc"].get<bool>();
+    const bool fc = ep["pos"]["identifiable"]["fc"].get<bool>();
+    with_fc += fc;
+    if (fc) EXPECT_LE(ep["pos"]["fc_se"].get<double>(), 0.25 * std::fabs(ep["pos"]["fc"].get<double>()));
   }
-  EXPECT_EQ(with_fc, 24);
+  EXPECT_GE(with_fc, 16) << "of 24 epochs";
   EXPECT_LT(with_vs, 12);
 }
 

@@ -37,8 +37,9 @@ class SysId : public ::testing::TestWithParam<Mechanism> {
 // identify runs with nothing told, THEN the Stribeck law is not kept (its
 // fit came out with a negative Coulomb term), both directions fall back to
 // Coulomb + viscous and agree, the viscous term is within 4 % of SysId's kV,
-// the Coulomb term is positive and within 2 standard errors of kS, and
-// the mass's 2.5-standard-error interval holds kA.
+// the Coulomb term is positive and within 2 standard errors of kS, the
+// mass's 2.5-standard-error interval holds kA, and a Coulomb term or mass
+// more than 30 % from SysId's is flagged.
 TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   const Mechanism m = GetParam();
   std::vector<std::string> files;
@@ -63,6 +64,9 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   // Its standard error is wide (10-75 %), but the interval holds kA.
   EXPECT_GT(r.estimate.mass_kg, 0.0) << summary(r);
   EXPECT_NEAR(r.estimate.mass_kg, m.ka_Vs2_rad, 2.5 * r.estimate.mass_se_kg) << summary(r);
+  // The bar: kS and kA each within 30 %, or flagged (never a confident number that misses).
+  if (std::fabs(sym.coulomb_N / m.ks_V - 1.0) > 0.3) EXPECT_FALSE(sym.coulomb_identified()) << summary(r);
+  if (std::fabs(r.estimate.mass_kg / m.ka_Vs2_rad - 1.0) > 0.3) EXPECT_FALSE(r.estimate.mass_identified()) << summary(r);
 }
 
 INSTANTIATE_TEST_SUITE_P(Team581, SysId,
