@@ -475,6 +475,26 @@ void fill_friction_curve(const Core& core, IdentifyResult& r) {
     }
 }
 
+namespace {
+/// Each run's counters: the difference of the snapshots before it and
+/// before the next (after the solve for the last, whose split it counts).
+std::vector<feedid::Diagnostics> per_run(const std::vector<feedid::Diagnostics>& at) {
+  std::vector<feedid::Diagnostics> out;
+  for (std::size_t i = 0; i + 1 < at.size(); ++i) {
+    const feedid::Diagnostics &a = at[i], &b = at[i + 1];
+    feedid::Diagnostics d;
+    d.samples_accepted = b.samples_accepted - a.samples_accepted;
+    d.samples_rejected = b.samples_rejected - a.samples_rejected;
+    for (int k = 0; k < 2; ++k) d.sections_complete[k] = b.sections_complete[k] - a.sections_complete[k];
+    d.sections_short = b.sections_short - a.sections_short;
+    d.sections_split = b.sections_split - a.sections_split;
+    d.mass_windows = b.mass_windows - a.mass_windows;
+    out.push_back(d);
+  }
+  return out;
+}
+}  // namespace
+
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   IdentifyResult r;
   r.units = opt.units;
@@ -494,7 +514,10 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   const Signals& s = r.signals;
   r.duration_s = s.t.back() - s.t.front();
   r.config = auto_config(s, opt);
-  CoreRun run = run_core(s, r.config, opt);
+  std::vector<std::size_t> run_starts;
+  for (const TraceRun& tr : trace.runs) run_starts.push_back(tr.first);
+  CoreRun run = run_core(s, r.config, opt, 0, static_cast<std::size_t>(-1), run_starts);
+  r.run_diagnostics = per_run(run.counters_at);
   if (run.status == feedid::Status::invalid_config) {
     r.status = run.status;
     r.error = std::string("invalid configuration: ") + run.core->config_error();
@@ -563,7 +586,7 @@ void refit_mass_on_blocks(IdentifyResult& r) {
 }
 
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
-                 std::size_t begin, std::size_t end) {
+                 std::size_t begin, std::size_t end, const std::vector<std::size_t>& run_starts) {
   CoreRun run;
   run.core = std::make_unique<Core>();
   Core& core = *run.core;
@@ -571,7 +594,10 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
   if (run.status != feedid::Status::ok) return run;
   const std::size_t n = std::min(end, s.t.size());
   const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  std::size_t next_run = 0;
   for (std::size_t k = begin; k < n; ++k) {
+    const bool run_starts_here = next_run < run_starts.size() && run_starts[next_run] <= k;
+    if (run_starts_here && k == begin) run.counters_at.push_back(core.diagnostics());
     feedid::Sample<double> smp;
     smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
     smp.position_m = s.x[k];
@@ -579,11 +605,20 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
     smp.force_N = s.u[k];
     const feedid::Status st = core.push(smp);
     if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
+    if (run_starts_here && k > begin) {
+      // After the run's first sample, whose gap closed (split) the run
+      // before; the sample itself belongs to its own run.
+      feedid::Diagnostics d = core.diagnostics();
+      (st == feedid::Status::ok ? d.samples_accepted : d.samples_rejected) -= 1;
+      run.counters_at.push_back(d);
+    }
+    while (next_run < run_starts.size() && run_starts[next_run] <= k) ++next_run;
     if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
   }
   run.status = core.solve(opt.method);
   run.estimate = core.estimate();
   run.diagnostics = core.diagnostics();
+  if (!run_starts.empty()) run.counters_at.push_back(run.diagnostics);
   if (run.status == feedid::Status::ok && opt.select_friction_model) {
     run.friction_model = select_friction_models(core, run.estimate);
   } else {
@@ -734,9 +769,19 @@ nlohmann::json to_json(const IdentifyResult& r) {
                              "term measured on the first 60 s; no block refit of m";
   if (!r.runs.empty()) {
     nlohmann::json runs = nlohmann::json::array();
-    for (const TraceRun& run : r.runs)
-      runs.push_back({{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
-                      {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}});
+    for (std::size_t i = 0; i < r.runs.size(); ++i) {
+      const TraceRun& run = r.runs[i];
+      nlohmann::json jr = {{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
+                           {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}};
+      if (i < r.run_diagnostics.size()) {
+        const feedid::Diagnostics& d = r.run_diagnostics[i];
+        jr["core"] = {{"samples_accepted", d.samples_accepted}, {"samples_rejected", d.samples_rejected},
+                      {"sections_complete", {{"pos", d.sections_complete[0]}, {"neg", d.sections_complete[1]}}},
+                      {"sections_split", d.sections_split}, {"sections_short", d.sections_short},
+                      {"mass_windows", d.mass_windows}};
+      }
+      runs.push_back(jr);
+    }
     j["input"]["runs"] = runs;
     j["input"]["runs_rule"] = "each file is its own run: the time jumps by 10 s between runs, a gap no section, window "
                               "or integral spans";

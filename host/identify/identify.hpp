@@ -173,6 +173,7 @@ struct IdentifyResult {
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
+  std::vector<feedid::Diagnostics> run_diagnostics; ///< the core's counters per run (parallel to runs)
   double duration_s = 0.0;
   /// Streamed (identify_stream.hpp): conventions from the head, the core's
   /// own standard errors, no jackknife or block refit.
@@ -244,6 +245,8 @@ struct CoreRun {
   std::vector<Rejection> first_rejections;  ///< at most 10
   std::unique_ptr<Core> core;               ///< the solved core (statistics for plots)
   std::array<FrictionModel, 2> friction_model;  ///< [pos, neg], applied to estimate
+  /// The core's counters just before each of run_starts was pushed, then after the solve.
+  std::vector<feedid::Diagnostics> counters_at;
 };
 
 /// r.friction_curve from a solved core: per band with time, mean speed and
@@ -262,7 +265,8 @@ SymmetricFriction symmetric_friction(const IdentifyResult& r);
 /// Streams samples [begin, end) of the signals through a new core with `cfg`
 /// (its force lag as given) and solves.
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
-                 std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1));
+                 std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1),
+                 const std::vector<std::size_t>& run_starts = {});
 
 /// Contiguous stretches of time of every delete-one jackknife (parameters,
 /// the block mass, the force lag).

@@ -49,7 +49,25 @@ TEST(PooledRuns, TwoFilesOfOneTraceGiveItsModel) {
   EXPECT_NEAR(two.estimate.mass_kg, one.estimate.mass_kg, 1e-3 * one.estimate.mass_kg);
   EXPECT_NEAR(two.estimate.pos.coulomb_N, one.estimate.pos.coulomb_N, 1e-3 * one.estimate.pos.coulomb_N);
   EXPECT_NEAR(two.estimate.neg.viscous_Ns_m, one.estimate.neg.viscous_Ns_m, 1e-3 * one.estimate.neg.viscous_Ns_m);
-  EXPECT_EQ(host::to_json(two)["input"]["runs"].size(), 2u);
+  const auto runs = host::to_json(two)["input"]["runs"];
+  ASSERT_EQ(runs.size(), 2u);
+  // Each run's core counters: its own samples, and together the totals.
+  std::uint64_t accepted = 0;
+  unsigned sections = 0, split = 0, windows = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto& c = runs[i]["core"];
+    EXPECT_EQ(c["samples_accepted"].get<std::uint64_t>(), pooled.trace.runs[i].samples);
+    EXPECT_GT(c["sections_complete"]["pos"].get<unsigned>(), 5u) << "run " << i;
+    EXPECT_GT(c["sections_complete"]["neg"].get<unsigned>(), 5u) << "run " << i;
+    accepted += c["samples_accepted"].get<std::uint64_t>();
+    sections += c["sections_complete"]["pos"].get<unsigned>() + c["sections_complete"]["neg"].get<unsigned>();
+    split += c["sections_split"].get<unsigned>();
+    windows += c["mass_windows"].get<unsigned>();
+  }
+  EXPECT_EQ(accepted, two.diagnostics.samples_accepted);
+  EXPECT_EQ(sections, two.diagnostics.sections_complete[0] + two.diagnostics.sections_complete[1]);
+  EXPECT_EQ(split, two.diagnostics.sections_split);
+  EXPECT_EQ(windows, two.diagnostics.mass_windows);
 
   const host::DiagnoseResult d = host::diagnose(pooled.trace, host::DiagnoseOptions{});
   ASSERT_TRUE(d.error.empty()) << d.error;
