@@ -659,7 +659,17 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
   m.reason = !has_dip    ? "Coulomb + viscous: the fit found no dip (Fs = 0)"
              : !physical ? "Coulomb + viscous: the Stribeck fit was not physical (a negative Coulomb or viscous term)"
                          : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
-  const double s2 = ssr2 / std::max(n - 2.0, 1.0);
+  m.refitted = refit_coulomb_viscous(core.statistics(), d, mass, de);
+  return m;
+}
+}  // namespace
+
+bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de) {
+  const auto p = feedid::detail::friction_points(st, d, mass);
+  feedid::Vector<double, 3> th2, inv2;
+  double ssr2 = 0.0;
+  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2)) return false;
+  const double s2 = ssr2 / std::max(static_cast<double>(p.count) - 2.0, 1.0);
   de.coulomb_N = th2.v[0];
   de.viscous_Ns_m = th2.v[1];
   de.coulomb_se = std::sqrt(s2 * inv2.v[0]);
@@ -670,9 +680,8 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
   if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
   de.flags |= feedid::detail::coulomb_uncertainty_flags(de);
   if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
-  return m;
+  return true;
 }
-}  // namespace
 
 std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e) {
   return {select_direction(core, 0, e.mass_kg, e.pos), select_direction(core, 1, e.mass_kg, e.neg)};

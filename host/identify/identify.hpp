@@ -128,6 +128,7 @@ struct FrictionModel {
   bool stribeck = false;     ///< the Stribeck law was kept (else Coulomb + viscous)
   std::string reason;        ///< why, for the summary and the JSON
   double bic_gain = 0.0;     ///< BIC(Coulomb + viscous) - BIC(Stribeck); > 0 favours Stribeck
+  bool refitted = false;     ///< Fc and sigma are the Coulomb + viscous refit (the jackknife refits likewise)
 };
 
 /// Coulomb + viscous in both directions, pooled, when the directions agree
@@ -259,6 +260,10 @@ void fill_friction_curve(const Core& core, IdentifyResult& r);
 /// otherwise replaces Fc, sigma and their standard errors by the Coulomb +
 /// viscous fit, sets Fs = vs = 0 (no dip) and flags the Stribeck pair.
 std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e);
+/// Direction d's Coulomb + viscous law refitted on the bands (Fs = vs = 0),
+/// with its standard errors and flags; false when the bands cannot carry it.
+/// Model selection's fallback, and the jackknife's for a direction it chose.
+bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de);
 
 /// The symmetric model, where both directions fell back to Coulomb + viscous and agree.
 SymmetricFriction symmetric_friction(const IdentifyResult& r);

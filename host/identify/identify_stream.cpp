@@ -117,7 +117,8 @@ void apply_streamed_standard_errors(IdentifyResult& r, StreamedCores& cores, con
   Uncertainty u;
   u.model_se = standard_errors(r.estimate);
   std::vector<std::unique_ptr<Core>> filled = cores.filled_groups();
-  if (static_cast<int>(filled.size()) >= kMinGroups) u.chunks_used = jackknife_over(filled, opt.method, u.jackknife_se);
+  if (static_cast<int>(filled.size()) >= kMinGroups)
+    u.chunks_used = jackknife_over(filled, opt.method, u.jackknife_se, refitted_directions(r));
   // The timing term is a sensitivity, not noise that averages out.
   u.timing_se = timing_standard_errors(r.signals, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
   apply_standard_errors(r.estimate, u);

@@ -22,7 +22,8 @@ feedid::Status solve_stats(const Stats& s, const Core& layout_of, feedid::Method
 }
 
 /// Delete-one-chunk jackknife: sqrt((K-1)/K sum (theta_-i - mean)^2).
-int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method, std::array<double, 9>& se) {
+int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method, std::array<double, 9>& se,
+              const std::array<bool, 2>& refitted) {
   const std::size_t n = s.t.size();
   const int k = kJackknifeChunks;
   std::vector<std::unique_ptr<Core>> cores;
@@ -33,12 +34,13 @@ int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Metho
     if (run.status == feedid::Status::invalid_config) return 0;
     cores.push_back(std::move(run.core));
   }
-  return jackknife_over(cores, method, se);
+  return jackknife_over(cores, method, se, refitted);
 }
 
 }  // namespace
 
-int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Method method, std::array<double, 9>& se) {
+int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Method method, std::array<double, 9>& se,
+                   const std::array<bool, 2>& refitted) {
   const int k = static_cast<int>(cores.size());
   std::vector<std::array<double, 9>> theta;
   auto pooled = std::make_unique<Stats>();
@@ -48,6 +50,10 @@ int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Meth
       if (c != leave) feedid::add_statistics(*pooled, cores[static_cast<std::size_t>(c)]->statistics());
     feedid::Estimate<double> e;
     if (solve_stats(*pooled, *cores[0], method, e) != feedid::Status::ok) continue;
+    bool ok = true;
+    for (int d = 0; d < 2; ++d)
+      if (refitted[static_cast<std::size_t>(d)]) ok = ok && refit_coulomb_viscous(*pooled, d, e.mass_kg, d == 0 ? e.pos : e.neg);
+    if (!ok) continue;
     theta.push_back(parameters(e));
   }
   const int used = static_cast<int>(theta.size());
@@ -100,11 +106,15 @@ std::array<double, 9> parameters(const feedid::Estimate<double>& e) {
           e.neg.viscous_Ns_m, e.neg.coulomb_N, e.neg.breakaway_N, e.neg.stribeck_velocity_m_s};
 }
 
+std::array<bool, 2> refitted_directions(const IdentifyResult& r) {
+  return {r.friction_model[0].refitted, r.friction_model[1].refitted};
+}
+
 Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt) {
   Uncertainty u;
   u.model_se = standard_errors(r.estimate);
   const Signals& s = r.signals;
-  u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se);
+  u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se, refitted_directions(r));
   u.timing_se = timing_standard_errors(s, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
   apply_standard_errors(r.estimate, u);
   return u;
@@ -112,7 +122,7 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
 
 std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
                                              const std::array<double, 9>& theta, double& lag_se_periods) {
-  const double dt = s.sample_rate_hz > 0 ? 1.0 / s.sample_rate_hz : 1e-3;
+  const double dt = s.period_s();
   const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated;
   lag_se_periods = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
   return timing_se(s, cfg, method, theta, lag_se_periods);
@@ -132,7 +142,8 @@ void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
   }
   for (auto* d : {&e.pos, &e.neg}) {
     // Fc's rule on its widened standard error, whatever the core's said.
-    d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::detail::coulomb_uncertainty_flags(*d);
+    if (d->friction_identified())
+      d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::detail::coulomb_uncertainty_flags(*d);
     if (d->flags & feedid::flag_stribeck_uncertain) continue;
     d->flags |= feedid::detail::stribeck_uncertainty_flags(*d);
   }

@@ -47,6 +47,8 @@ struct Uncertainty {
 /// (the core's own where the jackknife could not run) and re-applies the
 /// core's identifiability rules to them.
 Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt);
+/// Which directions' friction is model selection's Coulomb + viscous refit.
+std::array<bool, 2> refitted_directions(const IdentifyResult& r);
 
 /// Each parameter's timing term: its sensitivity to the force lag (one
 /// identification of s at a probe lag) times the lag's uncertainty, which
@@ -58,7 +60,11 @@ std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Con
 /// data: sqrt((K-1)/K sum (theta_-i - mean)^2), theta_-i solved from the
 /// pooled statistics of the others. `se` gets it; returns the solves that
 /// succeeded (0 when fewer than half did).
-int jackknife_over(const std::vector<std::unique_ptr<Core>>& groups, feedid::Method method, std::array<double, 9>& se);
+/// refitted[d]: direction d's full estimate is the Coulomb + viscous refit
+/// of model selection, and each delete-one solve is refitted the same way,
+/// so the spread is that of the reported law.
+int jackknife_over(const std::vector<std::unique_ptr<Core>>& groups, feedid::Method method, std::array<double, 9>& se,
+                   const std::array<bool, 2>& refitted = {false, false});
 
 /// The rule of widen_standard_errors, applied to an estimate: resolved
 /// parameters take sqrt(jackknife^2 + timing^2) (the core's own when
