@@ -1,12 +1,22 @@
 // Friction health on the drive: one axis's epoch estimator and change
 // monitor together, in fixed memory (docs/monitor.md, docs/firmware.md).
 //
-// The servo task pushes every sample into the current epoch; when the
-// epoch's time is complete, the background task closes it: the epoch is
-// solved on its own, its parameters go to the ChangeMonitor (compared with
-// the reference, CUSUM, alarm), and the next epoch starts from a fresh
-// estimator. Each epoch is identified alone, so an estimate never mixes
-// motion from before and after a change; the reference is the monitor's.
+// One task pushes every sample into the current epoch and, when the
+// epoch's time is complete, closes it: the epoch is solved on its own, its
+// parameters go to the ChangeMonitor (compared with the reference, CUSUM,
+// alarm), and the next epoch starts from a fresh estimator. Each epoch is
+// identified alone, so an estimate never mixes motion from before and after
+// a change; the reference is the monitor's.
+//
+// push() and close_epoch() must run in the same task: close_epoch() solves
+// and re-initialises the estimator push() writes to. On a drive the servo
+// interrupt hands its samples to that task through a queue
+// (feedid_port/spsc_queue.hpp, as firmware/cortex_m/main.cpp does), which
+// holds the samples that arrive during the ~0.8 M-instruction close.
+//
+// Time is summed with compensation (Sum), so an epoch's clock stays exact to
+// float rounding for any length; with T = float the reported times resolve
+// ~1e-7 of the uptime (about 2 s after 194 days).
 //
 //   feedid::HealthTracker<float> health;
 //   if (health.init(axis_config, feedid::MonitorConfig<float>{}) != feedid::Status::ok) ...
@@ -25,30 +35,39 @@ namespace feedid {
 
 /// Bands: 24 by default, not the identification default of 32, so that one
 /// axis's tracking state in float (estimator, monitor, last epoch) stays
-/// within 8 KiB (7.8 KiB). An epoch of ordinary motion visits a few speeds,
+/// within 8 KiB (7 960 B). An epoch of ordinary motion visits a few speeds,
 /// which 24 log-spaced bands separate as well as 32 (docs/monitor.md).
 template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> class HealthTracker {
  public:
   using Axis = Estimator<T, Bands, Candidates>;
   using Monitor = ChangeMonitor<T, MaxAlarms>;
 
-  /// Checks both configurations (Estimator::init, ChangeMonitor::init, which
-  /// also checks epoch_s). On error nothing is usable: push and close_epoch
-  /// return not_initialized. Context: task.
+  /// Checks both configurations (ChangeMonitor::init, which also checks
+  /// epoch_s, then Estimator::init); config_error() names what was wrong. On
+  /// error nothing is usable (push and close_epoch return not_initialized)
+  /// and the monitor keeps its alarms. Context: task.
   [[nodiscard]] Status init(const Config<T>& axis_cfg, const MonitorConfig<T>& monitor_cfg) {
     initialized_ = false;
-    Status st = monitor_.init(monitor_cfg);
+    Monitor fresh;
+    if (fresh.init(monitor_cfg) != Status::ok) {
+      config_error_ = "MonitorConfig: reference_epochs 3..16, allowance >= 0, threshold > 0, relative_floor >= 0, "
+                      "epoch_s > 0, all finite";
+      return Status::invalid_config;
+    }
+    const Status st = axis_.init(axis_cfg);
+    config_error_ = axis_.config_error();
     if (st != Status::ok) return st;
-    st = axis_.init(axis_cfg);
-    if (st != Status::ok) return st;
+    monitor_ = fresh;
     axis_cfg_ = axis_cfg;
     epoch_s_ = monitor_cfg.epoch_s;
-    epoch_start_s_ = elapsed_s_ = T(0);
+    epoch_start_s_ = elapsed_s_ = Sum<T>{};
     epochs_ = 0;
     last_epoch_ = Estimate<T>{};
     initialized_ = true;
     return Status::ok;
   }
+  /// What init() rejected, or nullptr.
+  const char* config_error() const { return config_error_; }
 
   /// One servo sample into the current epoch: Estimator::push, whose
   /// rejections change nothing but its counters. The epoch's clock advances
@@ -56,12 +75,12 @@ template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> c
   /// Context: servo task.
   [[nodiscard]] Status push(const Sample<T>& s) {
     if (!initialized_) return Status::not_initialized;
-    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_ += s.dt_s;
+    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_.add(s.dt_s);
     return axis_.push(s);
   }
 
   /// True once the current epoch has lasted epoch_s.
-  bool epoch_complete() const { return initialized_ && elapsed_s_ >= epoch_s_; }
+  bool epoch_complete() const { return initialized_ && elapsed_s_.get() >= epoch_s_; }
 
   /// Solves the current epoch, hands its estimate to the monitor (`fresh`:
   /// alarms it raised) and starts the next epoch. Returns the solve's
@@ -72,13 +91,12 @@ template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> c
     if (!initialized_) return Status::not_initialized;
     const Status solved = axis_.solve();
     last_epoch_ = axis_.estimate();
-    // The clock within an epoch stays small, so its float sum keeps its
-    // resolution; the epoch start takes one rounding per epoch.
-    const T end_s = epoch_start_s_ + elapsed_s_;
-    if (solved == Status::ok) (void)monitor_.update(last_epoch_, epoch_start_s_, end_s, fresh);
+    const T start_s = epoch_start_s_.get();
+    const T end_s = start_s + elapsed_s_.get();
+    if (solved == Status::ok) (void)monitor_.update(last_epoch_, start_s, end_s, fresh);
     ++epochs_;
-    epoch_start_s_ = end_s;
-    elapsed_s_ = T(0);
+    epoch_start_s_.add(elapsed_s_.get());
+    elapsed_s_ = Sum<T>{};
     (void)axis_.init(axis_cfg_);  // checked in init()
     return solved;
   }
@@ -88,15 +106,17 @@ template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> c
   const Estimate<T>& last_epoch() const { return last_epoch_; }
   int epochs() const { return epochs_; }
   /// Time since init() (s): the start of the current epoch plus its clock.
-  T time_s() const { return epoch_start_s_ + elapsed_s_; }
+  T time_s() const { return epoch_start_s_.get() + elapsed_s_.get(); }
 
  private:
   Axis axis_{};
   Monitor monitor_{};
   Config<T> axis_cfg_{};
   Estimate<T> last_epoch_{};
-  T epoch_s_ = T(0), epoch_start_s_ = T(0), elapsed_s_ = T(0);
+  T epoch_s_ = T(0);
+  Sum<T> epoch_start_s_{}, elapsed_s_{};  ///< compensated: exact to rounding over any length
   int epochs_ = 0;
+  const char* config_error_ = nullptr;
   bool initialized_ = false;
 };
 

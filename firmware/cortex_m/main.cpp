@@ -270,6 +270,7 @@ struct Cost {
   uint32_t bucket[4] = {0, 0, 0, 0};  ///< push() within 1000 / 5000 / 20000 instructions, and more
   uint32_t loop_ticks = 0, handoff_ticks = 0, feedforward_ticks = 0, feedforward_vs_ticks = 0;
   bool reproducible = false;
+  feedid::Estimate<float> bands{};  ///< the timed final bands solve, for the feed-forward timing
 };
 constexpr uint32_t calibration_turns = 100'000;
 
@@ -300,6 +301,7 @@ void time_final_solves(const ServoRun& run, Cost& c) {
   uint32_t t0 = board::counter_now();
   const feedid::Status st = g_axis.solve();
   c.final_solve = board::counter_now() - t0;
+  c.bands = g_axis.estimate();
   c.reproducible = st == run.final_status && same(to_result(g_axis.estimate()), run.fin);
   t0 = board::counter_now();
   (void)g_axis.solve(feedid::Method::paper);
@@ -307,10 +309,10 @@ void time_final_solves(const ServoRun& run, Cost& c) {
 }
 
 /// Means without per-call timer reads: push loop, hand-off, feed-forward.
-/// The feed-forward runs on a copy of the last solved estimate (init()
-/// below clears the axis's own).
+/// The feed-forward runs on the copy of the bands estimate time_final_solves
+/// kept (init() below clears the axis's own).
 bool time_loops(const feedid::Config<float>& cfg, Cost& c) {
-  const feedid::Estimate<float> solved = g_axis.estimate();
+  const feedid::Estimate<float>& solved = c.bands;
   const feedid::EstimateFriction<float> model{solved};
   const feedid::FeedforwardConfig<float> ff{0.0005f, solved.mass_kg};
   const float vs = solved.pos.stribeck_velocity_m_s > 0.0f ? solved.pos.stribeck_velocity_m_s : 0.002f;

@@ -81,7 +81,7 @@ void print_epoch(Console& out, feedid::Status solved, int fresh) {
 /// The tracking run: every sample pushed, every complete epoch closed.
 bool run(Console& out, Cost& cost) {
   if (g_health.init(trace::config(), feedid::MonitorConfig<float>{}) != feedid::Status::ok) {
-    out << "FAIL: HealthTracker init rejected the configuration\n";
+    out << "FAIL: HealthTracker init: " << (g_health.config_error() ? g_health.config_error() : "?") << "\n";
     return false;
   }
   for (uint32_t k = 0; k < trace::count; ++k) {

@@ -250,6 +250,8 @@ TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
   MonitorConfig<double> mc;
   mc.epoch_s = -1.0;
   EXPECT_EQ(a->init(cfg, mc), Status::invalid_config);
+  ASSERT_NE(a->config_error(), nullptr);
+  EXPECT_NE(std::string(a->config_error()).find("epoch_s"), std::string::npos);
   mc.epoch_s = 1.0;
   ASSERT_EQ(a->init(cfg, mc), Status::ok);
   ASSERT_EQ(b->init(cfg, mc), Status::ok);
