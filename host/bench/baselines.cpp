@@ -113,7 +113,7 @@ RegressionRows rows_from(const Prepared& p, const BaselineOptions& opt) {
     const double vm = 0.5 * (v0 + v1);
     if (std::fabs(vm) < p.v_min || v0 * v1 <= 0.0) continue;
     const double a = (v1 - v0) / dt;
-    const double u = paired_force(uf, pairing, k);
+    const double u = paired_force(uf, pairing, k, s.stretch_start(k));
     if (vm > 0) { r.v.push_back(vm); r.a.push_back(a); r.u.push_back(u); }
     else { nv.push_back(vm); na.push_back(a); nu.push_back(u); }
   }
@@ -585,7 +585,7 @@ std::size_t run_rls_bank(const Prepared& p, const BaselineOptions& opt, double l
     const double vm = 0.5 * (s.v[k - 1] + s.v[k]);
     if (std::fabs(vm) < p.v_min || s.v[k - 1] * s.v[k] <= 0.0) continue;
     const double a = (s.v[k] - s.v[k - 1]) / dt;
-    const double u = paired_force(s.u, pairing, k);
+    const double u = paired_force(s.u, pairing, k, s.stretch_start(k));
     const bool count = k >= warmup;
     for (auto& filt : f) {
       if (count) { filt.err[0] *= lambda; filt.err[1] *= lambda; }

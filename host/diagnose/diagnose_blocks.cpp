@@ -92,7 +92,7 @@ Observations::Observations(const Signals& s, double v_min, double block_s, const
   coarse_ = make_segments(accel, v_min, 2.0 * block_s);
 }
 
-double Observations::interval_force(std::size_t j) const { return paired_force(s_.u, pairing_, j + 1); }
+double Observations::interval_force(std::size_t j) const { return paired_force(s_.u, pairing_, j + 1, s_.stretch_start(j + 1)); }
 
 double Observations::force_integral(double t, std::size_t& j) const {
   const std::vector<double>& ts = s_.t;
@@ -138,9 +138,9 @@ void Observations::make_blocks(double v_min, double block_s, const Folds& folds)
     const int d = direction(interval_v(j), v_min);
     const int fold = folds.of(interval_t(j));
     const double dt = interval_dt(j);
-    const bool gap = j > 0 && dt > 5.0 * interval_dt(j - 1) && dt > 1e-3;
+    const bool gap = s_.gap_before(j + 1);
     if (open && (d != b.dir || fold != b.fold || gap)) close(j);
-    if (d == 0) continue;
+    if (d == 0 || gap) continue;  // no block holds the gap's interval
     if (!open) {
       b = Block{};
       b.j0 = j;

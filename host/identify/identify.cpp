@@ -190,12 +190,17 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
   };
   for (std::size_t k = 1; k < s.t.size(); ++k) {
     const double dt = s.t[k] - s.t[k - 1];
+    if (s.gap_before(k)) {  // another run or a cut: no block, no pair, no force tap spans it
+      if (cur.dir != 0) close(k - 1, false);
+      prev = BlockSums{};
+      continue;
+    }
     const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
     const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
     if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
     if (d == 0) continue;
     if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
-    const double g = (paired_force(s.u, pairing, k) - stribeck_friction(p, vm)) * dt;
+    const double g = (paired_force(s.u, pairing, k, s.stretch_start(k)) - stribeck_friction(p, vm)) * dt;
     const double dv = s.v[k] - s.v[k - 1];
     const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
     cur.impulse += g;
@@ -205,6 +210,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     cur.tau += dt;
     if (cur.tau >= block_s) close(k, true);
   }
+  if (cur.dir != 0) close(s.t.size() - 1, false);  // the last block, as at a gap
 }
 }  // namespace
 
@@ -260,12 +266,6 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
   return out;
 }
 
-namespace {
-/// Longest step within one stretch of samples (s); a longer one is a gap
-/// (another recording, a cut) that no filter or integral crosses.
-double max_step_s(const Signals& s) { return s.sample_rate_hz > 0 ? 5.0 / s.sample_rate_hz : 0.0; }
-}  // namespace
-
 double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
 
 /// Velocity as the core sees it: position through the zero-phase
@@ -273,7 +273,7 @@ double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max
 /// differences: no lag, and the encoder's counts averaged over about 1/fc.
 void derive_velocity(Signals& s, double fc_hz) {
   s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
-  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, max_step_s(s));
+  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, s.max_step_s());
 }
 
 namespace {
@@ -305,7 +305,7 @@ Signals read_signals(const Trace& trace) {
     // 100 nm, 8 kHz log). Integrated, it is the position seen through the
     // drive's filter, and goes the way of a logged position; the force lag
     // search takes up the filter's delay.
-    s.x = integrate_velocity(s.v, s.t, max_step_s(s));
+    s.x = integrate_velocity(s.v, s.t, s.max_step_s());
     s.position_origin = "integrated from the velocity column (none logged): relative to the start";
     // A position difference integrates back onto the encoder's lattice; a
     // filtered column does not, and its sample noise stands in for the
@@ -390,6 +390,24 @@ Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming t
   align_force(s, opt, timing.core, timing.column);
   return s;
 }
+
+/// The options with the band edges (lowest band, resolution, top) the
+/// searches for the force lag and the velocity cut-off measure with: those
+/// of the velocity at the lowest cut-off tried. The provisional cut-off's
+/// derivative is the noisiest of all; on a slow, unevenly sampled log it
+/// implied a resolution of 8.6 rad/s (a 200 Hz SysId log), which put the
+/// lowest band above the slow ramps, and both searches then measured only
+/// the fast transients.
+IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions& opt) {
+  Signals smooth = raw;
+  derive_velocity(smooth, lowest_velocity_filter_hz(raw));
+  const feedid::Config<double> c = auto_config(smooth, opt);
+  IdentifyOptions o = opt;
+  o.velocity_min_m_s = c.velocity_min_m_s;
+  o.velocity_resolution_m_s = c.velocity_resolution_m_s;
+  o.velocity_max_m_s = c.velocity_max_m_s;
+  return o;
+}
 }  // namespace
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
@@ -403,6 +421,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   }
   if (trace.has_velocity && trace.has_position && opt.velocity_source == VelocitySource::column)
     return column_and_align(raw, opt, timing);
+  const IdentifyOptions search = opt.velocity_filter_hz > 0 ? opt : with_smooth_band_edges(raw, opt);
   // The core's velocity is the zero-phase derivative of position (logged or
   // integrated): a drive's column carries the count noise (one count per
   // period is 0.4 mm/s at 4 kHz and 100 nm) into every band's m * dv at
@@ -414,12 +433,12 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // than its position keeps it.
   const bool stated = opt.velocity_filter_hz > 0;
   raw.velocity_filter_origin = stated ? "stated" : "provisional";
-  Signals s = derive_and_align(raw, trace, opt, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
+  Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
   if (stated) return s;
-  const feedid::Config<double> edges = auto_config(s, opt);
+  const feedid::Config<double> edges = auto_config(s, search);
   const FilterChoice choice = choose_velocity_filter(s, edges);
   if (trace.has_velocity && trace.has_position) {
-    Signals column = column_and_align(raw, opt, timing);
+    Signals column = column_and_align(raw, search, timing);
     if (block_fit_ssr(column, edges) < choice.block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       return column;
@@ -428,7 +447,9 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   std::ostringstream o;
   o << "least block residual of " << choice.candidates << " cut-offs" << (trace.has_velocity && trace.has_position ? " and the velocity column" : "");
   raw.velocity_filter_origin = o.str();
-  return derive_and_align(raw, trace, opt, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
+  Signals chosen = derive_and_align(raw, trace, opt, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
+  chosen.velocity_filter_rivals_hz = choice.rivals_hz;
+  return chosen;
 }
 
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
@@ -549,6 +570,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.se_model = u.model_se;
     r.se_jackknife = u.jackknife_se;
     r.se_timing = u.timing_se;
+    r.se_cutoff = u.cutoff_se;
   }
   refit_mass_on_blocks(r);
   return r;
@@ -563,6 +585,24 @@ const char* lag_origin_name(Signals::LagOrigin o) {
   }
   return "?";
 }
+
+namespace {
+/// The block mass's spread over the rival velocity cut-offs (RMS of its
+/// change; cutoff_standard_errors for the core's parameters).
+double block_mass_cutoff_spread(const IdentifyResult& r, double mass_kg) {
+  double sum = 0.0;
+  int used = 0;
+  for (double fc : r.signals.velocity_filter_rivals_hz) {
+    Signals rival = r.signals;
+    derive_velocity(rival, fc);
+    const BlockMass b = block_mass(rival, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+    if (!b.ok) continue;
+    sum += (b.mass_kg - mass_kg) * (b.mass_kg - mass_kg);
+    ++used;
+  }
+  return used > 0 ? std::sqrt(sum / used) : 0.0;
+}
+}  // namespace
 
 void refit_mass_on_blocks(IdentifyResult& r) {
   r.mass_from_windows_kg = r.estimate.mass_kg;
@@ -581,9 +621,42 @@ void refit_mass_on_blocks(IdentifyResult& r) {
     const BlockMass shifted = block_mass(probe, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
     if (shifted.ok) r.se_timing[0] = std::fabs(shifted.mass_kg - b.mass_kg) / kTimingProbeStep * r.lag_se_periods;
   }
-  r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0]);
+  r.se_cutoff[0] = block_mass_cutoff_spread(r, b.mass_kg);
+  r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0], r.se_cutoff[0]);
   r.estimate.mass_flags |= feedid::detail::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
 }
+
+namespace {
+/// The core's counters at each run's start (CoreRun::counters_at). A
+/// run's first sample closes (splits) the run before, so the snapshot is
+/// taken after it, less the run's own samples; if the core rejects it, the
+/// gap is closed by the run's first accepted sample (the core keeps a
+/// rejected sample's dt), so the snapshot waits for that one.
+struct RunBoundary {
+  std::vector<feedid::Diagnostics>& out;
+  bool pending = false;
+  uint64_t accepted = 0, rejected = 0;  ///< the pending run's samples so far
+
+  void start(const feedid::Diagnostics& before, bool first_sample_of_all) {
+    if (first_sample_of_all) { out.push_back(before); return; }
+    if (pending) take(before);  // a run that the core rejected whole
+    pending = true;
+    accepted = rejected = 0;
+  }
+  void after_push(const feedid::Diagnostics& now, bool sample_ok) {
+    if (!pending) return;
+    ++(sample_ok ? accepted : rejected);
+    if (sample_ok) take(now);
+  }
+  void finish(const feedid::Diagnostics& now) { if (pending) take(now); }
+  void take(feedid::Diagnostics d) {
+    d.samples_accepted -= accepted;
+    d.samples_rejected -= rejected;
+    out.push_back(d);
+    pending = false;
+  }
+};
+}  // namespace
 
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
                  std::size_t begin, std::size_t end, const std::vector<std::size_t>& run_starts) {
@@ -595,9 +668,10 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
   const std::size_t n = std::min(end, s.t.size());
   const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
   std::size_t next_run = 0;
+  RunBoundary boundary{run.counters_at};
   for (std::size_t k = begin; k < n; ++k) {
     const bool run_starts_here = next_run < run_starts.size() && run_starts[next_run] <= k;
-    if (run_starts_here && k == begin) run.counters_at.push_back(core.diagnostics());
+    if (run_starts_here) boundary.start(core.diagnostics(), k == begin);
     feedid::Sample<double> smp;
     smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
     smp.position_m = s.x[k];
@@ -605,16 +679,11 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
     smp.force_N = s.u[k];
     const feedid::Status st = core.push(smp);
     if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
-    if (run_starts_here && k > begin) {
-      // After the run's first sample, whose gap closed (split) the run
-      // before; the sample itself belongs to its own run.
-      feedid::Diagnostics d = core.diagnostics();
-      (st == feedid::Status::ok ? d.samples_accepted : d.samples_rejected) -= 1;
-      run.counters_at.push_back(d);
-    }
+    boundary.after_push(core.diagnostics(), st == feedid::Status::ok);
     while (next_run < run_starts.size() && run_starts[next_run] <= k) ++next_run;
     if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
   }
+  boundary.finish(core.diagnostics());
   run.status = core.solve(opt.method);
   run.estimate = core.estimate();
   run.diagnostics = core.diagnostics();
@@ -765,6 +834,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
                 {"velocity", r.signals.velocity_origin},
                 {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
+                {"velocity_filter_rivals_hz", r.signals.velocity_filter_rivals_hz},
                 {"position", r.signals.position_origin},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
@@ -813,7 +883,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["mass_from_windows_kg"] = r.mass_from_windows_kg;
   j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
                            {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
-                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing}};
+                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing},
+                           {"velocity_cutoff", r.se_cutoff}};
   j["units"] = units_json(r.units);
   return j;
 }

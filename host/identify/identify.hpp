@@ -91,6 +91,10 @@ struct Signals {
   std::string position_origin = "measured";  ///< or how x was made (no position column)
   double velocity_filter_hz = 0.0;            ///< cut-off of the derived velocity (Hz); 0: given as is
   std::string velocity_filter_origin;         ///< stated, or how it was chosen
+  /// Cut-offs the block residual could not tell from the chosen one (Hz;
+  /// FilterChoice::rivals_hz); the parameters' spread over them is a term
+  /// of their standard errors.
+  std::vector<double> velocity_filter_rivals_hz;
   /// Lag of the force behind the velocity as the core pairs them (sample
   /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
   double force_lag_samples = -1.0;
@@ -116,6 +120,19 @@ struct Signals {
   bool has_position = false;          ///< x is a logged position (not zeros)
   double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
   double period_s() const { return 1.0 / sample_rate_hz; }
+  /// Longest step within one stretch of samples (s): five median periods. A
+  /// longer step is a gap (another run, a cut, a logger pause) that no
+  /// filter, integral, block or force pairing crosses.
+  double max_step_s() const { return 5.0 * period_s(); }
+  /// Whether the step into sample k (k >= 1) is such a gap.
+  bool gap_before(std::size_t k) const { return t[k] - t[k - 1] > max_step_s(); }
+  /// First sample of the stretch that holds sample k, looked for at most
+  /// `reach` samples back (the force pairing needs only its few taps).
+  std::size_t stretch_start(std::size_t k, std::size_t reach = feedid::ForcePairing<double>::history) const {
+    std::size_t i = k;
+    while (i > 0 && k - i < reach && !gap_before(i)) --i;
+    return i;
+  }
   double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
   /// Sample noise of a velocity column that was integrated and derived
   /// again (no position logged), kept for the velocity resolution (m/s).
@@ -168,7 +185,7 @@ struct IdentifyResult {
   double mass_from_windows_kg = 0.0;
   double lag_se_periods = 0.0;   ///< the lag's uncertainty the timing terms use (0: stated lag)
   int jackknife_chunks = 0;      ///< leave-one-out solves behind the standard errors (0: the core's own)
-  std::array<double, 9> se_model{}, se_jackknife{}, se_timing{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
+  std::array<double, 9> se_model{}, se_jackknife{}, se_timing{}, se_cutoff{};  ///< m, sigma+, Fc+, Fs+, vs+, sigma-, ...
   double residual_rms_N = 0.0;   ///< RMS of the force residual over triangle-weighted pairs of residual_block_s blocks
   double residual_block_s = 0.01;  ///< block_length_s of the signals
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
@@ -220,7 +237,7 @@ template <typename To, typename From> feedid::Config<To> config_as(const feedid:
 
 /// Force for the interval ending at sample k of a force column, by the
 /// core's pairing rule (force_pairing.hpp); taps before `first` (the start
-/// of the chain) take u[first]. k > first.
+/// of the chain, Signals::stretch_start) take u[first]. k > first.
 double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
                     std::size_t first = 0);
 

@@ -116,6 +116,7 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
   const Signals& s = r.signals;
   u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se, refitted_directions(r));
   u.timing_se = timing_standard_errors(s, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
+  u.cutoff_se = cutoff_standard_errors(s, r.config, opt.method, parameters(r.estimate));
   apply_standard_errors(r.estimate, u);
   return u;
 }
@@ -128,6 +129,25 @@ std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Con
   return timing_se(s, cfg, method, theta, lag_se_periods);
 }
 
+std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                                             const std::array<double, 9>& theta) {
+  std::array<double, 9> out{};
+  int used = 0;
+  IdentifyOptions quiet;
+  quiet.method = method;
+  for (double fc : s.velocity_filter_rivals_hz) {
+    Signals rival = s;
+    derive_velocity(rival, fc);
+    const CoreRun run = run_core(rival, cfg, quiet);
+    if (run.status != feedid::Status::ok) continue;
+    const auto at = parameters(run.estimate);
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] += (at[i] - theta[i]) * (at[i] - theta[i]);
+    ++used;
+  }
+  for (double& x : out) x = used > 0 ? std::sqrt(x / used) : 0.0;
+  return out;
+}
+
 void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
   const auto f = se_fields(e);
   const std::array<bool, 9> resolved = {e.mass_identified(),
@@ -136,7 +156,7 @@ void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
                                         e.neg.friction_identified(), e.neg.friction_identified(),
                                         e.neg.stribeck_identified(), e.neg.stribeck_identified()};
   for (int i = 0; i < 9; ++i) {
-    const double widened = std::hypot(u.chunks_used > 0 ? u.jackknife_se[i] : u.model_se[i], u.timing_se[i]);
+    const double widened = std::hypot(u.chunks_used > 0 ? u.jackknife_se[i] : u.model_se[i], u.timing_se[i], u.cutoff_se[i]);
     // What the core could not resolve keeps its own (huge) standard error.
     *f[i] = resolved[i] ? widened : std::max(widened, u.model_se[i]);
   }

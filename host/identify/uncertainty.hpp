@@ -40,10 +40,20 @@ struct Uncertainty {
   int chunks_used = 0;                    ///< leave-one-out solves that succeeded
   std::array<double, 9> jackknife_se{};   ///< 0 where not available
   std::array<double, 9> timing_se{};      ///< sensitivity to the lag x its uncertainty
+  std::array<double, 9> cutoff_se{};      ///< spread over the velocity cut-offs the data cannot tell apart
   std::array<double, 9> model_se{};       ///< what the core reported
 };
 
-/// Replaces the standard errors of r.estimate by sqrt(jackknife^2 + timing^2)
+/// Each parameter's spread over the velocity cut-offs that the block
+/// residual could not tell from the chosen one (Signals::
+/// velocity_filter_rivals_hz): the RMS of its change when the core's
+/// velocity is derived at each of them instead; 0 without rivals. Which
+/// cut-off fits best is itself an estimate, and on a short, slow log
+/// (200 Hz SysId) the mass moved by half between two such cut-offs.
+std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                                             const std::array<double, 9>& theta);
+
+/// Replaces the standard errors of r.estimate by sqrt(jackknife^2 + timing^2 + cut-off^2)
 /// (the core's own where the jackknife could not run) and re-applies the
 /// core's identifiability rules to them.
 Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt);

@@ -142,24 +142,52 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   return e;
 }
 
+double lowest_velocity_filter_hz(const Signals& s) {
+  return std::min(kLowestVelocityFilter_hz, 0.1 * s.sample_rate_hz);
+}
+
+namespace {
+/// Whether candidate c's block residual is within one standard error of
+/// the best's: the difference's delete-one-chunk jackknife.
+bool within_one_se(const LagCost& c, const LagCost& best) {
+  const double d = c.ssr - best.ssr;
+  std::vector<double> leave_out;
+  for (std::size_t i = 0; i < c.chunk_ssr.size(); ++i)
+    leave_out.push_back(d - (c.chunk_ssr[i] - best.chunk_ssr[i]));
+  const double se = jackknife_se(leave_out);
+  return std::isfinite(d) && std::isfinite(se) && d <= se;
+}
+}  // namespace
+
 FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg) {
   FilterChoice best;
   best.cutoff_hz = s.velocity_filter_hz;
-  double best_ssr = std::numeric_limits<double>::infinity();
   Signals work = s;
   // Octave halves from 100 Hz to 0.4 of the rate (where the filter all but
-  // passes the position difference through).
+  // passes the position difference through), lowest first.
   const double top = 0.4 * s.sample_rate_hz;
-  for (double fc = std::min(kLowestVelocityFilter_hz, 0.25 * top); fc <= top * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
+  std::vector<std::pair<double, LagCost>> tried;
+  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
     derive_velocity(work, fc);
-    const LagCost c = fit_cost(work, cfg);
+    tried.emplace_back(fc, fit_cost(work, cfg));
     ++best.candidates;
-    if (c.ssr < best_ssr) {
-      best_ssr = c.ssr;
-      best.cutoff_hz = fc;
-    }
   }
-  best.block_ssr = best_ssr;
+  if (tried.empty()) return best;
+  const LagCost least = std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
+                          return a.second.ssr < b.second.ssr;
+                        })->second;
+  if (!std::isfinite(least.ssr)) return best;  // nothing identifies: keep the cut-off as it is
+  // The one-standard-error rule (Breiman et al.; Hastie et al., ESL 7.10):
+  // of the cut-offs whose residual is within a standard error of the
+  // least, the smoothest. The others stay as rivals for the standard errors.
+  bool chosen = false;
+  for (const auto& [fc, cost] : tried) {
+    if (!within_one_se(cost, least)) continue;
+    if (chosen) { best.rivals_hz.push_back(fc); continue; }
+    best.cutoff_hz = fc;
+    best.block_ssr = cost.ssr;
+    chosen = true;
+  }
   return best;
 }
 

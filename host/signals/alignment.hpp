@@ -8,6 +8,8 @@
 #include <limits>
 #include <string>
 
+#include <vector>
+
 #include "identify/identify.hpp"
 
 namespace feedid::host {
@@ -34,21 +36,34 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
 constexpr double kProvisionalVelocityFilter_hz = 300.0;
 constexpr double kLowestVelocityFilter_hz = 100.0;
 
+/// The lowest cut-off tried (Hz): kLowestVelocityFilter_hz, or two octaves
+/// below the top cut-off (0.4 of the rate) on a slow log.
+double lowest_velocity_filter_hz(const Signals& s);
+
 struct FilterChoice {
   double cutoff_hz = 0.0;
   int candidates = 0;  ///< cut-offs tried
   double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
+  /// The other cut-offs whose block residual is within one standard error
+  /// (delete-one-chunk jackknife of the difference) of the least: the data
+  /// cannot tell them from the choice.
+  std::vector<double> rivals_hz;
 };
 
 /// The cut-off, from 100 Hz (or 0.1 of the rate, if less) up to 0.4 of the
-/// rate in half octaves, whose
-/// identified model leaves the least block residual (the measure the lag
-/// search minimises) on `s` as aligned. A coarse encoder on a heavy axis
+/// rate in half octaves, whose identified model leaves the least block
+/// residual (the measure the lag search minimises) on `s` as aligned, or
+/// the smoothest within one standard error of it (the one-standard-error
+/// rule: on a 200 Hz SysId log three cut-offs were within a standard
+/// error, and the least of them by chance halved the mass). A coarse encoder on a heavy axis
 /// wants smoothing (the counts' noise enters m * dv at every band
 /// crossing: Fs 10 % off at 1 kHz cut-off on a 400 kg, 100 nm, 4 kHz
 /// axis); a fine one does not (vs 3 % off at 300 Hz on a 40 kg, 5 nm one,
 /// where the filter rounds the Stribeck dip). The residual is least where
 /// the parameters are best in both. cfg fixes the band edges for all.
+/// Where the residual cannot tell cut-offs apart (FilterChoice::rivals_hz),
+/// the spread of the parameters over them enters their standard errors
+/// (uncertainty.hpp).
 FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
 
 /// Sum of squared 10 ms block residuals (N^2) of the model the core
