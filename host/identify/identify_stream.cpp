@@ -170,7 +170,8 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   r.signals = prepare_signals(chunk, opt);
   const IdentifyOptions fixed = stated_from(r.signals, opt);
   auto cores = std::make_unique<StreamedCores>();
-  if (!cores->init(auto_config(r.signals, opt), chunk.samples.front().t_s, r.error)) {
+  r.config = auto_config(r.signals, opt);  // kept as asked when init() rejects it, as identify() does
+  if (!cores->init(r.config, chunk.samples.front().t_s, r.error)) {
     r.status = feedid::Status::invalid_config;
     return r;
   }

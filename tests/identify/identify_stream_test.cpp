@@ -67,6 +67,27 @@ TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
   EXPECT_GT(r.estimate.mass_se_kg, 0.0);
 }
 
+// GIVEN band edges the core rejects (lowest above highest), WHEN the
+// streamed identification stops at init, THEN its result names the
+// configuration it was asked to run, as identify() does (it was empty).
+TEST(IdentifyStream, ARejectedConfigurationIsReportedAsAsked) {
+  test::SimSpec spec;
+  spec.duration_s = 10.0;
+  const std::string path = ::testing::TempDir() + "feedid_stream_badconfig.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, host::simulate(test::sim_config(spec)), err)) << err;
+  IdentifyOptions opt;
+  opt.velocity_min_m_s = 0.2;
+  opt.velocity_max_m_s = 0.1;
+  CsvStream in(path, CsvColumns{});
+  const IdentifyResult r = identify_stream(in, path, opt);
+  EXPECT_EQ(r.status, feedid::Status::invalid_config);
+  EXPECT_FALSE(r.error.empty());
+  EXPECT_EQ(r.config.velocity_min_m_s, 0.2);
+  EXPECT_EQ(r.config.velocity_max_m_s, 0.1);
+  EXPECT_EQ(identify(host::simulate(test::sim_config(spec)), opt).config.velocity_min_m_s, 0.2);
+}
+
 TEST(IdentifyStream, AReadErrorIsNotReportedAsOk) {
   std::string text = "t,x,v,u\n";
   for (int k = 0; k < 300; ++k) text += std::to_string(k * 1e-3) + ",0,0,1\n";
