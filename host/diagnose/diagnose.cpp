@@ -46,6 +46,11 @@ Signals aligned_signals(const Trace& trace, const DiagnoseOptions& opt, Diagnose
   // the derivative of position the blind benchmark named 91 % right
   // instead of 97 %, with 2 false alarms in 40 instead of none.
   timing.velocity_source = VelocitySource::column;
+  // A position logged faster than it was updated (a status frame every
+  // 20 ms in a 5 ms loop) has backward differences that are mostly the
+  // holds' sawtooth: its velocity noise put the lowest band of a SysId log
+  // at 25 rad/s, and nothing could be identified.
+  timing.spread_held_values = true;
   Signals sig = prepare_signals(trace, timing);
   // Without a position column x is the integrated velocity (prepare_signals):
   // the position and reversal candidates see relative positions, not zeros.
@@ -767,7 +772,13 @@ bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseRe
   out.blocks_identification = obs.size() - out.blocks_heldout - out.heldout_beyond_identification;
   if (out.blocks_identification >= 50 && out.blocks_heldout >= 50) return true;
   out.error = trace.source + ": too little motion to diagnose: " + std::to_string(obs.size()) +
-              " observations of motion (need 50 for identification and 50 held out)";
+              " observations of motion, " + std::to_string(out.blocks_identification) + " for identification and " +
+              std::to_string(out.blocks_heldout) + " held out" +
+              (out.heldout_beyond_identification > 0
+                   ? " (" + std::to_string(out.heldout_beyond_identification) +
+                         " more set aside: the identification folds do not pin the base model down there)"
+                   : std::string()) +
+              "; need 50 of each";
   return false;
 }
 

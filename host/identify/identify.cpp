@@ -10,6 +10,7 @@
 
 #include "signals/alignment.hpp"
 #include "signals/filters.hpp"
+#include "signals/held_values.hpp"
 #include "report/number_format.hpp"
 #include "uncertainty.hpp"
 
@@ -279,7 +280,29 @@ void derive_velocity(Signals& s, double fc_hz) {
 namespace {
 /// The trace's columns, the rate and the encoder quantum; a velocity-only
 /// log integrated to a position.
-Signals read_signals(const Trace& trace) {
+namespace {
+/// Position and velocity columns updated every few rows only (a motor
+/// controller's status frame in a faster loop) spread linearly between
+/// their updates, so that no derivative sees the sawtooth of the holds. A
+/// position counts as held only on changes of more than three encoder
+/// quanta, where a slow axis cannot hold its count by itself.
+void spread_held_columns(const Trace& trace, bool spread_them, Signals& s) {
+  auto hold_of = [&](std::vector<double>& y, double min_change) {
+    const HoldPattern h = detect_hold(y, min_change);
+    if (spread_them && h.period_rows >= 2) spread_held_values(y, s.t, h.period_rows + 1, s.max_step_s());
+    return h.period_rows;
+  };
+  if (trace.has_position) s.position_hold_rows = hold_of(s.x, 3.0 * s.position_quantum_m);
+  if (trace.has_velocity) s.velocity_hold_rows = hold_of(s.v, 0.0);
+  s.held_values_spread = spread_them && (s.position_hold_rows > 1 || s.velocity_hold_rows > 1);
+  if (s.position_hold_rows > 1)
+    s.position_origin = "measured, each value held for " + std::to_string(s.position_hold_rows) +
+                        " rows (updated at 1/" + std::to_string(s.position_hold_rows) + " of the log rate)" +
+                        (spread_them ? ": spread linearly between its updates" : "");
+}
+}  // namespace
+
+Signals read_signals(const Trace& trace, bool spread_held) {
   Signals s;
   const std::size_t n = trace.samples.size();
   s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
@@ -295,7 +318,8 @@ Signals read_signals(const Trace& trace) {
   if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to identify with");
   s.sample_rate_hz = 1.0 / dt;
   s.has_position = trace.has_position;
-  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;
+  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;  // of the lattice as logged
+  spread_held_columns(trace, spread_held, s);
   if (!trace.has_velocity && !trace.has_position)
     throw std::invalid_argument(trace.source + ": neither velocity nor position column");
   if (!trace.has_position) {
@@ -411,7 +435,7 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 }  // namespace
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
-  Signals raw = read_signals(trace);
+  Signals raw = read_signals(trace, opt.spread_held_values);
   const VelocityTiming timing = time_velocity_column(raw, trace, opt);
   if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
     raw.velocity_origin = "given";
@@ -836,6 +860,9 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
                 {"velocity_filter_rivals_hz", r.signals.velocity_filter_rivals_hz},
                 {"position", r.signals.position_origin},
+                {"position_hold_rows", r.signals.position_hold_rows},
+                {"velocity_hold_rows", r.signals.velocity_hold_rows},
+                {"held_values_spread", r.signals.held_values_spread},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},

@@ -49,6 +49,13 @@ struct IdentifyOptions {
   bool select_friction_model = true;
   /// Where the core's velocity comes from (VelocitySource).
   VelocitySource velocity_source = VelocitySource::position;
+  /// Spread position and velocity values that the log held for several
+  /// rows linearly between their updates (held_values.hpp). Holds are
+  /// detected and reported either way. The diagnosis spreads (its backward
+  /// differences of a held position are mostly the holds' sawtooth);
+  /// identify does not yet: on the SysId logs it moved the roller's lag
+  /// search to -22 ms and its mass below zero (docs/sysid.md).
+  bool spread_held_values = false;
   /// Force/velocity pairing: "auto" estimates the lag from the data
   /// (alignment.hpp); a named convention (held-backward, held-instant,
   /// trapezoid) or force_lag_s states it.
@@ -89,6 +96,11 @@ struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
   std::string position_origin = "measured";  ///< or how x was made (no position column)
+  /// Rows each logged value of position and of the velocity column stood
+  /// for (held_values.hpp; 1: updated every row), and whether they were
+  /// spread linearly between their updates (IdentifyOptions::spread_held_values).
+  int position_hold_rows = 1, velocity_hold_rows = 1;
+  bool held_values_spread = false;
   double velocity_filter_hz = 0.0;            ///< cut-off of the derived velocity (Hz); 0: given as is
   std::string velocity_filter_origin;         ///< stated, or how it was chosen
   /// Cut-offs the block residual could not tell from the chosen one (Hz;

@@ -13,6 +13,7 @@
 
 #include "io/trace_files.hpp"
 #include "identify/identify.hpp"
+#include "diagnose/diagnose.hpp"
 
 namespace {
 
@@ -72,6 +73,30 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   EXPECT_NEAR(r.estimate.mass_kg, m.ka_Vs2_rad, 0.3 * m.ka_Vs2_rad) << summary(r);
   // The bar: kS within 30 %, or flagged (never a confident number that misses).
   if (std::fabs(sym.coulomb_N / m.ks_V - 1.0) > 0.3) EXPECT_FALSE(sym.coulomb_identified()) << summary(r);
+}
+
+// GIVEN the test robot's left drivetrain, whose loop logged every 5 ms the
+// position its motor controller sent every 20 ms, WHEN identify and
+// diagnose read it, THEN both name the hold (4 rows), and the diagnosis,
+// which spreads the held values between their updates, runs (its backward
+// differences of the held position put the lowest band at 25 rad/s, and
+// nothing could be identified), with held-out observations to judge by.
+TEST(SysIdLogs, HeldPositionIsFoundAndTheDiagnosisRuns) {
+  if (!std::filesystem::exists(sysid_dir + "/test2020bot_drive_left_slow_fwd.csv"))
+    GTEST_SKIP() << "SysId data not found at " << sysid_dir;
+  std::vector<std::string> files;
+  for (const char* test : {"slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd"})
+    files.push_back(sysid_dir + "/test2020bot_drive_left_" + test + ".csv");
+  const CsvResult in = read_trace_files(files, CsvColumns{});
+  ASSERT_TRUE(in.ok) << in.error;
+  const IdentifyResult r = identify(in.trace, IdentifyOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.signals.position_hold_rows, 4);
+  EXPECT_FALSE(r.signals.held_values_spread);
+  const DiagnoseResult dg = diagnose(in.trace, DiagnoseOptions{});
+  ASSERT_TRUE(dg.error.empty()) << dg.error;
+  EXPECT_NE(dg.position_origin.find("held for 4 rows"), std::string::npos) << dg.position_origin;
+  EXPECT_GT(dg.blocks_heldout, 50u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Team581, SysId,
