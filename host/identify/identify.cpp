@@ -925,6 +925,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
+  if (r.signals.position_hold_rows > 1) o << "  position " << r.signals.position_origin << "\n";
   const Units& u = r.units;
   auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
     const char* unit = unit_text.c_str();
