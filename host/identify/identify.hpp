@@ -132,10 +132,12 @@ struct Signals {
   bool has_position = false;          ///< x is a logged position (not zeros)
   double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
   double period_s() const { return 1.0 / sample_rate_hz; }
-  /// Longest step within one stretch of samples (s): five median periods. A
-  /// longer step is a gap (another run, a cut, a logger pause) that no
-  /// filter, integral, block or force pairing crosses.
-  double max_step_s() const { return 5.0 * period_s(); }
+  /// Longest step within one stretch of samples (s): ten median periods,
+  /// at least 1 ms. A longer step is a gap (another run, a cut, a logger
+  /// pause) that no filter, block or force pairing on the host crosses, and
+  /// the core's max_gap_s (auto_config), so that no integral in the core
+  /// crosses it either.
+  double max_step_s() const { return std::max(10.0 * period_s(), 1e-3); }
   /// Whether the step into sample k (k >= 1) is such a gap.
   bool gap_before(std::size_t k) const { return t[k] - t[k - 1] > max_step_s(); }
   /// First sample of the stretch that holds sample k, looked for at most

@@ -116,7 +116,7 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
   const Signals& s = r.signals;
   u.chunks_used = jackknife(s, r.config, opt.method, u.jackknife_se, refitted_directions(r));
   u.timing_se = timing_standard_errors(s, r.config, opt.method, parameters(r.estimate), r.lag_se_periods);
-  u.cutoff_se = cutoff_standard_errors(s, r.config, opt.method, parameters(r.estimate));
+  u.cutoff_se = cutoff_standard_errors(s, r.config, opt.method, parameters(r.estimate), refitted_directions(r));
   apply_standard_errors(r.estimate, u);
   return u;
 }
@@ -130,16 +130,23 @@ std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Con
 }
 
 std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
-                                             const std::array<double, 9>& theta) {
+                                             const std::array<double, 9>& theta, const std::array<bool, 2>& refitted) {
   std::array<double, 9> out{};
   int used = 0;
   IdentifyOptions quiet;
   quiet.method = method;
+  quiet.select_friction_model = false;  // the law chosen on the data, refitted below as the jackknife does
   for (double fc : s.velocity_filter_rivals_hz) {
     Signals rival = s;
     derive_velocity(rival, fc);
-    const CoreRun run = run_core(rival, cfg, quiet);
+    CoreRun run = run_core(rival, cfg, quiet);
     if (run.status != feedid::Status::ok) continue;
+    bool ok = true;
+    for (int d = 0; d < 2; ++d)
+      if (refitted[static_cast<std::size_t>(d)])
+        ok = ok && refit_coulomb_viscous(run.core->statistics(), d, run.estimate.mass_kg,
+                                         d == 0 ? run.estimate.pos : run.estimate.neg);
+    if (!ok) continue;
     const auto at = parameters(run.estimate);
     for (std::size_t i = 0; i < out.size(); ++i) out[i] += (at[i] - theta[i]) * (at[i] - theta[i]);
     ++used;

@@ -49,9 +49,12 @@ struct Uncertainty {
 /// velocity_filter_rivals_hz): the RMS of its change when the core's
 /// velocity is derived at each of them instead; 0 without rivals. Which
 /// cut-off fits best is itself an estimate, and on a short, slow log
-/// (200 Hz SysId) the mass moved by half between two such cut-offs.
+/// (200 Hz SysId) the mass moved by half between two such cut-offs. Each
+/// rival keeps the friction law chosen on the data (`refitted`: the
+/// directions refitted with Coulomb + viscous), as the jackknife does.
+/// Whole-trace identification only: the streamed one has no term for it.
 std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
-                                             const std::array<double, 9>& theta);
+                                             const std::array<double, 9>& theta, const std::array<bool, 2>& refitted);
 
 /// Replaces the standard errors of r.estimate by sqrt(jackknife^2 + timing^2 + cut-off^2)
 /// (the core's own where the jackknife could not run) and re-applies the

@@ -177,6 +177,7 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
                           return a.second.ssr < b.second.ssr;
                         })->second;
   if (!std::isfinite(least.ssr)) return best;  // nothing identifies: keep the cut-off as it is
+  best.least_block_ssr = least.ssr;
   // The one-standard-error rule (Breiman et al.; Hastie et al., ESL 7.10):
   // of the cut-offs whose residual is within a standard error of the
   // least, the smoothest. The others stay as rivals for the standard errors.

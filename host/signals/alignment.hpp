@@ -44,6 +44,7 @@ struct FilterChoice {
   double cutoff_hz = 0.0;
   int candidates = 0;  ///< cut-offs tried
   double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
+  double least_block_ssr = std::numeric_limits<double>::infinity();  ///< the least of all tried (N^2)
   /// The other cut-offs whose block residual is within one standard error
   /// (delete-one-chunk jackknife of the difference) of the least: the data
   /// cannot tell them from the choice.

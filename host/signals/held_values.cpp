@@ -37,7 +37,7 @@ void spread_held_values(std::vector<double>& y, const std::vector<double>& t, in
   std::size_t from = n;  // row where the current value first appeared (n: none yet)
   const std::vector<double> logged = y;
   for (std::size_t k = 1; k < n; ++k) {
-    if (t[k] - t[k - 1] > max_step_s) { from = k; continue; }  // a gap: nothing is spread across it
+    if (t[k] - t[k - 1] > max_step_s) { from = n; continue; }  // a gap: a new start, nothing spread across it
     if (logged[k] == logged[k - 1]) continue;
     if (from < n && k - from <= static_cast<std::size_t>(max_rows) && k - from >= 2) {
       const double y0 = logged[from], slope = (logged[k] - y0) / (t[k] - t[from]);

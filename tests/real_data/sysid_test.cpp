@@ -67,9 +67,7 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   if (m.coulomb_within_2se) EXPECT_NEAR(sym.coulomb_N, m.ks_V, 2.0 * sym.coulomb_se) << summary(r);
   // The mass (kA) comes from the fast steps: 8-sample blocks at 200 Hz.
   // Within 30 % of kA on all five since no block spans the gap between two
-  // recordings (a 10 s block had set the lag search and the mass). Its
-  // standard error (11-85 %) does not always reach kA: the competition
-  // drivetrain's right side is -28 % at 3.6 standard errors (docs/sysid.md).
+  // recordings (a 10 s block had set the lag search and the mass).
   EXPECT_NEAR(r.estimate.mass_kg, m.ka_Vs2_rad, 0.3 * m.ka_Vs2_rad) << summary(r);
   // The bar: kS within 30 %, or flagged (never a confident number that misses).
   if (std::fabs(sym.coulomb_N / m.ks_V - 1.0) > 0.3) EXPECT_FALSE(sym.coulomb_identified()) << summary(r);
