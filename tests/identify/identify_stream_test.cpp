@@ -12,6 +12,16 @@
 namespace feedid::host {
 namespace {
 
+/// The default simulated drive, `duration_s` long, written to a temporary
+/// CSV named `name`; its path, or empty if it could not be written.
+std::string simulated_csv(double duration_s, const char* name) {
+  test::SimSpec spec;
+  spec.duration_s = duration_s;
+  const std::string path = ::testing::TempDir() + name;
+  std::string err;
+  return write_trace_csv(path, host::simulate(test::sim_config(spec)), err) ? path : std::string();
+}
+
 TEST(IdentifyStream, ChunksGiveTheWholeTracesEstimate) {
   test::SimSpec spec;
   spec.duration_s = 60.0;
@@ -54,11 +64,8 @@ TEST(IdentifyStream, ChunksGiveTheWholeTracesEstimate) {
 // Under 50 s of data fewer than five jackknife groups have any: the core's
 // own standard errors, never a jackknife over empty groups (which gave 0).
 TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
-  test::SimSpec spec;
-  spec.duration_s = 30.0;
-  const std::string path = ::testing::TempDir() + "feedid_stream_short.csv";
-  std::string err;
-  ASSERT_TRUE(write_trace_csv(path, host::simulate(test::sim_config(spec)), err)) << err;
+  const std::string path = simulated_csv(30.0, "feedid_stream_short.csv");
+  ASSERT_FALSE(path.empty());
   CsvStream in(path, CsvColumns{});
   const IdentifyResult r = identify_stream(in, path, IdentifyOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;
@@ -71,11 +78,8 @@ TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
 // streamed identification stops at init, THEN its result names the
 // configuration it was asked to run, as identify() does (it was empty).
 TEST(IdentifyStream, ARejectedConfigurationIsReportedAsAsked) {
-  test::SimSpec spec;
-  spec.duration_s = 10.0;
-  const std::string path = ::testing::TempDir() + "feedid_stream_badconfig.csv";
-  std::string err;
-  ASSERT_TRUE(write_trace_csv(path, host::simulate(test::sim_config(spec)), err)) << err;
+  const std::string path = simulated_csv(10.0, "feedid_stream_badconfig.csv");
+  ASSERT_FALSE(path.empty());
   IdentifyOptions opt;
   opt.velocity_min_m_s = 0.2;
   opt.velocity_max_m_s = 0.1;
@@ -85,6 +89,8 @@ TEST(IdentifyStream, ARejectedConfigurationIsReportedAsAsked) {
   EXPECT_FALSE(r.error.empty());
   EXPECT_EQ(r.config.velocity_min_m_s, 0.2);
   EXPECT_EQ(r.config.velocity_max_m_s, 0.1);
+  test::SimSpec spec;
+  spec.duration_s = 10.0;
   EXPECT_EQ(identify(host::simulate(test::sim_config(spec)), opt).config.velocity_min_m_s, 0.2);
 }
 
