@@ -131,7 +131,7 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   c->add_option("--velocity-lag-s", o.velocity_lag_s,
                 "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position");
   c->add_option("--velocity-filter", o.velocity_filter_hz,
-                "cut-off of the zero-phase filter on position whose derivative the core takes as velocity (Hz); 0 = chosen from the data: of the cut-offs from 100 Hz to 0.4 of the rate, the smoothest whose model's block residual is within a standard error of the least")
+                "cut-off of the zero-phase filter on position whose derivative the core takes as velocity (Hz); 0 = chosen from the data: of the cut-offs from 100 Hz (0.1 of the rate the position is updated at, if less) to 0.4 of the rate, the smoothest whose model's block residual is within a standard error of the least")
       ->capture_default_str();
   c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s, or rad/s); 0 = from the data")->capture_default_str();
   c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s, or rad/s); 0 = from the data")

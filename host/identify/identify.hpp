@@ -132,6 +132,9 @@ struct Signals {
   bool has_position = false;          ///< x is a logged position (not zeros)
   double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
   double period_s() const { return 1.0 / sample_rate_hz; }
+  /// Rate at which the position carries news (Hz): the log rate over the
+  /// rows each value is held for (held_values.hpp).
+  double position_update_rate_hz() const { return sample_rate_hz / std::max(1, position_hold_rows); }
   /// Longest step within one stretch of samples (s): ten median periods,
   /// at least 1 ms. A longer step is a gap (another run, a cut, a logger
   /// pause) that no filter, block or force pairing on the host crosses, and

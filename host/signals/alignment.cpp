@@ -143,7 +143,11 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
 }
 
 double lowest_velocity_filter_hz(const Signals& s) {
-  return std::min(kLowestVelocityFilter_hz, 0.1 * s.sample_rate_hz);
+  // Two octaves below the top cut-off of a slow log, or of the rate the
+  // position really comes at: a position held for four rows is sampled at a
+  // quarter of the log rate, and a cut-off smooth enough for that rate
+  // would otherwise never be tried.
+  return std::min(kLowestVelocityFilter_hz, 0.1 * s.position_update_rate_hz());
 }
 
 namespace {
@@ -163,7 +167,7 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   FilterChoice best;
   best.cutoff_hz = s.velocity_filter_hz;
   Signals work = s;
-  // Octave halves from 100 Hz to 0.4 of the rate (where the filter all but
+  // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where the filter all but
   // passes the position difference through), lowest first.
   const double top = 0.4 * s.sample_rate_hz;
   std::vector<std::pair<double, LagCost>> tried;

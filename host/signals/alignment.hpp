@@ -31,13 +31,14 @@ constexpr double kForceLagMax = 3.0;
 LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
 
 /// Cut-off of the core's velocity (the zero-phase derivative of position)
-/// before one is chosen, and the lowest tried (Hz; a slow log goes down to
-/// two octaves below its top cut-off of 0.4 of the rate).
+/// before one is chosen, and the lowest tried (Hz; lower on a slow or a held
+/// log: lowest_velocity_filter_hz).
 constexpr double kProvisionalVelocityFilter_hz = 300.0;
 constexpr double kLowestVelocityFilter_hz = 100.0;
 
-/// The lowest cut-off tried (Hz): kLowestVelocityFilter_hz, or two octaves
-/// below the top cut-off (0.4 of the rate) on a slow log.
+/// The lowest cut-off tried (Hz): kLowestVelocityFilter_hz, or 0.1 of the
+/// rate the position is updated at (Signals::position_update_rate_hz) on a
+/// slow log or one whose position is held for several rows.
 double lowest_velocity_filter_hz(const Signals& s);
 
 struct FilterChoice {
@@ -51,8 +52,8 @@ struct FilterChoice {
   std::vector<double> rivals_hz;
 };
 
-/// The cut-off, from 100 Hz (or 0.1 of the rate, if less) up to 0.4 of the
-/// rate in half octaves, whose identified model leaves the least block
+/// The cut-off, from lowest_velocity_filter_hz up to 0.4 of the rate in
+/// half octaves, whose identified model leaves the least block
 /// residual (the measure the lag search minimises) on `s` as aligned, or
 /// the smoothest within one standard error of it (the one-standard-error
 /// rule: on a 200 Hz SysId log three cut-offs were within a standard
