@@ -754,13 +754,18 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
   const double n = p.count;
   m.bic_gain = has_dip && ssr4 > 0 ? n * std::log(ssr2 / ssr4) - 2.0 * std::log(n) : 0.0;
   const bool physical = de.coulomb_N >= 0 && de.viscous_Ns_m >= 0;
-  m.stribeck = has_dip && physical && m.bic_gain > 0;
+  // A Stribeck velocity at the end of its search range is not placed by the
+  // data: the exponential then bends the whole curve, and BIC's count of
+  // two parameters assumes an optimum inside the range.
+  const bool placed = !(de.flags & feedid::flag_stribeck_at_search_bound);
+  m.stribeck = has_dip && physical && placed && m.bic_gain > 0;
   if (m.stribeck) {
     m.reason = "Stribeck: its dip lowers the band residual by more than BIC charges for Fs and vs";
     return m;
   }
   m.reason = !has_dip    ? "Coulomb + viscous: the fit found no dip (Fs = 0)"
              : !physical ? "Coulomb + viscous: the Stribeck fit was not physical (a negative Coulomb or viscous term)"
+             : !placed   ? "Coulomb + viscous: the Stribeck velocity came out at the end of its search range (the data do not place the dip)"
                          : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
   m.refitted = refit_coulomb_viscous(core.statistics(), d, mass, de);
   return m;

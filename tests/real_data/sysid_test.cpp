@@ -24,10 +24,6 @@ const std::string sysid_dir = std::string(FEEDID_SHARED_DIR) + "/data/sysid_team
 struct Mechanism {
   const char* prefix;
   double ks_V, kv_Vs_rad, ka_Vs2_rad;
-  /// The roller's friction falls with speed and our Coulomb + viscous line
-  /// sits 2.2 standard errors above kS: a known miss (docs/sysid.md), where
-  /// only the flag is claimed.
-  bool coulomb_within_2se = true;
 };
 
 class SysId : public ::testing::TestWithParam<Mechanism> {
@@ -38,14 +34,26 @@ class SysId : public ::testing::TestWithParam<Mechanism> {
   }
 };
 
+/// The bar for a figure SysId also gives: within 30 % of it, or flagged
+/// with a standard error that covers the difference (two of them).
+void expect_close_or_honestly_flagged(const char* what, double value, double se, bool identified, double sysid,
+                                      const std::string& summary) {
+  if (std::fabs(value / sysid - 1.0) <= 0.3) return;
+  EXPECT_FALSE(identified) << what << " " << value << " is more than 30 % from SysId's " << sysid
+                           << " and not flagged\n" << summary;
+  EXPECT_NEAR(value, sysid, 2.0 * se) << what << ": its standard error does not cover SysId's figure\n" << summary;
+}
+
 // GIVEN a mechanism's four recordings pooled (each its own run), WHEN
-// identify runs with nothing told, THEN the Stribeck law is not kept (its
-// fit came out with a negative Coulomb term), both directions fall back to
-// Coulomb + viscous and agree, the viscous term is within 3 % of SysId's kV,
-// the Coulomb term is positive and (but on the roller) within 2 standard
-// errors of kS, the mass is within 30 % of kA, and a Coulomb term more than
-// 30 % from kS is flagged.
-TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
+// identify runs with nothing told, THEN in each direction the viscous term
+// is within 3 % of SysId's kV; the Coulomb term and the mass are within
+// 30 % of kS and kA, or flagged with kS and kA within two standard errors;
+// and no figure left unflagged is non-physical. The roller's friction falls
+// with speed (0.13-0.17 V below 3 rad/s, about 0.03 V above 5 rad/s): its
+// Coulomb term missed kS by 2.2 standard errors while the velocity filter
+// could not go below 20 Hz, a quarter of the 50 Hz at which its position
+// is updated (docs/sysid.md).
+TEST_P(SysId, PooledRecordingsMeetSysIdsGainsOrFlagTheDifference) {
   const Mechanism m = GetParam();
   std::vector<std::string> files;
   for (const char* test : {"slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd"})
@@ -54,23 +62,28 @@ TEST_P(SysId, PooledRecordingsGiveSysIdsFrictionWithoutAStribeckTerm) {
   ASSERT_TRUE(in.ok) << in.error;
   const IdentifyResult r = identify(in.trace, IdentifyOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;
+  const std::string text = summary(r);
   for (int d = 0; d < 2; ++d) {
     SCOPED_TRACE(d == 0 ? "forward" : "backward");
-    EXPECT_FALSE(r.friction_model[static_cast<std::size_t>(d)].stribeck) << r.friction_model[static_cast<std::size_t>(d)].reason;
     const auto& de = d == 0 ? r.estimate.pos : r.estimate.neg;
-    EXPECT_FALSE(de.stribeck_identified());
+    ASSERT_TRUE(de.friction_identified()) << text;
+    EXPECT_NEAR(de.viscous_Ns_m, m.kv_Vs_rad, 0.03 * m.kv_Vs_rad) << text;
+    expect_close_or_honestly_flagged("Coulomb", de.coulomb_N, de.coulomb_se, de.coulomb_identified(), m.ks_V, text);
+    if (de.coulomb_identified()) EXPECT_GE(de.coulomb_N, 0.0) << text;
+    if (de.stribeck_identified()) {
+      EXPECT_GT(de.breakaway_N, 0.0) << text;
+      EXPECT_LE(de.stribeck_velocity_m_s, r.config.velocity_max_m_s) << text;
+    }
   }
   const SymmetricFriction sym = symmetric_friction(r);
-  ASSERT_TRUE(sym.agree) << summary(r);
-  EXPECT_NEAR(sym.viscous_Ns_m, m.kv_Vs_rad, 0.03 * m.kv_Vs_rad) << summary(r);
-  EXPECT_GT(sym.coulomb_N, 0.0) << summary(r);
-  if (m.coulomb_within_2se) EXPECT_NEAR(sym.coulomb_N, m.ks_V, 2.0 * sym.coulomb_se) << summary(r);
-  // The mass (kA) comes from the fast steps: 8-sample blocks at 200 Hz.
-  // Within 30 % of kA on all five since no block spans the gap between two
-  // recordings (a 10 s block had set the lag search and the mass).
-  EXPECT_NEAR(r.estimate.mass_kg, m.ka_Vs2_rad, 0.3 * m.ka_Vs2_rad) << summary(r);
-  // The bar: kS within 30 %, or flagged (never a confident number that misses).
-  if (std::fabs(sym.coulomb_N / m.ks_V - 1.0) > 0.3) EXPECT_FALSE(sym.coulomb_identified()) << summary(r);
+  if (sym.agree) {
+    EXPECT_NEAR(sym.viscous_Ns_m, m.kv_Vs_rad, 0.03 * m.kv_Vs_rad) << text;
+    expect_close_or_honestly_flagged("symmetric Coulomb", sym.coulomb_N, sym.coulomb_se, sym.coulomb_identified(), m.ks_V, text);
+  }
+  // The mass (kA) comes from the fast steps, over in 40 ms on the roller.
+  expect_close_or_honestly_flagged("mass", r.estimate.mass_kg, r.estimate.mass_se_kg, r.estimate.mass_identified(),
+                                   m.ka_Vs2_rad, text);
+  if (r.estimate.mass_identified()) EXPECT_GT(r.estimate.mass_kg, 0.0) << text;
 }
 
 // GIVEN the test robot's left drivetrain, whose loop logged every 5 ms the
@@ -102,7 +115,7 @@ INSTANTIATE_TEST_SUITE_P(Team581, SysId,
                                            Mechanism{"compbot_drive_right", 0.060039, 0.22421, 0.011814},
                                            Mechanism{"test2020bot_drive_left", 0.088986, 0.18647, 0.0076096},
                                            Mechanism{"test2020bot_drive_right", 0.088986, 0.18647, 0.0076096},
-                                           Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161, false}),
+                                           Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161}),
                          [](const auto& info) { return std::string(info.param.prefix); });
 
 }  // namespace
