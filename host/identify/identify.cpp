@@ -639,7 +639,8 @@ void refit_mass_on_blocks(IdentifyResult& r) {
   // attenuation by velocity quantisation from a mass the data pin down;
   // they do not rescue one the windows could not pin (on the 200 Hz SysId
   // logs, whose positions are held for 20 ms, the block mass of such a
-  // mass came out 13-73 % below kA, the windows' -28 to +10 %).
+  // mass came out 13-73 % below kA, the windows' -28 to +10 %, when the
+  // lowest cut-off tried was 20 Hz).
   if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
   const BlockMass b = block_mass(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s,
                                  r.residual_block_s);
@@ -754,9 +755,11 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
   const double n = p.count;
   m.bic_gain = has_dip && ssr4 > 0 ? n * std::log(ssr2 / ssr4) - 2.0 * std::log(n) : 0.0;
   const bool physical = de.coulomb_N >= 0 && de.viscous_Ns_m >= 0;
-  // A Stribeck velocity at the end of its search range is not placed by the
-  // data: the exponential then bends the whole curve, and BIC's count of
-  // two parameters assumes an optimum inside the range.
+  // A Stribeck velocity at either end of its search range is not placed by
+  // the data (at the top the exponential bends the whole curve, at the
+  // bottom it touches the lowest bands alone), and BIC's count of two
+  // parameters assumes an optimum inside the range. (With too few bands to
+  // weigh, above, the core's fit stays as it is, its flags saying so.)
   const bool placed = !(de.flags & feedid::flag_stribeck_at_search_bound);
   m.stribeck = has_dip && physical && placed && m.bic_gain > 0;
   if (m.stribeck) {

@@ -24,6 +24,9 @@ const std::string sysid_dir = std::string(FEEDID_SHARED_DIR) + "/data/sysid_team
 struct Mechanism {
   const char* prefix;
   double ks_V, kv_Vs_rad, ka_Vs2_rad;
+  /// Both directions fall back to Coulomb + viscous and agree (the
+  /// drivetrains); the roller keeps a Stribeck law in each.
+  bool symmetric = true;
 };
 
 class SysId : public ::testing::TestWithParam<Mechanism> {
@@ -35,24 +38,26 @@ class SysId : public ::testing::TestWithParam<Mechanism> {
 };
 
 /// The bar for a figure SysId also gives: within 30 % of it, or flagged
-/// with a standard error that covers the difference (two of them).
+/// with a standard error that covers the difference (one standard error,
+/// as the issue's bar reads; the docs claim no more).
 void expect_close_or_honestly_flagged(const char* what, double value, double se, bool identified, double sysid,
                                       const std::string& summary) {
   if (std::fabs(value / sysid - 1.0) <= 0.3) return;
   EXPECT_FALSE(identified) << what << " " << value << " is more than 30 % from SysId's " << sysid
                            << " and not flagged\n" << summary;
-  EXPECT_NEAR(value, sysid, 2.0 * se) << what << ": its standard error does not cover SysId's figure\n" << summary;
+  EXPECT_NEAR(value, sysid, se) << what << ": its standard error does not cover SysId's figure\n" << summary;
 }
 
 // GIVEN a mechanism's four recordings pooled (each its own run), WHEN
 // identify runs with nothing told, THEN in each direction the viscous term
 // is within 3 % of SysId's kV; the Coulomb term and the mass are within
-// 30 % of kS and kA, or flagged with kS and kA within two standard errors;
-// and no figure left unflagged is non-physical. The roller's friction falls
-// with speed (0.13-0.17 V below 3 rad/s, about 0.03 V above 5 rad/s): its
-// Coulomb term missed kS by 2.2 standard errors while the velocity filter
-// could not go below 20 Hz, a quarter of the 50 Hz at which its position
-// is updated (docs/sysid.md).
+// 30 % of kS and kA, or flagged with kS and kA within one standard error;
+// and no figure left unflagged is non-physical (on these logs that guards
+// the viscous terms and the competition drivetrain's mass; every Coulomb,
+// Fs and vs is flagged). The roller's friction falls with speed (0.13-0.17 V
+// below 3 rad/s, 0-0.07 V above 5 rad/s): its Coulomb term missed kS by
+// 2.2 standard errors while the velocity filter could not go below 20 Hz,
+// 0.4 of the 50 Hz at which its position is updated (docs/sysid.md).
 TEST_P(SysId, PooledRecordingsMeetSysIdsGainsOrFlagTheDifference) {
   const Mechanism m = GetParam();
   std::vector<std::string> files;
@@ -70,12 +75,10 @@ TEST_P(SysId, PooledRecordingsMeetSysIdsGainsOrFlagTheDifference) {
     EXPECT_NEAR(de.viscous_Ns_m, m.kv_Vs_rad, 0.03 * m.kv_Vs_rad) << text;
     expect_close_or_honestly_flagged("Coulomb", de.coulomb_N, de.coulomb_se, de.coulomb_identified(), m.ks_V, text);
     if (de.coulomb_identified()) EXPECT_GE(de.coulomb_N, 0.0) << text;
-    if (de.stribeck_identified()) {
-      EXPECT_GT(de.breakaway_N, 0.0) << text;
-      EXPECT_LE(de.stribeck_velocity_m_s, r.config.velocity_max_m_s) << text;
-    }
+    if (de.stribeck_identified()) EXPECT_GT(de.breakaway_N, 0.0) << text;
   }
   const SymmetricFriction sym = symmetric_friction(r);
+  if (m.symmetric) ASSERT_TRUE(sym.agree) << text;
   if (sym.agree) {
     EXPECT_NEAR(sym.viscous_Ns_m, m.kv_Vs_rad, 0.03 * m.kv_Vs_rad) << text;
     expect_close_or_honestly_flagged("symmetric Coulomb", sym.coulomb_N, sym.coulomb_se, sym.coulomb_identified(), m.ks_V, text);
@@ -115,7 +118,7 @@ INSTANTIATE_TEST_SUITE_P(Team581, SysId,
                                            Mechanism{"compbot_drive_right", 0.060039, 0.22421, 0.011814},
                                            Mechanism{"test2020bot_drive_left", 0.088986, 0.18647, 0.0076096},
                                            Mechanism{"test2020bot_drive_right", 0.088986, 0.18647, 0.0076096},
-                                           Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161}),
+                                           Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161, false}),
                          [](const auto& info) { return std::string(info.param.prefix); });
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "identify/identify.hpp"
+#include "signals/alignment.hpp"
 #include "signals/held_values.hpp"
 
 namespace feedid::host {
@@ -82,6 +84,25 @@ TEST(HeldValues, RestAndGapsAreNotSpread) {
   EXPECT_EQ(y[279], x[279]);  // the last rows before it: no update after them to spread toward
   EXPECT_EQ(y[1], x[1]);      // before the first update: nothing to spread from
   EXPECT_NE(y[5], x[5]);      // a held row inside the motion is spread
+}
+
+// GIVEN a 200 Hz log whose position is held for four rows (updated at
+// 50 Hz), WHEN the velocity cut-offs to try are set, THEN the lowest is 0.1
+// of the update rate (5 Hz), not of the row rate (20 Hz): the SysId roller's
+// 40 ms steps overshot to 80 rad/s at 20 Hz, above any speed it reached.
+// A log updated every row keeps the row rate's floor, and a fast one 100 Hz.
+TEST(HeldValues, AHeldPositionLowersTheLowestVelocityCutOff) {
+  Signals s;
+  s.sample_rate_hz = 200.0;
+  EXPECT_DOUBLE_EQ(lowest_velocity_filter_hz(s), 20.0);
+  s.position_hold_rows = 4;
+  EXPECT_DOUBLE_EQ(s.position_update_rate_hz(), 50.0);
+  EXPECT_DOUBLE_EQ(lowest_velocity_filter_hz(s), 5.0);
+  s.sample_rate_hz = 4000.0;
+  s.position_hold_rows = 1;
+  EXPECT_DOUBLE_EQ(lowest_velocity_filter_hz(s), kLowestVelocityFilter_hz);
+  s.position_hold_rows = 8;
+  EXPECT_DOUBLE_EQ(lowest_velocity_filter_hz(s), 50.0);
 }
 
 }  // namespace
