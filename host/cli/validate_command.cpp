@@ -40,6 +40,7 @@ struct ValidateCommand : Command {
     std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
                 r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
                 r.units.force.c_str());
+    if (r.force_sign.sign < 0 || !r.force_sign.conclusive) std::printf("  force %s\n", r.force_sign.describe().c_str());
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
     std::string err;
     if (!plot_path.empty() && !write_force_plot_svg(r, plot_path, "Cross-test: " + csv.trace.source, err)) {

@@ -80,10 +80,12 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   // a Stribeck law dropped by identify's model selection (vs = 0) left it
   // nothing to refit, and two effects of 66 went `unexplained`.
   idopt.select_friction_model = false;
+  idopt.force_sign = 1;  // aligned_signals oriented the force already
   idopt.velocity_lag_s = (sig.core_velocity_lag + sig.velocity_delay_samples) / sig.sample_rate_hz;
   out.base = identify(id_trace, idopt);
   // The identification folds reach the core as a measured column; say where it came from.
   out.base.signals.velocity_origin = sig.velocity_origin;
+  out.base.signals.force_sign = sig.force_sign;
   if (!out.base.error.empty()) out.error = out.base.error;
   return out.error.empty();
 }
@@ -911,7 +913,8 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"convention_force_delay_limit_periods", convention_force_delay_limit()},
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
                           "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
-  j["input"] = {{"position", r.position_origin}};
+  j["input"] = {{"position", r.position_origin}, {"force_sign", r.base.signals.force_sign.sign},
+                {"force_sign_origin", r.base.signals.force_sign.describe()}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},
                 {"folds", r.folds}, {"blocks_identification", r.blocks_identification},
                 {"blocks_heldout", r.blocks_heldout}};
@@ -936,6 +939,8 @@ std::string summary(const DiagnoseResult& r) {
     o << "  " << r.heldout_beyond_identification
       << " held-out observations set aside: the identification folds do not pin the base model down there (prediction variance above half the noise)\n";
   if (r.position_origin != "measured") o << "position " << r.position_origin << "\n";
+  const ForceSign& sign = r.base.signals.force_sign;
+  if (sign.sign < 0 || !sign.conclusive) o << "force " << sign.describe() << "\n";
   o << "effect: " << r.effect << "\n";
   for (const auto& e : r.effects) {
     std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f)\n",

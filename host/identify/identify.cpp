@@ -17,15 +17,6 @@
 namespace feedid::host {
 namespace {
 
-double median_step(const std::vector<double>& t) {
-  std::vector<double> d;
-  d.reserve(t.size());
-  for (std::size_t k = 1; k < t.size(); ++k) d.push_back(t[k] - t[k - 1]);
-  if (d.empty()) return 0.0;
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  return d[d.size() / 2];
-}
-
 double quantile_abs(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   for (double& x : v) x = std::fabs(x);
@@ -302,7 +293,16 @@ void spread_held_columns(const Trace& trace, bool spread_them, Signals& s) {
 }
 }  // namespace
 
-Signals read_signals(const Trace& trace, bool spread_held) {
+/// The force multiplied by the sign stated, or found from its work on the
+/// motion (force_sign.hpp): a reversed force would identify as a negative
+/// mass and negative friction.
+void orient_force(Signals& s, int stated_sign) {
+  s.force_sign = stated_sign != 0 ? stated_force_sign(stated_sign) : find_force_sign(s.t, s.x, s.u, s.max_step_s());
+  if (s.force_sign.sign < 0)
+    for (double& u : s.u) u = -u;
+}
+
+Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals s;
   const std::size_t n = trace.samples.size();
   s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
@@ -319,7 +319,7 @@ Signals read_signals(const Trace& trace, bool spread_held) {
   s.sample_rate_hz = 1.0 / dt;
   s.has_position = trace.has_position;
   s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;  // of the lattice as logged
-  spread_held_columns(trace, spread_held, s);
+  spread_held_columns(trace, opt.spread_held_values, s);
   if (!trace.has_velocity && !trace.has_position)
     throw std::invalid_argument(trace.source + ": neither velocity nor position column");
   if (!trace.has_position) {
@@ -338,6 +338,7 @@ Signals read_signals(const Trace& trace, bool spread_held) {
     s.position_quantum_m = position_quantum(s.x);
     s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
   }
+  orient_force(s, opt.force_sign);
   return s;
 }
 
@@ -438,7 +439,7 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 }  // namespace
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
-  Signals raw = read_signals(trace, opt.spread_held_values);
+  Signals raw = read_signals(trace, opt);
   const VelocityTiming timing = time_velocity_column(raw, trace, opt);
   if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
     raw.velocity_origin = "given";
@@ -586,8 +587,8 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     std::ostringstream o;
     o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
       << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
-      << " s moving negative above " << r.config.velocity_min_m_s
-      << " m/s; each direction needs data in at least 5 velocity bands";
+      << " s moving negative above " << r.config.velocity_min_m_s << " " << r.units.velocity()
+      << "; each direction needs data in at least 5 velocity bands";
     r.error = o.str();
     return r;
   }
@@ -883,6 +884,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"held_values_spread", r.signals.held_values_spread},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
+                {"force_sign", r.signals.force_sign.sign}, {"force_sign_origin", r.signals.force_sign.describe()},
+                {"force_sign_ratio", std::isfinite(r.signals.force_sign.ratio) ? nlohmann::json(r.signals.force_sign.ratio) : nlohmann::json()},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
                 {"position_quantum_m", r.signals.position_quantum_m},
@@ -944,6 +947,8 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
   if (r.signals.position_hold_rows > 1) o << "  position " << r.signals.position_origin << "\n";
+  if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
+    o << "  force " << r.signals.force_sign.describe() << "\n";
   const Units& u = r.units;
   auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
     const char* unit = unit_text.c_str();

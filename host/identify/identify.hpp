@@ -16,6 +16,8 @@
 #include "io/trace.hpp"
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
+#include "signals/filters.hpp"
+#include "signals/force_sign.hpp"
 
 namespace feedid::host {
 
@@ -56,6 +58,9 @@ struct IdentifyOptions {
   /// identify does not yet: on the SysId logs it moved the roller's lag
   /// search to -22 ms and its mass below zero (docs/sysid.md).
   bool spread_held_values = false;
+  /// +1 or -1 states what the logged force is multiplied by; 0 finds it
+  /// from the work the force does on the motion (force_sign.hpp).
+  int force_sign = 0;
   /// Force/velocity pairing: "auto" estimates the lag from the data
   /// (alignment.hpp); a named convention (held-backward, held-instant,
   /// trapezoid) or force_lag_s states it.
@@ -96,6 +101,9 @@ struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
   std::string position_origin = "measured";  ///< or how x was made (no position column)
+  /// What the logged force was multiplied by so that it does positive net
+  /// work on the motion, and why (force_sign.hpp).
+  ForceSign force_sign;
   /// Rows each logged value of position and of the velocity column stood
   /// for (held_values.hpp; 1: updated every row), and whether they were
   /// spread linearly between their updates (IdentifyOptions::spread_held_values).
@@ -135,12 +143,10 @@ struct Signals {
   /// Rate at which the position carries news (Hz): the log rate over the
   /// rows each value is held for (held_values.hpp).
   double position_update_rate_hz() const { return sample_rate_hz / std::max(1, position_hold_rows); }
-  /// Longest step within one stretch of samples (s): ten median periods,
-  /// at least 1 ms. A longer step is a gap (another run, a cut, a logger
-  /// pause) that no filter, block or force pairing on the host crosses, and
-  /// the core's max_gap_s (auto_config), so that no integral in the core
-  /// crosses it either.
-  double max_step_s() const { return std::max(10.0 * period_s(), 1e-3); }
+  /// Longest step within one stretch of samples (s; filters.hpp,
+  /// max_step_s), and the core's max_gap_s (auto_config), so that no
+  /// integral in the core crosses a gap either.
+  double max_step_s() const { return host::max_step_s(period_s()); }
   /// Whether the step into sample k (k >= 1) is such a gap.
   bool gap_before(std::size_t k) const { return t[k] - t[k - 1] > max_step_s(); }
   /// First sample of the stretch that holds sample k, looked for at most

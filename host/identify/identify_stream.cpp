@@ -38,6 +38,7 @@ bool read_span(CsvStream& in, Trace& into, double span_s, TraceSample& next, boo
 /// Options that repeat, for every chunk, what was chosen on the head.
 IdentifyOptions stated_from(const Signals& head, IdentifyOptions o) {
   o.force_lag_s = head.force_lag_s;
+  o.force_sign = head.force_sign.sign;
   if (std::isfinite(head.velocity_lag_s)) o.velocity_lag_s = head.velocity_lag_s;
   if (head.velocity_filter_hz > 0) {
     o.velocity_filter_hz = head.velocity_filter_hz;

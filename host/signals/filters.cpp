@@ -143,6 +143,15 @@ std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std:
   return v;
 }
 
+double median_step(const std::vector<double>& t) {
+  std::vector<double> d;
+  d.reserve(t.size());
+  for (std::size_t k = 1; k < t.size(); ++k) d.push_back(t[k] - t[k - 1]);
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
 std::vector<double> integrate_velocity(const std::vector<double>& v, const std::vector<double>& t, double max_step_s) {
   std::vector<double> x(v.size(), 0.0);
   for (std::size_t k = 1; k < v.size(); ++k) {

@@ -6,6 +6,14 @@
 
 namespace feedid::host {
 
+/// Median time step of t (s); 0 for fewer than two samples.
+double median_step(const std::vector<double>& t);
+
+/// Longest step within one stretch of samples (s): ten median periods, at
+/// least 1 ms. A longer step is a gap (another run, a cut, a logger pause)
+/// that no filter, block, integral or force pairing crosses.
+inline double max_step_s(double median_period_s) { return 10.0 * median_period_s > 1e-3 ? 10.0 * median_period_s : 1e-3; }
+
 /// Zero-phase low-pass: 4th-order Butterworth (two biquads) run forward then
 /// backward, so the magnitude response is squared and the phase is zero.
 /// Ends are padded by odd reflection (3 cut-off periods) with the filter

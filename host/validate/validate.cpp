@@ -20,6 +20,18 @@ double sample_rate(const std::vector<double>& t) {
   return static_cast<double>(t.size() - 1) / (t.back() - t.front());
 }
 
+/// The force with the sign that makes it do positive net work on the motion
+/// (force_sign.hpp), as identify orients it: a model identified on a
+/// reversed log predicts the force the right way round.
+void orient_force(const Trace& trace, const std::vector<double>& t, std::vector<double>& u, ForceSign& sign) {
+  const double gap_s = max_step_s(median_step(t));
+  const std::vector<double> x = trace.has_position ? column(trace, &TraceSample::x_m)
+                                                   : integrate_velocity(column(trace, &TraceSample::v_m_s), t, gap_s);
+  sign = find_force_sign(t, x, u, gap_s);
+  if (sign.sign < 0)
+    for (double& f : u) f = -f;
+}
+
 }  // namespace
 
 void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a) {
@@ -48,6 +60,7 @@ ValidateResult validate(const DriveParams& model, const Trace& trace, const Vali
   protocol_derivatives(trace, opt.filter_hz, v, a);
   std::vector<double> u = column(trace, &TraceSample::u_N);
   const std::vector<double> t = column(trace, &TraceSample::t_s);
+  orient_force(trace, t, u, r.force_sign);
   std::vector<double> u_hat(n);
   for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]);
 
@@ -100,6 +113,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
             {"decimate", opt.decimate},
             {"anti_alias", "zero-phase 4th-order Butterworth at 0.8 x new Nyquist"}}},
           {"velocity", r.velocity_origin},
+          {"force_sign", r.force_sign.sign},
+          {"force_sign_origin", r.force_sign.describe()},
           {"model", model_json(model, r.units)},
           {"units", units_json(r.units)}};
 }

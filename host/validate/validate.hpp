@@ -10,6 +10,7 @@
 #include "sim/drive_sim.hpp"
 #include "io/trace.hpp"
 #include "io/units.hpp"
+#include "signals/force_sign.hpp"
 
 namespace feedid::host {
 
@@ -28,6 +29,9 @@ struct ValidateResult {
   std::size_t samples_used = 0;
   std::vector<double> t, u, u_hat, v;    ///< the decimated series (for plots)
   std::string velocity_origin;
+  /// What the logged force was multiplied by before the comparison (found
+  /// from its work on the motion, as identify finds it).
+  ForceSign force_sign;
   Units units;  ///< ValidateOptions::units
 };
 
