@@ -302,6 +302,20 @@ void orient_force(Signals& s, int stated_sign) {
     for (double& u : s.u) u = -u;
 }
 
+/// Whether the velocity column can stand beside the position: a column
+/// in another unit (rpm beside rad, mm/s beside m), of the other sign, or
+/// on the motor side of a gear is some gain times the position's
+/// derivative, and taken as it is it wrecked the diagnosis (an effect-free
+/// trace came out `unexplained` at 26 times the noise floor with the sign
+/// reversed). Such a column is left out, as if not logged; a given column
+/// (VelocitySource::given) is the caller's.
+void check_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
+  s.has_velocity_column = trace.has_velocity;
+  if (!trace.has_velocity || !trace.has_position || opt.velocity_source == VelocitySource::given) return;
+  s.velocity_column_gain = velocity_column_gain(s);
+  s.has_velocity_column = velocity_column_agrees(s.velocity_column_gain);
+}
+
 Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals s;
   const std::size_t n = trace.samples.size();
@@ -338,6 +352,7 @@ Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
     s.position_quantum_m = position_quantum(s.x);
     s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
   }
+  check_velocity_column(s, trace, opt);
   orient_force(s, opt.force_sign);
   return s;
 }
@@ -354,9 +369,9 @@ VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const Identi
   const double dt = s.period_s();
   const double stated = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : std::numeric_limits<double>::quiet_NaN();
   VelocityTiming v;
-  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+  if (s.has_velocity_column && opt.velocity_source == VelocitySource::given) {
     v.core = std::isfinite(stated) ? stated : 0.0;
-  } else if (trace.has_velocity && trace.has_position) {
+  } else if (s.has_velocity_column && trace.has_position) {
     const double lag = std::isfinite(stated) ? stated : estimate_velocity_lag(s);
     s.velocity_lag_s = lag * dt;
     v.column = std::isfinite(lag) ? lag : 0.5;
@@ -378,8 +393,11 @@ Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyO
   o << "derived: zero-phase 4th-order Butterworth " << std::setprecision(3) << s.velocity_filter_hz << " Hz ("
     << s.velocity_filter_origin << ") on position" << (trace.has_position ? "" : " (integrated velocity)")
     << ", central differences";
-  if (trace.has_velocity && trace.has_position)
+  if (raw.has_velocity_column && trace.has_position)
     o << "; the velocity column lags position by " << std::setprecision(2) << timing.column << " periods";
+  if (trace.has_velocity && !raw.has_velocity_column)
+    o << "; the velocity column, " << std::setprecision(3) << raw.velocity_column_gain
+      << " times the derivative of position (another unit, the other sign, or the motor side of a gear), is left out";
   s.velocity_origin = o.str();
   s.core_velocity_lag = timing.core;
   align_force(s, opt, timing.core, timing.column, found);
@@ -441,13 +459,13 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals raw = read_signals(trace, opt);
   const VelocityTiming timing = time_velocity_column(raw, trace, opt);
-  if (trace.has_velocity && opt.velocity_source == VelocitySource::given) {
+  if (raw.has_velocity_column && opt.velocity_source == VelocitySource::given) {
     raw.velocity_origin = "given";
     raw.core_velocity_lag = timing.core;
     align_force(raw, opt, timing.core, timing.column);
     return raw;
   }
-  if (trace.has_velocity && trace.has_position && opt.velocity_source == VelocitySource::column)
+  if (raw.has_velocity_column && trace.has_position && opt.velocity_source == VelocitySource::column)
     return column_and_align(raw, opt, timing);
   const IdentifyOptions search = opt.velocity_filter_hz > 0 ? opt : with_smooth_band_edges(raw, opt);
   // The core's velocity is the zero-phase derivative of position (logged or
@@ -466,7 +484,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   if (stated) return s;
   const feedid::Config<double> edges = auto_config(s, search);
   const FilterChoice choice = choose_velocity_filter(s, edges);
-  if (trace.has_velocity && trace.has_position) {
+  if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing);
     if (block_fit_ssr(column, edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
@@ -474,7 +492,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     }
   }
   std::ostringstream o;
-  o << "the smoothest of " << choice.candidates << " cut-offs" << (trace.has_velocity && trace.has_position ? " and the velocity column" : "")
+  o << "the smoothest of " << choice.candidates << " cut-offs" << (raw.has_velocity_column && trace.has_position ? " and the velocity column" : "")
     << " within a standard error of the least block residual";
   raw.velocity_filter_origin = o.str();
   Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
@@ -888,6 +906,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"force_sign_ratio", std::isfinite(r.signals.force_sign.ratio) ? nlohmann::json(r.signals.force_sign.ratio) : nlohmann::json()},
                 {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
                 {"velocity_delay_samples", r.signals.velocity_delay_samples},
+                {"velocity_column_gain", std::isfinite(r.signals.velocity_column_gain) ? nlohmann::json(r.signals.velocity_column_gain) : nlohmann::json()},
+                {"velocity_column_used", r.signals.has_velocity_column},
                 {"position_quantum_m", r.signals.position_quantum_m},
                 {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
   if (r.streamed)

@@ -138,6 +138,11 @@ struct Signals {
     return p;
   }
   bool has_position = false;          ///< x is a logged position (not zeros)
+  /// The velocity column is logged and used (velocity_column_agrees, or
+  /// there is no position to check it against).
+  bool has_velocity_column = false;
+  /// The velocity column over the position's derivative (velocity_column_gain; NaN: not checked).
+  double velocity_column_gain = std::numeric_limits<double>::quiet_NaN();
   double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
   double period_s() const { return 1.0 / sample_rate_hz; }
   /// Rate at which the position carries news (Hz): the log rate over the

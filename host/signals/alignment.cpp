@@ -247,6 +247,44 @@ double estimate_velocity_lag(const Signals& s) {
   return 0.5 + sxy / sxx;
 }
 
+double velocity_column_gain(const Signals& s) {
+  const std::size_t n = s.t.size();
+  if (!s.has_position || s.x.size() != n || s.v.size() != n || n < 64) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t window = std::max<std::size_t>(64, static_cast<std::size_t>(s.sample_rate_hz));
+  double sxy = 0.0, sxx = 0.0, integral = 0.0;
+  std::vector<double> X, x;
+  auto flush = [&]() {
+    if (X.size() >= 8) {
+      double mX = 0.0, mx = 0.0;
+      for (std::size_t i = 0; i < X.size(); ++i) { mX += X[i]; mx += x[i]; }
+      mX /= static_cast<double>(X.size());
+      mx /= static_cast<double>(X.size());
+      for (std::size_t i = 0; i < X.size(); ++i) {
+        sxy += (X[i] - mX) * (x[i] - mx);
+        sxx += (x[i] - mx) * (x[i] - mx);
+      }
+    }
+    X.clear();
+    x.clear();
+  };
+  for (std::size_t k = 1; k < n; ++k) {
+    if (s.gap_before(k)) {  // another run: the integral starts again
+      flush();
+      continue;
+    }
+    integral += s.v[k] * (s.t[k] - s.t[k - 1]);
+    X.push_back(integral);
+    x.push_back(s.x[k]);
+    if (X.size() == window) flush();
+  }
+  flush();
+  return sxx > 0 ? sxy / sxx : std::numeric_limits<double>::quiet_NaN();
+}
+
+bool velocity_column_agrees(double gain) {
+  return !std::isfinite(gain) || (gain >= 1.0 / kVelocityColumnGainTolerance && gain <= kVelocityColumnGainTolerance);
+}
+
 void apply_force_lag(Signals& s, double lag_samples) {
   const int delay = whole_delay_for(lag_samples);
   delay_motion(s, delay, s);

@@ -79,6 +79,21 @@ double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg);
 /// moving average. NaN without a usable position column.
 double estimate_velocity_lag(const Signals& s);
 
+/// Gain of the velocity column against the position: the slope of the
+/// integrated column on the position within windows of about a second,
+/// each with its own offset (a filter's delay of a few periods and the
+/// encoder's counts hardly move it). 1 for a column in the position's unit
+/// per second; -1 for one of the other sign, 9.55 for rpm beside rad, 1000
+/// for mm/s beside m. NaN without motion or a position column.
+double velocity_column_gain(const Signals& s);
+
+/// Whether a column of that gain is the position's derivative: within a
+/// factor kVelocityColumnGainTolerance either way (no unit pair is that
+/// close; a low-pass column stays near 1 at the motion's frequencies), or
+/// not known (NaN).
+constexpr double kVelocityColumnGainTolerance = 1.25;
+bool velocity_column_agrees(double gain);
+
 /// Sets the lag of `s` (periods): a positive lag delays v and x by whole
 /// samples so that what is left for the core's pairing rule is in [-5, 0].
 void apply_force_lag(Signals& s, double lag_samples);
