@@ -86,6 +86,7 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   // The identification folds reach the core as a measured column; say where it came from.
   out.base.signals.velocity_origin = sig.velocity_origin;
   out.base.signals.force_sign = sig.force_sign;
+  out.base.signals.position_wrap = sig.position_wrap;
   if (!out.base.error.empty()) out.error = out.base.error;
   return out.error.empty();
 }

@@ -332,8 +332,10 @@ Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
   if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to identify with");
   s.sample_rate_hz = 1.0 / dt;
   s.has_position = trace.has_position;
+  if (trace.has_position) s.position_wrap = unwrap_position(s.t, s.x, s.max_step_s());
   s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;  // of the lattice as logged
   spread_held_columns(trace, opt.spread_held_values, s);
+  if (s.position_wrap.found()) s.position_origin += ", " + s.position_wrap.describe();
   if (!trace.has_velocity && !trace.has_position)
     throw std::invalid_argument(trace.source + ": neither velocity nor position column");
   if (!trace.has_position) {
@@ -898,6 +900,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_filter_rivals_hz", r.signals.velocity_filter_rivals_hz},
                 {"position", r.signals.position_origin},
                 {"position_hold_rows", r.signals.position_hold_rows},
+                {"position_wrap_period", r.signals.position_wrap.found() ? nlohmann::json(r.signals.position_wrap.period) : nlohmann::json()},
+                {"position_unwraps", r.signals.position_wrap.wraps},
                 {"velocity_hold_rows", r.signals.velocity_hold_rows},
                 {"held_values_spread", r.signals.held_values_spread},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
@@ -966,7 +970,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
-  if (r.signals.position_hold_rows > 1) o << "  position " << r.signals.position_origin << "\n";
+  if (r.signals.position_hold_rows > 1 || r.signals.position_wrap.found()) o << "  position " << r.signals.position_origin << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
     o << "  force " << r.signals.force_sign.describe() << "\n";
   const Units& u = r.units;

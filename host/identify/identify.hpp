@@ -18,6 +18,7 @@
 #include "model/drive_model.hpp"
 #include "signals/filters.hpp"
 #include "signals/force_sign.hpp"
+#include "signals/position_wrap.hpp"
 
 namespace feedid::host {
 
@@ -101,6 +102,7 @@ struct Signals {
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
   std::string position_origin = "measured";  ///< or how x was made (no position column)
+  PositionWrap position_wrap;  ///< jumps of a wrapped position taken out (position_wrap.hpp)
   /// What the logged force was multiplied by so that it does positive net
   /// work on the motion, and why (force_sign.hpp).
   ForceSign force_sign;

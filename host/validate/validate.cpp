@@ -32,6 +32,18 @@ void orient_force(const Trace& trace, const std::vector<double>& t, std::vector<
     for (double& f : u) f = -f;
 }
 
+/// The trace with a wrapped position run on (position_wrap.hpp), as
+/// identify reads it.
+Trace unwrapped(const Trace& logged, PositionWrap& wrap) {
+  Trace trace = logged;
+  if (!trace.has_position) return trace;
+  const std::vector<double> t = column(trace, &TraceSample::t_s);
+  std::vector<double> x = column(trace, &TraceSample::x_m);
+  wrap = unwrap_position(t, x, max_step_s(median_step(t)));
+  for (std::size_t k = 0; wrap.found() && k < x.size(); ++k) trace.samples[k].x_m = x[k];
+  return trace;
+}
+
 }  // namespace
 
 void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a) {
@@ -46,14 +58,15 @@ void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<doub
   a = central_difference(v, t);
 }
 
-ValidateResult validate(const DriveParams& model, const Trace& trace, const ValidateOptions& opt) {
-  const std::size_t n = trace.samples.size();
+ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
+  const std::size_t n = logged.samples.size();
   if (opt.decimate < 1) throw std::invalid_argument("--decimate must be >= 1");
   if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
   if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
-    throw std::invalid_argument(trace.source + ": trace too short to validate: " + std::to_string(n) + " samples");
+    throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   ValidateResult r;
   r.units = opt.units;
+  const Trace trace = unwrapped(logged, r.position_wrap);
   r.velocity_origin = trace.has_position ? "position, zero-phase Butterworth + central differences"
                                          : "velocity column, zero-phase Butterworth; acceleration by central differences";
   std::vector<double> v, a;
@@ -115,6 +128,7 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"velocity", r.velocity_origin},
           {"force_sign", r.force_sign.sign},
           {"force_sign_origin", r.force_sign.describe()},
+          {"position_unwraps", r.position_wrap.wraps},
           {"model", model_json(model, r.units)},
           {"units", units_json(r.units)}};
 }

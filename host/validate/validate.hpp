@@ -11,6 +11,7 @@
 #include "io/trace.hpp"
 #include "io/units.hpp"
 #include "signals/force_sign.hpp"
+#include "signals/position_wrap.hpp"
 
 namespace feedid::host {
 
@@ -32,6 +33,7 @@ struct ValidateResult {
   /// What the logged force was multiplied by before the comparison (found
   /// from its work on the motion, as identify finds it).
   ForceSign force_sign;
+  PositionWrap position_wrap;  ///< jumps of a wrapped position taken out, as identify takes them out
   Units units;  ///< ValidateOptions::units
 };
 
