@@ -10,6 +10,7 @@
 #include "report/progress.hpp"
 #include "report/report.hpp"
 #include "io/trace_files.hpp"
+#include "signals/filters.hpp"
 
 #include "cli_common.hpp"
 
@@ -65,6 +66,27 @@ void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
       ->check(CLI::IsMember({"skip", "error"}));
 }
 
+namespace {
+/// A drive log steps in ms or less; above this median step (s) the time
+/// column is more likely in ms than the log that slow.
+constexpr double kSlowestLogStep_s = 0.05;
+
+/// A note of each time column read in another unit than s from its name,
+/// and of a log so slow that its time is likely not in seconds (a time in
+/// ms taken as s made the mass 10^6 too large, with no other sign).
+void note_time_unit(const std::vector<TraceInput>& inputs, const Trace& t) {
+  for (const TraceInput& in : inputs)
+    if (in.columns.time_scale == 0.0 && time_unit_from_name(in.columns.time) != 1.0)
+      std::fprintf(stderr, "note: %s: time column '%s' read as %g s per unit, from its name (--time-scale to override)\n",
+                   in.path.c_str(), in.columns.time.c_str(), time_unit_from_name(in.columns.time));
+  std::vector<double> times;
+  for (const auto& smp : t.samples) times.push_back(smp.t_s);
+  const double step = times.size() > 1 ? median_step(times) : 0.0;
+  if (step > kSlowestLogStep_s)
+    std::fprintf(stderr, "note: %s: the median time step is %g s (%.3g Hz), slow for a drive log: if the time column is not "
+                 "in seconds, give --time-scale (0.001 for ms)\n", t.source.c_str(), step, 1.0 / step);
+}
+}  // namespace
 
 /// Reads the traces (--in, then --in-list); prints the error, or a note of
 /// the rows left out.
@@ -87,6 +109,7 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
     return false;
   }
   const Trace& t = out.trace;
+  note_time_unit(inputs, t);
   if (t.rows_skipped > 0)
     std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); first: %s\n", path.c_str(),
                  t.rows_skipped, t.rows_skipped == 1 ? "" : "s", t.skipped_rows.front().c_str());
@@ -110,6 +133,9 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
   c->add_option("--position-scale", cols.position_scale,
                 "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")->capture_default_str();
+  c->add_option("--time-scale", cols.time_scale,
+                "seconds per unit of the time column, e.g. 0.001 for ms; 0 (default): from a unit ending the column's "
+                "name (t_ms, \"time [us]\"), else s")->capture_default_str();
   c->add_option("--force-scale", cols.force_scale,
                 "multiplies force as it is read, e.g. N per A (torque constant x gear ratio x 2 pi / lead), or N m per A")
       ->capture_default_str();

@@ -2,6 +2,7 @@
 #include "csv_trace.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -160,6 +161,7 @@ struct CsvLayout {
   std::vector<std::string> names;
   std::vector<unsigned> roles;
   bool has_position = false, has_velocity = false;
+  double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
 };
 
 std::string header_list(const std::vector<std::string>& names) {
@@ -218,6 +220,7 @@ bool parse_header(const char* hb, const char* he, const std::string& at_header, 
             " (velocity); need at least one; header has: " + header_list(out.names);
     return false;
   }
+  out.time_scale = time_scale(columns);
   out.has_position = wanted[1].index >= 0;
   out.has_velocity = wanted[2].index >= 0;
   out.roles.assign(out.names.size(), 0u);
@@ -268,7 +271,7 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
     if (!why.empty())
       return rules.bad(rules.at(line) + "column " + quoted(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
     if (r & kTime) {
-      s.t_s = value;
+      s.t_s = value * lay.time_scale;
       time_text = text;
     }
     if (r & kPosition) s.x_m = value * columns.position_scale;
@@ -287,6 +290,23 @@ const char* after_bom(const char* b, const char* e) {
 }
 
 }  // namespace
+
+double time_unit_from_name(std::string_view name) {
+  while (!name.empty() && (name.back() == ']' || name.back() == ')' || name.back() == ' ')) name.remove_suffix(1);
+  struct Unit {
+    std::string_view suffix;
+    double seconds;
+  };
+  for (const Unit& u : {Unit{"ms", 1e-3}, Unit{"us", 1e-6}, Unit{"\xC2\xB5s", 1e-6}, Unit{"\xCE\xBCs", 1e-6}, Unit{"ns", 1e-9}}) {
+    if (name.size() < u.suffix.size()) continue;
+    std::string lower(name.substr(name.size() - u.suffix.size()));
+    for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (lower != u.suffix) continue;
+    const std::size_t before = name.size() - u.suffix.size();
+    if (before == 0 || !std::isalpha(static_cast<unsigned char>(name[before - 1]))) return u.seconds;
+  }
+  return 1.0;
+}
 
 CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;

@@ -2,6 +2,7 @@
 #pragma once
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "trace.hpp"
@@ -24,7 +25,19 @@ struct CsvColumns {
   /// (e.g. A to N through torque constant, gear ratio and lead).
   double position_scale = 1.0;
   double force_scale = 1.0;
+  /// Seconds per unit of the time column (--time-scale); 0: from a unit
+  /// that ends the column's name (t_ms, "time [us]": time_unit_from_name),
+  /// else seconds. A time in ms taken as s made the mass 10^6 too large.
+  double time_scale = 0.0;
 };
+
+/// Seconds per unit of a time column from the unit that ends its name,
+/// after a non-letter or alone: ms 1e-3, us or µs 1e-6, ns 1e-9; 1 when
+/// there is none (seconds), so "items" or "t_s" read as seconds.
+double time_unit_from_name(std::string_view name);
+
+/// Seconds per unit of the time column as the readers apply it.
+inline double time_scale(const CsvColumns& c) { return c.time_scale > 0 ? c.time_scale : time_unit_from_name(c.time); }
 
 /// Result of reading: ok, or an error message that names file, line and column.
 struct CsvResult {

@@ -119,11 +119,12 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
     return result;
   };
   tr.samples.reserve(t.size());
+  const double seconds_per_unit = time_scale(columns);
   char time_text[32];
   for (std::size_t k = 0; k < t.size(); ++k) {
     rules.count_row();
     TraceSample s;
-    s.t_s = t[k];
+    s.t_s = t[k] * seconds_per_unit;
     s.x_m = x.empty() ? 0.0 : x[k] * columns.position_scale;
     s.v_m_s = v.empty() ? 0.0 : v[k] * columns.position_scale;
     s.u_N = u[k] * columns.force_scale;

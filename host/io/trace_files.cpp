@@ -54,16 +54,16 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
       else if (key == "position") in.columns.position = value;
       else if (key == "velocity") in.columns.velocity = value;
       else if (key == "force") in.columns.force = value;
-      else if (key == "position-scale" || key == "force-scale") {
+      else if (key == "position-scale" || key == "force-scale" || key == "time-scale") {
         char* end = nullptr;
         const double x = std::strtod(value.c_str(), &end);
         if (end != value.c_str() + value.size()) {
           error = where + key + " '" + value + "' is not a number";
           return false;
         }
-        (key == "force-scale" ? in.columns.force_scale : in.columns.position_scale) = x;
+        (key == "force-scale" ? in.columns.force_scale : key == "time-scale" ? in.columns.time_scale : in.columns.position_scale) = x;
       } else {
-        error = where + "unknown key '" + key + "' (time, position, velocity, force, position-scale, force-scale)";
+        error = where + "unknown key '" + key + "' (time, position, velocity, force, position-scale, force-scale, time-scale)";
         return false;
       }
     }

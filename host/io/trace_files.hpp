@@ -30,7 +30,7 @@ CsvResult read_trace_files(const std::vector<std::string>& paths, const CsvColum
 
 /// A list of recordings (--in-list): one per line, `path [key=value ...]`,
 /// where a key overrides one input option for that file: time, position,
-/// velocity, force (column or variable names), position-scale, force-scale.
+/// velocity, force (column or variable names), position-scale, force-scale, time-scale.
 /// Blank lines and lines starting with # are skipped; a relative path is
 /// taken from the list file's folder. False with `error` naming the line.
 bool read_input_list(const std::string& list_path, const CsvColumns& defaults, std::vector<TraceInput>& out,

@@ -105,6 +105,36 @@ TEST(CsvTrace, MissingRenamedTimeColumnIsNamed) {
   EXPECT_TRUE(contains(r.error, "'time_s'"));
 }
 
+// GIVEN a time column whose name ends in a unit (ms, us, µs), THEN it is
+// read in that unit and scaled to s; a name without one, or where the
+// letters are part of a word, is s; --time-scale overrides the name, and a
+// negative one is an error. Taken as s, a time in ms made the mass 10^6
+// too large.
+TEST(CsvTrace, TimeColumnInMsIsScaledToSeconds) {
+  using feedid::host::time_unit_from_name;
+  EXPECT_EQ(time_unit_from_name("t_ms"), 1e-3);
+  EXPECT_EQ(time_unit_from_name("time [ms]"), 1e-3);
+  EXPECT_EQ(time_unit_from_name("Time(us)"), 1e-6);
+  EXPECT_EQ(time_unit_from_name("t_\u00b5s"), 1e-6);
+  EXPECT_EQ(time_unit_from_name("ms"), 1e-3);
+  EXPECT_EQ(time_unit_from_name("t"), 1.0);
+  EXPECT_EQ(time_unit_from_name("t_s"), 1.0);
+  EXPECT_EQ(time_unit_from_name("items"), 1.0);
+  const std::string path = write_text("time_ms", "t_ms,x,u\n0,0,1\n0.5,0.001,1\n1.0,0.002,1\n");
+  CsvColumns cols;
+  cols.time = "t_ms";
+  const CsvResult r = read_trace_csv(path, cols);
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.trace.samples.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.trace.samples[2].t_s, 1e-3);
+  cols.time_scale = 1.0;  // stated: the name is not read
+  EXPECT_DOUBLE_EQ(read_trace_csv(path, cols).trace.samples[2].t_s, 1.0);
+  cols.time_scale = -1e-3;
+  const CsvResult bad = read_trace_csv(path, cols);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_TRUE(contains(bad.error, "--time-scale"));
+}
+
 TEST(CsvTrace, NonNumericFieldNamesLineAndColumn) {
   // GIVEN a bad velocity on the third line
   const std::string path = write_text("nonnum", "t,x,v,u\n0,0,0,0\n0.001,1e-8,abc,3\n0.002,0,0,0\n");
