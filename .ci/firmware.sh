@@ -44,7 +44,7 @@ finish() {
 # --- 2. cross build ----------------------------------------------------------------
 logs="$build/logs"
 mkdir -p "$logs"
-if cmake -S . -B "$build" -DCMAKE_TOOLCHAIN_FILE=firmware/cortex_m/toolchain.cmake -DCMAKE_BUILD_TYPE=Release >"$logs/configure.log" 2>&1 &&
+if cmake -S . -B "$build" -DCMAKE_TOOLCHAIN_FILE=port/cortex_m/toolchain.cmake -DCMAKE_BUILD_TYPE=Release >"$logs/configure.log" 2>&1 &&
    cmake --build "$build" -j2 2>&1 | tee "$logs/build.log" | grep -E 'error|warning|Memory region|FLASH:|RAM:|gen_trace: (double|float) final|check_symbols' ; [ "${PIPESTATUS[0]}" -eq 0 ]; then
   verdict "cross build (arm-none-eabi-g++ $(arm-none-eabi-g++ -dumpversion), Cortex-M4F hard float)" 0
 else
@@ -57,7 +57,7 @@ elfs=("$build/feedid_m4.elf" "$build/feedid_core_m4.elf" "$build/feedid_baseline
 
 # --- 3. no heap, no exceptions -------------------------------------------------------
 rc=0
-bash firmware/cortex_m/check_symbols.sh "${elfs[@]}" || rc=$?
+bash port/cortex_m/check_symbols.sh "${elfs[@]}" || rc=$?
 verdict "symbol check (arm-none-eabi-nm: no malloc/_sbrk/free/new/delete/__cxa_throw/__cxa_allocate_exception)" $rc
 
 # The servo ISR as compiled: straight-line code, no call, no interrupt masking.
@@ -120,7 +120,7 @@ echo "core (Estimator<float,32,16>: init, push, solve bands+paper): flash $core_
 echo "largest stack frames of the core (-fstack-usage, bytes):"
 # awk reads all of sort's output and prints the first five itself: a `head`
 # here closes the pipe early and, under pipefail, sort's SIGPIPE fails CI.
-sort -t$'\t' -k2 -n -r "$build"/firmware/cortex_m/CMakeFiles/feedid_core_m4.dir/core_only.cpp.su 2>/dev/null |
+sort -t$'\t' -k2 -n -r "$build"/port/cortex_m/CMakeFiles/feedid_core_m4.dir/core_only.cpp.su 2>/dev/null |
   awk -F'\t' 'NR <= 5 {f = $1; sub(/^[^:]*:[0-9]+:[0-9]+:/, "", f); sub(/ \[with.*/, "", f); printf "  %6d  %s\n", $2, f}' || true
 grep -E '^sizeof|^  push|^  solve|^  hand-off|^stack' "$build/qemu-icount.log" || true
 

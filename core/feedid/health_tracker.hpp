@@ -11,7 +11,7 @@
 // push() and close_epoch() must run in the same task: close_epoch() solves
 // and re-initialises the estimator push() writes to. On a drive the servo
 // interrupt hands its samples to that task through a queue
-// (feedid_port/spsc_queue.hpp, as firmware/cortex_m/main.cpp does), which
+// (feedid_port/spsc_queue.hpp, as port/cortex_m/main.cpp does), which
 // holds the samples that arrive during the ~0.8 M-instruction close.
 //
 // Time is summed with compensation (Sum), so an epoch's clock stays exact to

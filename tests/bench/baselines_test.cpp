@@ -1,4 +1,4 @@
-// The benchmark's baselines (host/bench/baselines.hpp) recover a simulated
+// The benchmark's baselines (host_sim/bench/baselines.hpp) recover a simulated
 // drive roughly, refuse a trace without motion, and the SVG plot writer
 // draws what it is given. Kept short: the accuracy figures that matter are
 // measured by `feedid bench` (docs/benchmarks.md), not asserted here.
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "bench/baselines.hpp"
-#include "report/svg_plot.hpp"
+#include "io/svg_plot.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-// Friction compensation: the table a drive loads (host/compensate/compensate.cpp)
+// Friction compensation: the table a drive loads (host_sim/compensate/compensate.cpp)
 // and the core's feed-forward (core/feedid/feedforward.hpp).
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // feedid::port elementary functions against <cmath>, with the accuracy
-// stated in port/feedid_port/math.hpp's header comment:
+// stated in port/feedid_port/include/feedid_port/math.hpp's header comment:
 //   exp:  relative error < 2e-15 (double), < 3e-7 (float) for x in [-80, 80]
 //   log:  absolute error < 2e-15 (double), < 3e-7 (float) for x in [1e-30, 1e30]
 //   sqrt: relative error < 1e-15 (double), < 2e-7 (float)

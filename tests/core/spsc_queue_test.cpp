@@ -1,4 +1,4 @@
-// The servo-ISR -> task sample queue (port/feedid_port/spsc_queue.hpp):
+// The servo-ISR -> task sample queue (port/feedid_port/include/feedid_port/spsc_queue.hpp):
 // FIFO order, overflow counted without corrupting what is queued, the ISR
 // path never locking (stub lock policy), a two-thread stress run, and the
 // hand-off delivering exactly the stream the core would have seen directly.

@@ -1,4 +1,4 @@
-// Host-side checks for the Cortex-M4F port (firmware/cortex_m/): the estimator
+// Host-side checks for the Cortex-M4F port (port/cortex_m/): the estimator
 // stays within its RAM budget (the firmware build checks the same for the
 // target's sizes), and the firmware's printf-free number formatting prints
 // what printf("%.6g") would, within one unit of the last digit.

@@ -1,4 +1,4 @@
-// libFuzzer target: arbitrary bytes as a trace CSV (host/io/csv_trace.hpp).
+// libFuzzer target: arbitrary bytes as a trace CSV (host_sim/io/csv_trace.hpp).
 // Invariants, besides ASan/UBSan: a parse either fails with a message that
 // names the source, or gives a trace whose every value is finite, whose time
 // increases strictly, and which has force and position or velocity.

@@ -1,4 +1,4 @@
-// identify in bounded memory (host/identify/identify_stream.cpp): the same drive,
+// identify in bounded memory (host_sim/identify/identify_stream.cpp): the same drive,
 // read row by row in chunks, gives what the whole-trace identification gives.
 #include <gtest/gtest.h>
 

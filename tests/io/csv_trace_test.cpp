@@ -1,5 +1,5 @@
 // CSV traces: exact round trip and error messages that name file, line and
-// column (host/io/csv_trace.hpp).
+// column (host_sim/io/csv_trace.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>

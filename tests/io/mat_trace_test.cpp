@@ -1,4 +1,4 @@
-// MATLAB .mat input (host/io/mat_trace.cpp): variables chosen by name like
+// MATLAB .mat input (host_sim/io/mat_trace.cpp): variables chosen by name like
 // CSV columns, row or column vectors, v5 and v7.3 files, the CSV reader's
 // row rules, and EMPS read from its .mat giving what its CSV gives.
 #include <gtest/gtest.h>

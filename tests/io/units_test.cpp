@@ -1,6 +1,6 @@
 // Units: a rotary axis, a scaled input and a labelled force go through the
 // same arithmetic as a linear SI log, and only the labels change
-// (host/io/units.hpp). The identification must therefore be equivariant:
+// (host_sim/io/units.hpp). The identification must therefore be equivariant:
 // the same motion in other units gives the same parameters in those units.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// The sign of a logged force from how it meets the motion (host/signals/force_sign.hpp).
+// The sign of a logged force from how it meets the motion (host_sim/signals/force_sign.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>

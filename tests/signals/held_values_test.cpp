@@ -1,4 +1,4 @@
-// Columns logged faster than they are updated (host/signals/held_values.hpp).
+// Columns logged faster than they are updated (host_sim/signals/held_values.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// A position logged modulo a period, found and run on (host/signals/position_wrap.hpp).
+// A position logged modulo a period, found and run on (host_sim/signals/position_wrap.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// Reference paths of the simulators (host/sim/motion_path.hpp). GIVEN each
+// Reference paths of the simulators (host_sim/sim/motion_path.hpp). GIVEN each
 // motion program, WHEN the path is read forward in time, THEN it stays in
 // the travel, its velocity is the derivative of its position, and its
 // acceleration stays within the bound, so the open-loop plant's inverse

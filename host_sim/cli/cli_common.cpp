@@ -1,0 +1,243 @@
+// What the subcommands share (cli_common.hpp).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "io/progress.hpp"
+#include "report/report.hpp"
+#include "io/trace_files.hpp"
+#include "signals/filters.hpp"
+
+#include "cli_common.hpp"
+
+namespace feedid::host::cli {
+
+void add_sim_options(CLI::App* c, SimConfig& s) {
+  auto& d = s.drive;
+  c->add_option("--mass", d.mass_kg, "equivalent mass (kg)")->capture_default_str();
+  c->add_option("--sigma-pos", d.pos.viscous_Ns_m, "viscous coefficient, positive direction (N s/m)")->capture_default_str();
+  c->add_option("--fc-pos", d.pos.coulomb_N, "Coulomb force, positive direction (N)")->capture_default_str();
+  c->add_option("--fs-pos", d.pos.breakaway_N, "break-away excess, positive direction (N)")->capture_default_str();
+  c->add_option("--vs-pos", d.pos.stribeck_velocity_m_s, "Stribeck velocity, positive direction (m/s)")->capture_default_str();
+  c->add_option("--sigma-neg", d.neg.viscous_Ns_m, "viscous coefficient, negative direction (N s/m)")->capture_default_str();
+  c->add_option("--fc-neg", d.neg.coulomb_N, "Coulomb force, negative direction (N)")->capture_default_str();
+  c->add_option("--fs-neg", d.neg.breakaway_N, "break-away excess, negative direction (N)")->capture_default_str();
+  c->add_option("--vs-neg", d.neg.stribeck_velocity_m_s, "Stribeck velocity, negative direction (m/s)")->capture_default_str();
+  c->add_option("--rate", s.controller.servo_rate_hz, "servo and sampling rate (Hz)")->capture_default_str();
+  c->add_option("--duration", s.motion.duration_s, "trace length (s)")->capture_default_str();
+  c->add_option("--slowest-speed", s.motion.slowest_speed_m_s, "lowest stroke peak speed (m/s)")->capture_default_str();
+  c->add_option("--fastest-speed", s.motion.fastest_speed_m_s, "highest stroke peak speed (m/s)")->capture_default_str();
+  c->add_option_function<std::string>("--program", [&s](const std::string& v) { s.motion.program = parse_program(v); },
+                                      "motion: ladder (reciprocating strokes at log-spaced speeds, default), sine (reciprocation whose "
+                                      "amplitude and speed change every 2-4 cycles) or production (rapids, feeds, jogs, dwells)")
+      ->check(CLI::IsMember({"ladder", "sine", "production"}));
+  c->add_option_function<std::string>("--plant", [&s](const std::string& v) { s.plant = parse_plant(v); },
+                                      "closed (the drive under its cascaded controller, default) or open (inverse dynamics "
+                                      "along the reference: no controller, no stick/slip; docs/diagnosis.md)")
+      ->check(CLI::IsMember({"closed", "open"}));
+  c->add_option("--levels", s.motion.speed_levels, "number of log-spaced peak speeds")->capture_default_str();
+  c->add_option("--accel", s.motion.acceleration_m_s2, "reference acceleration (m/s^2)")->capture_default_str();
+  c->add_option("--travel", s.motion.max_travel_m, "maximum stroke (m)")->capture_default_str();
+  c->add_option("--encoder", s.sensors.encoder_resolution_m, "encoder resolution (m)")->capture_default_str();
+  c->add_option("--force-noise", s.sensors.force_noise_N, "std of recorded force noise (N)")->capture_default_str();
+  c->add_option("--process-noise", s.sensors.force_process_noise_N, "std of disturbance force on the plant (N)")->capture_default_str();
+  c->add_option("--velocity-bandwidth", s.controller.velocity_bandwidth_hz, "velocity loop bandwidth (Hz)")->capture_default_str();
+  c->add_option("--seed", s.seed, "random seed")->capture_default_str();
+  LoggingParams& lg = s.logging;
+  c->add_option_function<std::string>("--force-log", [&lg](const std::string& v) { lg.force = parse_force_log(v); },
+                                      "force logged as held (command over the next period, default), instant (at the tick) or averaged (over the last period)")
+      ->check(CLI::IsMember({"held", "instant", "averaged"}));
+  c->add_option_function<std::string>("--velocity-log", [&lg](const std::string& v) { lg.velocity = parse_velocity_log(v); },
+                                      "velocity logged as backward (position difference, default), average (moving average) or lowpass (first order)")
+      ->check(CLI::IsMember({"backward", "average", "lowpass"}));
+  c->add_option("--velocity-log-samples", lg.velocity_average_samples, "samples of the logged moving average")->capture_default_str();
+  c->add_option("--velocity-log-tau", lg.velocity_time_constant_s, "time constant of the logged low-pass (s)")->capture_default_str();
+}
+
+/// --bad-rows, for every command that reads a trace CSV.
+void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
+  c->add_option_function<std::string>("--bad-rows", [&cols](const std::string& v) { cols.skip_bad_rows = v == "skip"; },
+                                      "a non-finite or non-increasing row: skip (default: counted, the first named; more than 1 % "
+                                      "is an error) or error")
+      ->check(CLI::IsMember({"skip", "error"}));
+}
+
+namespace {
+/// A drive log steps in ms or less; above this median step (s) the time
+/// column is more likely in ms than the log that slow.
+constexpr double kSlowestLogStep_s = 0.05;
+
+/// A note of each time column read in another unit than s from its name,
+/// and of a log so slow that its time is likely not in seconds (a time in
+/// ms taken as s made the mass 10^6 too large, with no other sign).
+void note_time_unit(const std::vector<TraceInput>& inputs, const Trace& t) {
+  for (const TraceInput& in : inputs)
+    if (in.columns.time_scale == 0.0 && time_unit_from_name(in.columns.time) != 1.0)
+      std::fprintf(stderr, "note: %s: time column '%s' read as %g s per unit, from its name (--time-scale to override)\n",
+                   in.path.c_str(), in.columns.time.c_str(), time_unit_from_name(in.columns.time));
+  std::vector<double> times;
+  for (const auto& smp : t.samples) times.push_back(smp.t_s);
+  const double step = times.size() > 1 ? median_step(times) : 0.0;
+  if (step > kSlowestLogStep_s)
+    std::fprintf(stderr, "note: %s: the median time step is %g s (%.3g Hz), slow for a drive log: if the time column is not "
+                 "in seconds, give --time-scale (0.001 for ms)\n", t.source.c_str(), step, 1.0 / step);
+}
+}  // namespace
+
+/// Reads the traces (--in, then --in-list); prints the error, or a note of
+/// the rows left out.
+bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, const CsvColumns& cols, CsvResult& out) {
+  std::vector<TraceInput> inputs;
+  for (const auto& p : paths) inputs.push_back({p, cols});
+  std::string error;
+  if (!in.in_list.empty() && !read_input_list(in.in_list, cols, inputs, error)) {
+    std::fprintf(stderr, "error: %s\n", error.c_str());
+    return false;
+  }
+  if (inputs.empty()) {
+    std::fprintf(stderr, "error: no recording: give --in FILE (repeatable) or --in-list FILE\n");
+    return false;
+  }
+  out = read_trace_files(inputs);
+  const std::string path = out.trace.source;
+  if (!out.ok) {
+    std::fprintf(stderr, "error: %s\n", out.error.c_str());
+    return false;
+  }
+  const Trace& t = out.trace;
+  note_time_unit(inputs, t);
+  if (t.rows_skipped > 0)
+    std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); first: %s\n", path.c_str(),
+                 t.rows_skipped, t.rows_skipped == 1 ? "" : "s", t.skipped_rows.front().c_str());
+  if (t.rows_repeated > 0)
+    std::fprintf(stderr, "note: %s: %zu row%s repeated the row before exactly and %s left out\n", path.c_str(),
+                 t.rows_repeated, t.rows_repeated == 1 ? "" : "s", t.rows_repeated == 1 ? "was" : "were");
+  return true;
+}
+
+/// Columns, scales, units and bad rows: the input options of every command
+/// that reads a trace CSV.
+void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
+  add_bad_row_option(c, cols);
+  c->add_option("--in-list", u.in_list,
+                "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. position-scale=.. "
+                "force-scale=..] to override the options for that file");
+  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s)")->capture_default_str();
+  c->add_option("--position", cols.position, "CSV column or .mat variable of position (m; rad with --axis rotary)")->capture_default_str();
+  c->add_option("--velocity", cols.velocity,
+                "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
+  c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
+  c->add_option("--position-scale", cols.position_scale,
+                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")->capture_default_str();
+  c->add_option("--time-scale", cols.time_scale,
+                "seconds per unit of the time column, e.g. 0.001 for ms; 0 (default): from a unit ending the column's "
+                "name (t_ms, \"time [us]\"), else s")->capture_default_str();
+  c->add_option("--force-scale", cols.force_scale,
+                "multiplies force as it is read, e.g. N per A (torque constant x gear ratio x 2 pi / lead), or N m per A")
+      ->capture_default_str();
+  c->add_option_function<std::string>("--axis", [&u](const std::string& v) { u.axis = v == "rotary" ? Axis::rotary : Axis::linear; },
+                                      "linear (m, m/s, N, kg; default) or rotary (rad, rad/s, N m, kg m^2)")
+      ->check(CLI::IsMember({"linear", "rotary"}));
+  c->add_option("--force-unit", u.force_label,
+                "unit label of a force input left unscaled, e.g. V or A; mass and viscous units follow (V s^2/rad, V s/rad)");
+}
+
+void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method) {
+  add_input_options(c, cols, units);
+  c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
+      ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
+  c->add_option("--alignment", o.alignment,
+                "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md)")->capture_default_str();
+  c->add_option("--force-lag-s", o.force_lag_s,
+                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data");
+  c->add_option("--velocity-lag-s", o.velocity_lag_s,
+                "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position");
+  c->add_option("--velocity-filter", o.velocity_filter_hz,
+                "cut-off of the zero-phase filter on position whose derivative the core takes as velocity (Hz); 0 = chosen from the data: of the cut-offs from 100 Hz (0.1 of the rate the position is updated at, if less) to 0.4 of the rate, the smoothest whose model's block residual is within a standard error of the least")
+      ->capture_default_str();
+  c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s, or rad/s); 0 = from the data")->capture_default_str();
+  c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s, or rad/s); 0 = from the data")
+      ->capture_default_str();
+}
+
+bool write_json(const std::string& path, const nlohmann::json& j) {
+  std::ofstream f(path);
+  if (!f) { std::fprintf(stderr, "error: %s: cannot write\n", path.c_str()); return false; }
+  f << j.dump(2) << "\n";
+  return static_cast<bool>(f);
+}
+
+Trace run_simulation(const SimConfig& cfg) {
+  Progress p("simulate");
+  return simulate(cfg, cfg.motion.duration_s > 120 ? std::function<void(double)>(std::ref(p)) : nullptr);
+}
+
+int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth) {
+  if (!json_path.empty()) {
+    auto j = to_json(r);
+    if (truth) j["truth"] = model_json(*truth);
+    if (!write_json(json_path, j)) return 1;
+  }
+  if (!r.error.empty()) {
+    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+    return 2;
+  }
+  std::cout << summary(r, truth);
+  return 0;
+}
+
+/// Whether identify streams: asked, or one CSV above 512 MB (loading it
+/// would take several times its size in memory).
+bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool asked) {
+  if (paths.size() != 1 || !in.in_list.empty()) return false;
+  const std::string& p = paths.front();
+  if (is_mat_file(p)) return false;
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(p, ec);
+  return asked || (!ec && size > (512ull << 20));
+}
+
+int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
+                const std::string& plot_path, MonitorOptions opt) {
+  if (!in.in_list.empty()) {
+    std::fprintf(stderr, "error: monitor reads one log (--in); --in-list is for identify, validate and diagnose\n");
+    return 2;
+  }
+  CsvStream stream(path, cols);
+  if (!stream.ok()) {
+    std::fprintf(stderr, "error: %s\n", stream.error().c_str());
+    return 2;
+  }
+  opt.identify.units = in.units();
+  StreamProgress progress("monitor");
+  opt.progress = [&progress](double t) { progress(t); };
+  const MonitorResult r = monitor(stream, opt);
+  progress.done();
+  std::cout << trend_table(r);
+  if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
+  std::string err;
+  if (!plot_path.empty() && !write_trend_svg(r, plot_path, err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  if (!r.error.empty()) {
+    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+    return 2;
+  }
+  return 0;
+}
+
+/// The diagnosis page, if a folder was given; the exit code.
+int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source) {
+  if (dir.empty()) return 0;
+  std::string err;
+  if (!write_diagnosis_report(r, dir, source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+  std::printf("report: %s/report.html\n", dir.c_str());
+  return 0;
+}
+
+}  // namespace feedid::host::cli

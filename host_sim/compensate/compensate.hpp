@@ -1,0 +1,57 @@
+// From an identified model to friction compensation a drive can load: a
+// speed -> friction table per direction with its breakpoints where the
+// curve bends, and the Coulomb + viscous parameter form. Host only.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "model/drive_model.hpp"
+
+namespace feedid::host {
+
+/// The most breakpoints per direction a table may have (drives take about 20).
+constexpr int kMaxTablePoints = 256;
+
+struct CompensateOptions {
+  int points = 20;             ///< breakpoints per direction (>= 2), speed 0 included
+  double max_speed_m_s = 0.0;  ///< top of the table (m/s); 0: the model JSON's config.velocity_max_m_s
+  double force_scale = 1.0;    ///< N per drive unit (as identify's --force-scale); the table is divided by it
+  std::string force_unit;      ///< the drive unit's label (A, %); empty: N
+};
+
+struct TablePoint {
+  double speed_m_s = 0.0;
+  double force_N = 0.0;  ///< friction magnitude (positive)
+};
+
+struct CompensationTable {
+  std::array<std::vector<TablePoint>, 2> dir;  ///< [pos, neg]
+  double max_interpolation_error_N = 0.0;      ///< largest |table - model| on [0, max speed], both directions
+  double max_speed_m_s = 0.0;
+  DriveParams model;
+};
+
+/// Friction magnitude of the model in one direction (0: pos, 1: neg) at a
+/// speed >= 0: the core's friction_magnitude (core/feedid/feedforward.hpp).
+double model_friction(const DriveParams& m, int dir, double speed_m_s);
+
+/// The table whose largest linear-interpolation error against the model is
+/// smallest for `points` breakpoints per direction (minimax: the least
+/// error for which segments of greatest reach cover [0, max speed] in
+/// points - 1 steps, found by bisection). Throws std::invalid_argument on
+/// points outside 2..kMaxTablePoints or a max speed that is not positive.
+CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points);
+
+/// Largest |table - model| over n evenly spaced speeds in [0, max speed].
+double table_error(const CompensationTable& t, int dir, int n = 20000);
+
+nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt);
+std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
+/// `feedid compensate`: reads the model JSON, writes the table; returns the exit code.
+int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
+                   CompensateOptions opt);
+
+}  // namespace feedid::host

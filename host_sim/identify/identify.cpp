@@ -1,0 +1,1030 @@
+#include "identify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "signals/alignment.hpp"
+#include "signals/filters.hpp"
+#include "signals/held_values.hpp"
+#include "io/number_format.hpp"
+#include "uncertainty.hpp"
+
+namespace feedid::host {
+namespace {
+
+double quantile_abs(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  for (double& x : v) x = std::fabs(x);
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
+}
+
+/// Encoder quantum: the smallest position step, if the steps are (nearly
+/// all) integer multiples of it; 0 for an unquantised or resampled position.
+double position_quantum(const std::vector<double>& x) {
+  double q = 0.0;
+  const double scale = 1e-12 * std::max(1.0, quantile_abs(x, 1.0));
+  for (std::size_t k = 1; k < x.size(); ++k) {
+    const double d = std::fabs(x[k] - x[k - 1]);
+    if (d > scale && (q == 0.0 || d < q)) q = d;
+  }
+  if (q == 0.0) return 0.0;
+  std::size_t on_grid = 0, n = 0;
+  for (std::size_t k = 1; k < x.size(); k += 7) {
+    const double r = (x[k] - x[k - 1]) / q;
+    ++n;
+    if (std::fabs(r - std::round(r)) < 1e-3) ++on_grid;
+  }
+  return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
+}
+
+/// White-noise level of a velocity from its second differences (m/s);
+/// differences across a gap in time (held-out folds cut out, another run)
+/// are not noise.
+double velocity_noise(const std::vector<double>& v, const std::vector<double>& t, double dt) {
+  double d2 = 0.0;
+  std::size_t nd = 0;
+  for (std::size_t k = 2; k < v.size(); ++k) {
+    if (t[k] - t[k - 1] > 1.5 * dt || t[k - 1] - t[k - 2] > 1.5 * dt) continue;
+    const double e = v[k] - 2.0 * v[k - 1] + v[k - 2];
+    d2 += e * e;
+    ++nd;
+  }
+  return nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
+}
+
+/// The lag a named --alignment states (sample periods); NaN for "auto".
+double named_lag(const std::string& name) {
+  if (name == "auto") return std::numeric_limits<double>::quiet_NaN();
+  if (name == "held-backward") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_backward_velocity);
+  if (name == "held-instant") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
+  if (name == "trapezoid") return feedid::force_lag_of<double>(feedid::ForceAlignment::trapezoid);
+  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'");
+}
+
+/// The lag nearest `lag` whose force delay (lag + the velocity's own lag,
+/// none when unknown: the core's velocity is a zero-phase derivative) a logging convention
+/// explains; what is cut off is kept in s.lag_beyond_conventions.
+double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
+  const double v_lag = std::isfinite(velocity_lag) ? velocity_lag : 0.0;
+  const double limit = convention_force_delay_limit();
+  const double kept = std::clamp(lag + v_lag, -limit, limit) - v_lag;
+  s.lag_beyond_conventions = lag - kept;
+  return kept;
+}
+
+/// Finds (or takes from the options) the force lag and applies it.
+/// velocity_lag: the core velocity's lag behind the motion (periods, NaN
+/// unknown); column_lag: the logged velocity column's lag behind the core's
+/// velocity, in which stated lags are given and the lag is reported.
+/// `found`: a search already run on these signals with another velocity
+/// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
+void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
+                 const LagEstimate* found = nullptr) {
+  const double dt = s.period_s();
+  double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
+  s.force_lag_origin = Signals::LagOrigin::convention;
+  if (std::isfinite(opt.force_lag_s)) {
+    lag = opt.force_lag_s / dt + column_lag;
+    s.force_lag_origin = Signals::LagOrigin::option;
+  } else if (!std::isfinite(lag)) {
+    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt));
+    s.lag_search = e;
+    if (e.ok) {
+      lag = e.lag_samples;
+      se = e.se_samples;
+      s.force_lag_origin = Signals::LagOrigin::estimated;
+      if (opt.lag_within_conventions) lag = keep_within_conventions(s, lag, velocity_lag);
+    } else {
+      lag = -0.5 - (std::isfinite(velocity_lag) ? velocity_lag : 0.0);  // a held command, the commonest log
+      s.force_lag_origin = Signals::LagOrigin::assumed;
+    }
+  }
+  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
+    throw std::invalid_argument("force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]");
+  apply_force_lag(s, lag);
+  s.force_lag_s = (lag - column_lag) * dt;
+  s.force_lag_se_s = se * dt;
+  s.force_convention = std::isfinite(velocity_lag) ? nearest_force_convention(lag, velocity_lag)
+                                                   : "unknown (no position column to time the velocity by)";
+}
+
+
+nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
+  const bool fr = d.friction_identified();
+  const bool st = d.stribeck_identified();
+  return {
+      {"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s},
+      {"sigma_se", d.viscous_se}, {"fc_se", d.coulomb_se}, {"fs_se", d.breakaway_se}, {"vs_se", d.stribeck_velocity_se},
+      {"identifiable", {{"sigma", fr}, {"fc", d.coulomb_identified()}, {"fs", st}, {"vs", st}}},
+      {"flags", flag_names(d.flags)},
+      {"sections", d.sections}, {"bands_used", d.bands_used}, {"time_in_bands_s", d.time_in_bands_s},
+      {"friction_r2", d.friction_r2}, {"friction_rms_N", d.friction_rms_N},
+  };
+}
+
+}  // namespace
+
+double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
+                    std::size_t first) {
+  const auto oldest = static_cast<int>(std::min<std::size_t>(k - first, feedid::ForcePairing<double>::history));
+  return p.interval_force_in_chain([&](int age) { return u[k - static_cast<std::size_t>(age)]; }, oldest);
+}
+
+namespace {
+/// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.
+struct BlockSums {
+  int dir = 0;
+  double tau = 0.0;         ///< s
+  double impulse = 0.0;     ///< integral of u - F(v) (N s)
+  double phi_impulse = 0.0; ///< same, weighted by phi
+  double dv = 0.0;          ///< velocity change (m/s)
+  double phi_dv = 0.0;      ///< same, weighted by phi
+};
+
+/// The one block rule: blocks of block_s within a direction (above v_min),
+/// and observations from adjacent pairs under a triangular weight w rising
+/// over the first block and falling over the second. visit(impulse, dv,
+/// area, t_end) gets the weighted integrals of u - F(v) (N s) and of dv
+/// (m/s) and the weight's area (s). Under w the velocity change sums by
+/// parts to the difference of the two blocks' mean velocities, so no raw
+/// velocity sample carries it: with raw block-end samples, m times the
+/// velocity's noise (a quantum of 0.8 mm/s at 8 kHz and 100 nm) dominated
+/// the residual, a lag search on it preferred whatever lag attenuated the
+/// mass, and a mass fitted on the blocks was attenuated. Smoothing the end
+/// samples instead biased m by +0.1 % per half-millisecond of mean at the
+/// motion's corners; the triangle is exact. (docs/diagnosis.md uses the
+/// same observation.)
+template <typename Visit>
+void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, Visit visit) {
+  const feedid::ForcePairing<double> pairing = s.pairing();
+  BlockSums prev, cur;
+  double t_start = 0.0, moment_impulse = 0.0, moment_dv = 0.0;
+  auto close = [&](std::size_t k_end, bool adjacent_next) {
+    if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
+      cur.phi_impulse = moment_impulse / cur.tau;
+      cur.phi_dv = moment_dv / cur.tau;
+      if (prev.dir == cur.dir)
+        visit(prev.phi_impulse + cur.impulse - cur.phi_impulse, prev.phi_dv + cur.dv - cur.phi_dv,
+              0.5 * (prev.tau + cur.tau), s.t[k_end]);
+      prev = adjacent_next ? cur : BlockSums{};
+    } else {
+      prev = BlockSums{};
+    }
+    cur = BlockSums{};
+    moment_impulse = moment_dv = 0.0;
+  };
+  for (std::size_t k = 1; k < s.t.size(); ++k) {
+    const double dt = s.t[k] - s.t[k - 1];
+    if (s.gap_before(k)) {  // another run or a cut: no block, no pair, no force tap spans it
+      if (cur.dir != 0) close(k - 1, false);
+      prev = BlockSums{};
+      continue;
+    }
+    const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
+    const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
+    if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
+    if (d == 0) continue;
+    if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
+    const double g = (paired_force(s.u, pairing, k, s.stretch_start(k)) - stribeck_friction(p, vm)) * dt;
+    const double dv = s.v[k] - s.v[k - 1];
+    const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
+    cur.impulse += g;
+    cur.dv += dv;
+    moment_impulse += age * g;
+    moment_dv += age * dv;
+    cur.tau += dt;
+    if (cur.tau >= block_s) close(k, true);
+  }
+  if (cur.dir != 0) close(s.t.size() - 1, false);  // the last block, as at a gap
+}
+}  // namespace
+
+int chunk_of(const Signals& s, double t) {
+  const double t0 = s.t.empty() ? 0.0 : s.t.front(), span = s.t.empty() ? 0.0 : s.t.back() - t0;
+  if (!(span > 0)) return 0;
+  return static_cast<int>(std::clamp(std::floor((t - t0) / span * kJackknifeChunks), 0.0, kJackknifeChunks - 1.0));
+}
+
+double jackknife_se(const std::vector<double>& leave_one_out) {
+  if (leave_one_out.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  const double g = static_cast<double>(leave_one_out.size());
+  double mean = 0.0, ss = 0.0;
+  for (double x : leave_one_out) mean += x;
+  mean /= g;
+  for (double x : leave_one_out) ss += (x - mean) * (x - mean);
+  return std::sqrt((g - 1.0) / g * ss);
+}
+
+double convention_force_delay_limit() { return 0.5 + kLagAccuracy; }
+
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockResidual out;
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double tau, double t_end) {
+    const double r = (impulse - p.mass_kg * dv) / tau;
+    out.sum_squares += r * r;
+    out.chunk_sum_squares[static_cast<std::size_t>(chunk_of(s, t_end))] += r * r;
+    ++out.blocks;
+  });
+  return out;
+}
+
+BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  BlockMass out;
+  constexpr int chunks = kJackknifeChunks;
+  if (s.t.size() < 2) return out;
+  // Sums per contiguous stretch of time, for the delete-one jackknife.
+  std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
+  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double, double t_end) {
+    const auto c = static_cast<std::size_t>(chunk_of(s, t_end));
+    num[c] += impulse * dv;
+    den[c] += dv * dv;
+  });
+  double n_all = 0.0, d_all = 0.0;
+  for (int c = 0; c < chunks; ++c) { n_all += num[c]; d_all += den[c]; }
+  if (!(d_all > 0.0)) return out;
+  out.mass_kg = n_all / d_all;
+  std::vector<double> leave_out;
+  for (int c = 0; c < chunks; ++c)
+    if (d_all - den[c] > 0.0) leave_out.push_back((n_all - num[c]) / (d_all - den[c]));
+  out.mass_se_kg = jackknife_se(leave_out);
+  out.ok = std::isfinite(out.mass_se_kg) && std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
+  return out;
+}
+
+double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
+
+/// Velocity as the core sees it: position through the zero-phase
+/// Butterworth at cut-off fc (at most 0.4 of the rate), then central
+/// differences: no lag, and the encoder's counts averaged over about 1/fc.
+void derive_velocity(Signals& s, double fc_hz) {
+  s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, s.max_step_s());
+}
+
+namespace {
+/// The trace's columns, the rate and the encoder quantum; a velocity-only
+/// log integrated to a position.
+namespace {
+/// Position and velocity columns updated every few rows only (a motor
+/// controller's status frame in a faster loop) spread linearly between
+/// their updates, so that no derivative sees the sawtooth of the holds. A
+/// position counts as held only on changes of more than three encoder
+/// quanta, where a slow axis cannot hold its count by itself.
+void spread_held_columns(const Trace& trace, bool spread_them, Signals& s) {
+  auto hold_of = [&](std::vector<double>& y, double min_change) {
+    const HoldPattern h = detect_hold(y, min_change);
+    if (spread_them && h.period_rows >= 2) spread_held_values(y, s.t, h.period_rows + 1, s.max_step_s());
+    return h.period_rows;
+  };
+  if (trace.has_position) s.position_hold_rows = hold_of(s.x, 3.0 * s.position_quantum_m);
+  if (trace.has_velocity) s.velocity_hold_rows = hold_of(s.v, 0.0);
+  s.held_values_spread = spread_them && (s.position_hold_rows > 1 || s.velocity_hold_rows > 1);
+  if (s.position_hold_rows > 1)
+    s.position_origin = "measured, each value held for " + std::to_string(s.position_hold_rows) +
+                        " rows (updated at 1/" + std::to_string(s.position_hold_rows) + " of the log rate)" +
+                        (spread_them ? ": spread linearly between its updates" : "");
+}
+}  // namespace
+
+/// The force multiplied by the sign stated, or found from its work on the
+/// motion (force_sign.hpp): a reversed force would identify as a negative
+/// mass and negative friction.
+void orient_force(Signals& s, int stated_sign) {
+  s.force_sign = stated_sign != 0 ? stated_force_sign(stated_sign) : find_force_sign(s.t, s.x, s.u, s.max_step_s());
+  if (s.force_sign.sign < 0)
+    for (double& u : s.u) u = -u;
+}
+
+/// Whether the velocity column can stand beside the position: a column
+/// in another unit (rpm beside rad, mm/s beside m), of the other sign, or
+/// on the motor side of a gear is some gain times the position's
+/// derivative, and taken as it is it wrecked the diagnosis (an effect-free
+/// trace came out `unexplained` at 26 times the noise floor with the sign
+/// reversed). Such a column is left out, as if not logged; a given column
+/// (VelocitySource::given) is the caller's.
+void check_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
+  s.has_velocity_column = trace.has_velocity;
+  if (!trace.has_velocity || !trace.has_position || opt.velocity_source == VelocitySource::given) return;
+  s.velocity_column_gain = velocity_column_gain(s);
+  s.has_velocity_column = velocity_column_agrees(s.velocity_column_gain);
+}
+
+Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
+  Signals s;
+  const std::size_t n = trace.samples.size();
+  s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    s.t[k] = trace.samples[k].t_s;
+    s.x[k] = trace.samples[k].x_m;
+    s.v[k] = trace.samples[k].v_m_s;
+    s.u[k] = trace.samples[k].u_N;
+  }
+  const double dt = median_step(s.t);
+  // Readers reject non-increasing time, so only a trace of fewer than two
+  // samples gets here without a rate; nothing downstream can use it.
+  if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to identify with");
+  s.sample_rate_hz = 1.0 / dt;
+  s.has_position = trace.has_position;
+  if (trace.has_position) s.position_wrap = unwrap_position(s.t, s.x, s.max_step_s());
+  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;  // of the lattice as logged
+  spread_held_columns(trace, opt.spread_held_values, s);
+  if (s.position_wrap.found()) s.position_origin += ", " + s.position_wrap.describe();
+  if (!trace.has_velocity && !trace.has_position)
+    throw std::invalid_argument(trace.source + ": neither velocity nor position column");
+  if (!trace.has_position) {
+    // A velocity-only log: its quantisation and the drive's filter hide in
+    // the samples (a low-pass leaves no lattice to read the encoder quantum
+    // from, so the chatter at rest split sections and R^2 fell to 0.06 on a
+    // 100 nm, 8 kHz log). Integrated, it is the position seen through the
+    // drive's filter, and goes the way of a logged position; the force lag
+    // search takes up the filter's delay.
+    s.x = integrate_velocity(s.v, s.t, s.max_step_s());
+    s.position_origin = "integrated from the velocity column (none logged): relative to the start";
+    // A position difference integrates back onto the encoder's lattice; a
+    // filtered column does not, and its sample noise stands in for the
+    // quantum (too low by the filter's noise gain, but on the right side of
+    // a band edge that the derived velocity would put at 1e-4 of top speed).
+    s.position_quantum_m = position_quantum(s.x);
+    s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
+  }
+  check_velocity_column(s, trace, opt);
+  orient_force(s, opt.force_sign);
+  return s;
+}
+
+/// Timing of the velocity column (periods): `core` is the lag behind the
+/// motion of the velocity the core will see (NaN unknown), `column` the
+/// logged column's lag behind that velocity, in which stated force lags are
+/// given and the estimated one is reported.
+struct VelocityTiming {
+  double core = 0.0, column = 0.0;
+};
+
+VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
+  const double dt = s.period_s();
+  const double stated = std::isfinite(opt.velocity_lag_s) ? opt.velocity_lag_s / dt : std::numeric_limits<double>::quiet_NaN();
+  VelocityTiming v;
+  if (s.has_velocity_column && opt.velocity_source == VelocitySource::given) {
+    v.core = std::isfinite(stated) ? stated : 0.0;
+  } else if (s.has_velocity_column && trace.has_position) {
+    const double lag = std::isfinite(stated) ? stated : estimate_velocity_lag(s);
+    s.velocity_lag_s = lag * dt;
+    v.column = std::isfinite(lag) ? lag : 0.5;
+  } else if (!trace.has_position) {
+    // Integrated and derived again, the column is advanced by exactly half
+    // a period; its own lag behind the motion is unknown unless stated.
+    v.column = 0.5;
+    v.core = stated - 0.5;
+  }
+  return v;
+}
+
+/// The core's velocity at cut-off fc_hz, then the force lag on it.
+Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
+                         double fc_hz, const LagEstimate* found = nullptr) {
+  Signals s = raw;
+  derive_velocity(s, fc_hz);
+  std::ostringstream o;
+  o << "derived: zero-phase 4th-order Butterworth " << std::setprecision(3) << s.velocity_filter_hz << " Hz ("
+    << s.velocity_filter_origin << ") on position" << (trace.has_position ? "" : " (integrated velocity)")
+    << ", central differences";
+  if (raw.has_velocity_column && trace.has_position)
+    o << "; the velocity column lags position by " << std::setprecision(2) << timing.column << " periods";
+  if (trace.has_velocity && !raw.has_velocity_column)
+    o << "; the velocity column, " << std::setprecision(3) << raw.velocity_column_gain
+      << " times the derivative of position (another unit, the other sign, or the motor side of a gear), is left out";
+  s.velocity_origin = o.str();
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column, found);
+  return s;
+}
+
+/// A velocity column lagging position by more than this (periods) went
+/// through a filter beyond the position difference (0.5); the estimate is
+/// good to about 0.02 period.
+constexpr double kFilteredVelocityLag = 0.6;
+
+/// VelocitySource::column: the column if it is a position difference, else
+/// the backward difference of position (a filter's rounding of quantised
+/// counts wrecked Fs, +3000 % on a 100 nm, 4 kHz drive).
+Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing) {
+  if (timing.column > kFilteredVelocityLag) {
+    for (std::size_t k = s.v.size(); k-- > 1;) {
+      const double h = s.t[k] - s.t[k - 1];
+      s.v[k] = h > 0 ? (s.x[k] - s.x[k - 1]) / h : 0.0;
+    }
+    // A stretch's first sample has no difference within it: it takes its
+    // successor's (never one across the gap before it).
+    for (std::size_t k = 0; k + 1 < s.v.size(); ++k)
+      if (k == 0 || s.gap_before(k)) s.v[k] = s.v[k + 1];
+    std::ostringstream o;
+    o << "backward differences of position (the column lags position by " << std::setprecision(2) << timing.column
+      << " periods: a drive filter)";
+    s.velocity_origin = o.str();
+    timing.core = 0.5;
+  } else {
+    s.velocity_origin = "measured";
+    timing.core = timing.column;
+  }
+  timing.column -= timing.core;
+  s.core_velocity_lag = timing.core;
+  align_force(s, opt, timing.core, timing.column);
+  return s;
+}
+
+/// The options with the band edges (lowest band, resolution, top) the
+/// searches for the force lag and the velocity cut-off measure with: those
+/// of the velocity at the lowest cut-off tried. The provisional cut-off's
+/// derivative is the noisiest of all; on a slow, unevenly sampled log it
+/// implied a resolution of 8.6 rad/s (a 200 Hz SysId log), which put the
+/// lowest band above the slow ramps, and both searches then measured only
+/// the fast transients.
+IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions& opt) {
+  Signals smooth = raw;
+  derive_velocity(smooth, lowest_velocity_filter_hz(raw));
+  const feedid::Config<double> c = auto_config(smooth, opt);
+  IdentifyOptions o = opt;
+  o.velocity_min_m_s = c.velocity_min_m_s;
+  o.velocity_resolution_m_s = c.velocity_resolution_m_s;
+  o.velocity_max_m_s = c.velocity_max_m_s;
+  return o;
+}
+}  // namespace
+
+Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
+  Signals raw = read_signals(trace, opt);
+  const VelocityTiming timing = time_velocity_column(raw, trace, opt);
+  if (raw.has_velocity_column && opt.velocity_source == VelocitySource::given) {
+    raw.velocity_origin = "given";
+    raw.core_velocity_lag = timing.core;
+    align_force(raw, opt, timing.core, timing.column);
+    return raw;
+  }
+  if (raw.has_velocity_column && trace.has_position && opt.velocity_source == VelocitySource::column)
+    return column_and_align(raw, opt, timing);
+  const IdentifyOptions search = opt.velocity_filter_hz > 0 ? opt : with_smooth_band_edges(raw, opt);
+  // The core's velocity is the zero-phase derivative of position (logged or
+  // integrated): a drive's column carries the count noise (one count per
+  // period is 0.4 mm/s at 4 kHz and 100 nm) into every band's m * dv at
+  // each crossing, which left Fc- 0.9 % and sigma- 0.35 % off on a 400 kg
+  // axis. How much to smooth depends on the encoder and the mass, so the
+  // cut-off is chosen by the block residual its model leaves (the smoothest
+  // within a standard error of the least; choose_velocity_filter), unless
+  // stated. The column stays a candidate under the same measure: a log
+  // whose velocity comes from a better sensor than its position keeps it,
+  // if it beats the least residual of all cut-offs.
+  const bool stated = opt.velocity_filter_hz > 0;
+  raw.velocity_filter_origin = stated ? "stated" : "provisional";
+  Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
+  if (stated) return s;
+  const feedid::Config<double> edges = auto_config(s, search);
+  const FilterChoice choice = choose_velocity_filter(s, edges);
+  if (raw.has_velocity_column && trace.has_position) {
+    Signals column = column_and_align(raw, search, timing);
+    if (block_fit_ssr(column, edges) < choice.least_block_ssr) {
+      column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
+      return column;
+    }
+  }
+  std::ostringstream o;
+  o << "the smoothest of " << choice.candidates << " cut-offs" << (raw.has_velocity_column && trace.has_position ? " and the velocity column" : "")
+    << " within a standard error of the least block residual";
+  raw.velocity_filter_origin = o.str();
+  Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
+  chosen.velocity_filter_rivals_hz = choice.rivals_hz;
+  return chosen;
+}
+
+feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
+  feedid::Config<double> c;
+  const double dt = s.period_s();
+  // Velocity resolution: the encoder quantum per sample period, or the white
+  // noise of the velocity (second differences), whichever is larger; a
+  // velocity column that was integrated and derived again keeps its own.
+  const double v_noise = std::max(velocity_noise(s.v, s.t, dt), s.column_velocity_noise_m_s);
+  const double v_res = std::max(s.position_quantum_m / dt, v_noise);
+  const double v_top = quantile_abs(s.v, 0.999);
+  c.velocity_resolution_m_s = opt.velocity_resolution_m_s > 0 ? opt.velocity_resolution_m_s : v_res;
+  c.velocity_min_m_s = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s
+                                                : std::max({2.0 * c.velocity_resolution_m_s, 1e-4 * v_top, 1e-6});
+  c.velocity_max_m_s = opt.velocity_max_m_s > 0 ? opt.velocity_max_m_s
+                                                : std::max(1.05 * v_top, 5.0 * c.velocity_min_m_s);
+  // Jumps beyond several times the largest acceleration in the trace are absurd.
+  std::vector<double> acc;
+  acc.reserve(s.v.size());
+  for (std::size_t k = 1; k < s.v.size(); ++k)
+    if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
+  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
+  c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
+  c.max_force_N = 1e9;
+  c.max_gap_s = s.max_step_s();
+  c.mass_window_s = std::max(0.02, 20.0 * dt);
+  c.min_section_s = std::max(0.02, 10.0 * dt);
+  c.force_lag_samples = s.force_lag_samples;
+  return c;
+}
+
+
+
+
+
+void fill_friction_curve(const Core& core, IdentifyResult& r) {
+  const auto& st = core.statistics();
+  for (int d = 0; d < 2; ++d)
+    for (int j = 0; j < Core::bands; ++j) {
+      const auto& b = st.band[d][j];
+      const double t = b.time_s.get();
+      if (t < feedid::detail::min_band_time_s<double>()) continue;  // the core's own rule for a band point
+      r.friction_curve[d].push_back({b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
+    }
+}
+
+namespace {
+/// Each run's counters: the difference of the snapshots before it and
+/// before the next (after the solve for the last, whose split it counts).
+std::vector<feedid::Diagnostics> per_run(const std::vector<feedid::Diagnostics>& at) {
+  std::vector<feedid::Diagnostics> out;
+  for (std::size_t i = 0; i + 1 < at.size(); ++i) {
+    const feedid::Diagnostics &a = at[i], &b = at[i + 1];
+    feedid::Diagnostics d;
+    d.samples_accepted = b.samples_accepted - a.samples_accepted;
+    d.samples_rejected = b.samples_rejected - a.samples_rejected;
+    for (int k = 0; k < 2; ++k) d.sections_complete[k] = b.sections_complete[k] - a.sections_complete[k];
+    d.sections_short = b.sections_short - a.sections_short;
+    d.sections_split = b.sections_split - a.sections_split;
+    d.mass_windows = b.mass_windows - a.mass_windows;
+    out.push_back(d);
+  }
+  return out;
+}
+}  // namespace
+
+IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
+  IdentifyResult r;
+  r.units = opt.units;
+  r.rows_skipped = trace.rows_skipped;
+  r.rows_repeated = trace.rows_repeated;
+  r.skipped_rows = trace.skipped_rows;
+  r.runs = trace.runs;
+  const std::size_t n = trace.samples.size();
+  constexpr std::size_t min_samples = 100;
+  if (n < min_samples) {
+    r.status = feedid::Status::insufficient_data;
+    r.error = trace.source + ": trace too short to identify: " + std::to_string(n) + " samples (need at least " +
+              std::to_string(min_samples) + " and motion in both directions)";
+    return r;
+  }
+  r.signals = prepare_signals(trace, opt);
+  const Signals& s = r.signals;
+  r.duration_s = s.t.back() - s.t.front();
+  r.config = auto_config(s, opt);
+  std::vector<std::size_t> run_starts;
+  for (const TraceRun& tr : trace.runs) run_starts.push_back(tr.first);
+  CoreRun run = run_core(s, r.config, opt, 0, static_cast<std::size_t>(-1), run_starts);
+  r.run_diagnostics = per_run(run.counters_at);
+  if (run.status == feedid::Status::invalid_config) {
+    r.status = run.status;
+    r.error = std::string("invalid configuration: ") + run.core->config_error();
+    return r;
+  }
+  r.config = run.core->config();  // as init() completed it: what the core ran with
+  r.status = run.status;
+  r.estimate = run.estimate;
+  r.friction_model = run.friction_model;
+  r.diagnostics = run.diagnostics;
+  r.first_rejections = run.first_rejections;
+  if (opt.progress) opt.progress(1.0);
+
+  fill_friction_curve(*run.core, r);
+  if (r.status == feedid::Status::insufficient_data) {
+    std::ostringstream o;
+    o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
+      << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
+      << " s moving negative above " << r.config.velocity_min_m_s << " " << r.units.velocity()
+      << "; each direction needs data in at least 5 velocity bands";
+    r.error = o.str();
+    return r;
+  }
+  r.residual_block_s = block_length_s(s);
+  r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
+  if (opt.honest_standard_errors && r.status == feedid::Status::ok) {
+    const Uncertainty u = widen_standard_errors(r, opt);
+    r.jackknife_chunks = u.chunks_used;
+    r.se_model = u.model_se;
+    r.se_jackknife = u.jackknife_se;
+    r.se_timing = u.timing_se;
+    r.se_cutoff = u.cutoff_se;
+  }
+  refit_mass_on_blocks(r);
+  return r;
+}
+
+const char* lag_origin_name(Signals::LagOrigin o) {
+  switch (o) {
+    case Signals::LagOrigin::estimated: return "estimated";
+    case Signals::LagOrigin::option: return "option";
+    case Signals::LagOrigin::convention: return "convention";
+    case Signals::LagOrigin::assumed: return "assumed held force (too little motion to estimate the lag)";
+  }
+  return "?";
+}
+
+namespace {
+/// The block mass's spread over the rival velocity cut-offs (RMS of its
+/// change; cutoff_standard_errors for the core's parameters).
+double block_mass_cutoff_spread(const IdentifyResult& r, double mass_kg) {
+  double sum = 0.0;
+  int used = 0;
+  for (double fc : r.signals.velocity_filter_rivals_hz) {
+    Signals rival = r.signals;
+    derive_velocity(rival, fc);
+    const BlockMass b = block_mass(rival, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+    if (!b.ok) continue;
+    sum += (b.mass_kg - mass_kg) * (b.mass_kg - mass_kg);
+    ++used;
+  }
+  return used > 0 ? std::sqrt(sum / used) : 0.0;
+}
+}  // namespace
+
+void refit_mass_on_blocks(IdentifyResult& r) {
+  r.mass_from_windows_kg = r.estimate.mass_kg;
+  // Only an identified mass is refitted: the blocks remove the windows'
+  // attenuation by velocity quantisation from a mass the data pin down;
+  // they do not rescue one the windows could not pin (on the 200 Hz SysId
+  // logs, whose positions are held for 20 ms, the block mass of such a
+  // mass came out 13-73 % below kA, the windows' -28 to +10 %, when the
+  // lowest cut-off tried was 20 Hz).
+  if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
+  const BlockMass b = block_mass(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s,
+                                 r.residual_block_s);
+  if (!b.ok) return;
+  r.estimate.mass_kg = b.mass_kg;
+  // The block jackknife replaces the windows' one, and the timing term is
+  // the block mass's own sensitivity to the lag: the window mass's, twice
+  // to four times larger, made m's intervals cover 99.5 %.
+  r.se_jackknife[0] = b.mass_se_kg;
+  if (r.lag_se_periods > 0) {
+    Signals probe = r.signals;
+    probe.force_lag_samples = timing_probe_lag(probe);
+    const BlockMass shifted = block_mass(probe, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+    if (shifted.ok) r.se_timing[0] = std::fabs(shifted.mass_kg - b.mass_kg) / kTimingProbeStep * r.lag_se_periods;
+  }
+  r.se_cutoff[0] = block_mass_cutoff_spread(r, b.mass_kg);
+  r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0], r.se_cutoff[0]);
+  r.estimate.mass_flags |= feedid::detail::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
+}
+
+namespace {
+/// The core's counters at each run's start (CoreRun::counters_at). A
+/// run's first sample closes (splits) the run before, so the snapshot is
+/// taken after it, less the run's own samples; if the core rejects it, the
+/// gap is closed by the run's first accepted sample (the core keeps a
+/// rejected sample's dt), so the snapshot waits for that one.
+struct RunBoundary {
+  std::vector<feedid::Diagnostics>& out;
+  bool pending = false;
+  uint64_t accepted = 0, rejected = 0;  ///< the pending run's samples so far
+
+  void start(const feedid::Diagnostics& before, bool first_sample_of_all) {
+    if (first_sample_of_all) { out.push_back(before); return; }
+    if (pending) take(before);  // a run that the core rejected whole
+    pending = true;
+    accepted = rejected = 0;
+  }
+  void after_push(const feedid::Diagnostics& now, bool sample_ok) {
+    if (!pending) return;
+    ++(sample_ok ? accepted : rejected);
+    if (sample_ok) take(now);
+  }
+  void finish(const feedid::Diagnostics& now) { if (pending) take(now); }
+  void take(feedid::Diagnostics d) {
+    d.samples_accepted -= accepted;
+    d.samples_rejected -= rejected;
+    out.push_back(d);
+    pending = false;
+  }
+};
+}  // namespace
+
+CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
+                 std::size_t begin, std::size_t end, const std::vector<std::size_t>& run_starts) {
+  CoreRun run;
+  run.core = std::make_unique<Core>();
+  Core& core = *run.core;
+  run.status = core.init(cfg);
+  if (run.status != feedid::Status::ok) return run;
+  const std::size_t n = std::min(end, s.t.size());
+  const std::size_t report_every = std::max<std::size_t>(n / 50, 1);
+  std::size_t next_run = 0;
+  RunBoundary boundary{run.counters_at};
+  for (std::size_t k = begin; k < n; ++k) {
+    const bool run_starts_here = next_run < run_starts.size() && run_starts[next_run] <= k;
+    if (run_starts_here) boundary.start(core.diagnostics(), k == begin);
+    feedid::Sample<double> smp;
+    smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
+    smp.position_m = s.x[k];
+    smp.velocity_m_s = s.v[k];
+    smp.force_N = s.u[k];
+    const feedid::Status st = core.push(smp);
+    if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
+    boundary.after_push(core.diagnostics(), st == feedid::Status::ok);
+    while (next_run < run_starts.size() && run_starts[next_run] <= k) ++next_run;
+    if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
+  }
+  boundary.finish(core.diagnostics());
+  run.status = core.solve(opt.method);
+  run.estimate = core.estimate();
+  run.diagnostics = core.diagnostics();
+  if (!run_starts.empty()) run.counters_at.push_back(run.diagnostics);
+  if (run.status == feedid::Status::ok && opt.select_friction_model) {
+    run.friction_model = select_friction_models(core, run.estimate);
+  } else {
+    for (int d = 0; d < 2; ++d) {
+      const auto& de = d == 0 ? run.estimate.pos : run.estimate.neg;
+      run.friction_model[static_cast<std::size_t>(d)] = {de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0,
+                                                         "as the core fitted it (no model selection)", 0.0};
+    }
+  }
+  return run;
+}
+
+namespace {
+FrictionModel select_direction(const Core& core, int d, double mass, feedid::DirectionEstimate<double>& de) {
+  FrictionModel m;
+  if (!de.friction_identified()) {
+    m.reason = "no friction identified";
+    return m;
+  }
+  const auto p = feedid::detail::friction_points(core.statistics(), d, mass);
+  feedid::Vector<double, 3> th4, th2, inv2;
+  double ssr4 = 0.0, ssr2 = 0.0;
+  const bool has_dip = de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0 &&
+                       feedid::detail::fit_friction_at(p, de.stribeck_velocity_m_s, th4, ssr4);
+  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2) || p.count < 6) {
+    m.stribeck = has_dip;
+    m.reason = "too few velocity bands to weigh the Stribeck law";
+    return m;
+  }
+  const double n = p.count;
+  m.bic_gain = has_dip && ssr4 > 0 ? n * std::log(ssr2 / ssr4) - 2.0 * std::log(n) : 0.0;
+  const bool physical = de.coulomb_N >= 0 && de.viscous_Ns_m >= 0;
+  // A Stribeck velocity at either end of its search range is not placed by
+  // the data (at the top the exponential bends the whole curve, at the
+  // bottom it touches the lowest bands alone), and BIC's count of two
+  // parameters assumes an optimum inside the range. (With too few bands to
+  // weigh, above, the core's fit stays as it is, its flags saying so.)
+  const bool placed = !(de.flags & feedid::flag_stribeck_at_search_bound);
+  m.stribeck = has_dip && physical && placed && m.bic_gain > 0;
+  if (m.stribeck) {
+    m.reason = "Stribeck: its dip lowers the band residual by more than BIC charges for Fs and vs";
+    return m;
+  }
+  m.reason = !has_dip    ? "Coulomb + viscous: the fit found no dip (Fs = 0)"
+             : !physical ? "Coulomb + viscous: the Stribeck fit was not physical (a negative Coulomb or viscous term)"
+             : !placed   ? "Coulomb + viscous: the Stribeck velocity came out at the end of its search range (the data do not place the dip)"
+                         : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
+  m.refitted = refit_coulomb_viscous(core.statistics(), d, mass, de);
+  return m;
+}
+}  // namespace
+
+bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de) {
+  const auto p = feedid::detail::friction_points(st, d, mass);
+  feedid::Vector<double, 3> th2, inv2;
+  double ssr2 = 0.0;
+  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2)) return false;
+  const double s2 = ssr2 / std::max(static_cast<double>(p.count) - 2.0, 1.0);
+  de.coulomb_N = th2.v[0];
+  de.viscous_Ns_m = th2.v[1];
+  de.coulomb_se = std::sqrt(s2 * inv2.v[0]);
+  de.viscous_se = std::sqrt(s2 * inv2.v[1]);
+  de.breakaway_N = 0.0;
+  de.stribeck_velocity_m_s = 0.0;
+  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical | feedid::flag_coulomb_uncertain);
+  if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
+  de.flags |= feedid::detail::coulomb_uncertainty_flags(de);
+  if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
+  return true;
+}
+
+std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e) {
+  return {select_direction(core, 0, e.mass_kg, e.pos), select_direction(core, 1, e.mass_kg, e.neg)};
+}
+
+
+
+
+
+SymmetricFriction symmetric_friction(const IdentifyResult& r) {
+  SymmetricFriction out;
+  const auto& p = r.estimate.pos;
+  const auto& n = r.estimate.neg;
+  if (r.friction_model[0].stribeck || r.friction_model[1].stribeck || !p.friction_identified() ||
+      !n.friction_identified())
+    return out;
+  // Inverse-variance means; the directions agree when each difference is
+  // within 2 of its standard errors.
+  auto pooled = [](double a, double sa, double b, double sb, double& mean, double& se) {
+    const double wa = 1.0 / (sa * sa), wb = 1.0 / (sb * sb);
+    mean = (wa * a + wb * b) / (wa + wb);
+    se = std::sqrt(1.0 / (wa + wb));
+    return std::fabs(a - b) <= 2.0 * std::hypot(sa, sb);
+  };
+  out.agree = pooled(p.coulomb_N, p.coulomb_se, n.coulomb_N, n.coulomb_se, out.coulomb_N, out.coulomb_se) &&
+              pooled(p.viscous_Ns_m, p.viscous_se, n.viscous_Ns_m, n.viscous_se, out.viscous_Ns_m, out.viscous_se);
+  out.agree = out.agree && std::isfinite(out.coulomb_N) && std::isfinite(out.viscous_Ns_m);
+  return out;
+}
+
+namespace {
+nlohmann::json friction_model_json(const IdentifyResult& r) {
+  nlohmann::json friction;
+  for (int d = 0; d < 2; ++d) {
+    const FrictionModel& m = r.friction_model[static_cast<std::size_t>(d)];
+    friction[d == 0 ? "pos" : "neg"] = {{"law", m.stribeck ? "stribeck" : "coulomb_viscous"},
+                                        {"reason", m.reason},
+                                        {"bic_gain", m.bic_gain}};
+  }
+  friction["rule"] = "the Stribeck law is kept where it is physical and lowers the band residual by more than the "
+                     "Bayesian information criterion charges for Fs and vs (n ln(SSR_cv/SSR_stribeck) > 2 ln n over n "
+                     "velocity bands); otherwise Coulomb + viscous, with Fs = vs = 0";
+  const SymmetricFriction sym = symmetric_friction(r);
+  friction["symmetric"] = sym.agree ? nlohmann::json{{"fc", sym.coulomb_N}, {"fc_se", sym.coulomb_se},
+                                                     {"sigma", sym.viscous_Ns_m}, {"sigma_se", sym.viscous_se},
+                                                     {"fc_identifiable", sym.coulomb_identified()}}
+                                    : nlohmann::json();
+  return {{"friction", friction}};
+}
+}  // namespace
+
+nlohmann::json to_json(const IdentifyResult& r) {
+  const auto& e = r.estimate;
+  const auto& g = r.diagnostics;
+  nlohmann::json j;
+  j["status"] = feedid::status_name(r.status);
+  if (!r.error.empty()) j["error"] = r.error;
+  j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
+  j["m"] = e.mass_kg;
+  j["m_se"] = e.mass_se_kg;
+  j["m_identifiable"] = e.mass_identified();
+  j["m_flags"] = flag_names(e.mass_flags);
+  j["pos"] = direction_json(e.pos);
+  j["neg"] = direction_json(e.neg);
+  j["model"] = friction_model_json(r);
+  j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
+              {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
+              {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
+              {"force_noise_N", e.force_noise_N}};
+  nlohmann::json rej = nlohmann::json::array();
+  for (const auto& x : r.first_rejections) rej.push_back({{"sample", x.sample}, {"status", feedid::status_name(x.status)}});
+  j["counts"] = {{"samples", r.signals.t.size()}, {"accepted", g.samples_accepted}, {"rejected", g.samples_rejected},
+                 {"rejected_not_finite", g.rejected_not_finite},
+                 {"rejected_time_not_increasing", g.rejected_time_not_increasing},
+                 {"rejected_out_of_range", g.rejected_out_of_range},
+                 {"rejected_velocity_jump", g.rejected_velocity_jump}, {"first_rejections", rej},
+                 {"sections_pos", g.sections_complete[0]}, {"sections_neg", g.sections_complete[1]},
+                 {"sections_short", g.sections_short}, {"sections_split", g.sections_split},
+                 {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks}};
+  const auto& c = r.config;
+  j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
+                {"velocity", r.signals.velocity_origin},
+                {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
+                {"velocity_filter_rivals_hz", r.signals.velocity_filter_rivals_hz},
+                {"position", r.signals.position_origin},
+                {"position_hold_rows", r.signals.position_hold_rows},
+                {"position_wrap_period", r.signals.position_wrap.found() ? nlohmann::json(r.signals.position_wrap.period) : nlohmann::json()},
+                {"position_unwraps", r.signals.position_wrap.wraps},
+                {"velocity_hold_rows", r.signals.velocity_hold_rows},
+                {"held_values_spread", r.signals.held_values_spread},
+                {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
+                {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
+                {"force_sign", r.signals.force_sign.sign}, {"force_sign_origin", r.signals.force_sign.describe()},
+                {"force_sign_ratio", std::isfinite(r.signals.force_sign.ratio) ? nlohmann::json(r.signals.force_sign.ratio) : nlohmann::json()},
+                {"velocity_lag_s", std::isfinite(r.signals.velocity_lag_s) ? nlohmann::json(r.signals.velocity_lag_s) : nlohmann::json()},
+                {"velocity_delay_samples", r.signals.velocity_delay_samples},
+                {"velocity_column_gain", std::isfinite(r.signals.velocity_column_gain) ? nlohmann::json(r.signals.velocity_column_gain) : nlohmann::json()},
+                {"velocity_column_used", r.signals.has_velocity_column},
+                {"position_quantum_m", r.signals.position_quantum_m},
+                {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+  if (r.streamed)
+    j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
+                             "errors from a jackknife over ten groups of 10 s blocks dealt round-robin, and the timing "
+                             "term measured on the first 60 s; no block refit of m";
+  if (!r.runs.empty()) {
+    nlohmann::json runs = nlohmann::json::array();
+    for (std::size_t i = 0; i < r.runs.size(); ++i) {
+      const TraceRun& run = r.runs[i];
+      nlohmann::json jr = {{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
+                           {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}};
+      if (i < r.run_diagnostics.size()) {
+        const feedid::Diagnostics& d = r.run_diagnostics[i];
+        jr["core"] = {{"samples_accepted", d.samples_accepted}, {"samples_rejected", d.samples_rejected},
+                      {"sections_complete", {{"pos", d.sections_complete[0]}, {"neg", d.sections_complete[1]}}},
+                      {"sections_split", d.sections_split}, {"sections_short", d.sections_short},
+                      {"mass_windows", d.mass_windows}};
+      }
+      runs.push_back(jr);
+    }
+    j["input"]["runs"] = runs;
+    j["input"]["runs_rule"] = "each file is its own run: the time jumps by 10 s between runs, a gap no section, window "
+                              "or integral spans";
+  }
+  // The configuration the core ran with (Estimator::config(), defaults filled by init()).
+  j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
+                 {"velocity_resolution_m_s", c.velocity_resolution_m_s}, {"section_enter_m_s", c.section_enter_m_s},
+                 {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
+                 {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s},
+                 {"stribeck_search_m_s", {feedid::detail::stribeck_lo(c), feedid::detail::stribeck_hi(c)}},
+                 {"force_lag_samples", c.force_lag_samples}};
+  nlohmann::json curve;
+  for (int d = 0; d < 2; ++d) {
+    nlohmann::json pts = nlohmann::json::array();
+    for (const auto& p : r.friction_curve[d]) pts.push_back({p.speed_m_s, p.friction_N, p.time_s});
+    curve[d == 0 ? "pos" : "neg"] = pts;
+  }
+  curve["columns"] = {"speed_m_s", "friction_N", "time_s"};
+  j["friction_curve"] = curve;
+  j["mass_from_windows_kg"] = r.mass_from_windows_kg;
+  j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
+                           {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
+                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing},
+                           {"velocity_cutoff", r.se_cutoff}};
+  j["units"] = units_json(r.units);
+  return j;
+}
+
+std::string summary(const IdentifyResult& r, const DriveParams* truth) {
+  std::ostringstream o;
+  const auto& e = r.estimate;
+  char buf[256];
+  o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
+    << feedid::status_name(r.status) << "; "
+    << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
+    << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
+    << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
+  if (r.signals.position_hold_rows > 1 || r.signals.position_wrap.found()) o << "  position " << r.signals.position_origin << "\n";
+  if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
+    o << "  force " << r.signals.force_sign.describe() << "\n";
+  const Units& u = r.units;
+  auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
+    const char* unit = unit_text.c_str();
+    const Rounded x = round_to_se(v, se);  // the digits se justifies
+    if (truth)
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s truth %-11.6g err %+7.3f %%%s\n", name, x.value.c_str(), unit,
+                    x.se.c_str(), t, t != 0 ? 100.0 * (v / t - 1.0) : 0.0, ok ? "" : "  NOT IDENTIFIABLE");
+    else
+      std::snprintf(buf, sizeof buf, "  %-22s %12s %-10s +- %-10s%s\n", name, x.value.c_str(), unit, x.se.c_str(),
+                    ok ? "" : "  NOT IDENTIFIABLE");
+    o << buf;
+  };
+  line("mass m", u.mass(), e.mass_kg, e.mass_se_kg, truth ? truth->mass_kg : 0, e.mass_identified());
+  for (int d = 0; d < 2; ++d) {
+    const auto& de = d == 0 ? e.pos : e.neg;
+    const DirectionFriction* td = truth ? (d == 0 ? &truth->pos : &truth->neg) : nullptr;
+    const char* s = d == 0 ? "+" : "-";
+    std::string n;
+    n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
+    n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.coulomb_identified());
+    n = std::string("break-away Fs") + s; line(n.c_str(), u.force, de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
+    n = std::string("Stribeck vel. vs") + s; line(n.c_str(), u.velocity(), de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
+    if (de.flags) {
+      o << "    flags:";
+      for (const auto& f : flag_names(de.flags)) o << " " << f;
+      o << "\n";
+    }
+    if (!r.friction_model[static_cast<std::size_t>(d)].reason.empty())
+      o << "    model: " << r.friction_model[static_cast<std::size_t>(d)].reason << "\n";
+  }
+  const SymmetricFriction sym = symmetric_friction(r);
+  if (sym.agree) {
+    const Rounded fc = round_to_se(sym.coulomb_N, sym.coulomb_se), sg = round_to_se(sym.viscous_Ns_m, sym.viscous_se);
+    o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
+      << u.force << (sym.coulomb_identified() ? "" : " (not identifiable: its standard error is over 25 % of it)")
+      << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+  }
+  std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
+  o << buf;
+  if (r.streamed) {
+    o << "block residual not computed (streamed); ";
+  } else {
+    std::snprintf(buf, sizeof buf, "RMS force residual %.3g %s over %.0f ms blocks; ", r.residual_rms_N, u.force.c_str(),
+                  1e3 * r.residual_block_s);
+    o << buf;
+  }
+  std::snprintf(buf, sizeof buf, "force noise %.3g %s\n", e.force_noise_N, u.force.c_str());
+  o << buf;
+  const auto& g = r.diagnostics;
+  o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "
+    << g.mass_windows << " mass windows; " << g.samples_rejected << " samples rejected\n";
+  return o.str();
+}
+
+}  // namespace feedid::host

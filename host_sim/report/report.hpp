@@ -1,0 +1,34 @@
+// Pictures and a report page for people: the identified friction curve over
+// the measured band means (like the seed paper's Fig. 1), the diagnosis
+// residual before/after over velocity, position and time, and measured
+// against predicted force of a cross-test. Host only.
+#pragma once
+#include <string>
+
+#include "diagnose/diagnose.hpp"
+#include "io/svg_plot.hpp"
+#include "identify/identify.hpp"
+#include "validate/validate.hpp"
+
+namespace feedid::host {
+
+/// friction_curve.svg: measured mean friction per velocity band (points) and
+/// the identified F(|v|) (lines), both directions, log speed axis.
+bool write_friction_curve_svg(const IdentifyResult& r, const std::string& path, std::string& error);
+
+/// The friction-curve figure (the plot write_friction_curve_svg writes).
+PlotSpec friction_curve_plot(const IdentifyResult& r);
+
+/// Writes report.html into dir (created if missing): one self-contained
+/// page with inline SVG: the verdict, where the gap lies, the candidates,
+/// the friction curve, the held-out residual before and after side by side
+/// over velocity, position and time, and the base model with the digits
+/// its standard errors justify.
+bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
+                            std::string& error);
+
+/// Measured and predicted force over time (the decimated validation series).
+bool write_force_plot_svg(const ValidateResult& r, const std::string& path, const std::string& title,
+                          std::string& error);
+
+}  // namespace feedid::host
