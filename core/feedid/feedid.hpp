@@ -9,9 +9,11 @@
 // Freestanding C++17: no heap, exceptions, RTTI, <cmath> or iostream.
 #pragma once
 
+#include "feedid/analysis.hpp"
 #include "feedid/estimator.hpp"
 #include "feedid/feedforward.hpp"
 #include "feedid/health_tracker.hpp"
 #include "feedid/monitor.hpp"
 #include "feedid/statistics.hpp"
+#include "feedid/thresholds.hpp"
 #include "feedid/types.hpp"

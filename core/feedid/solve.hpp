@@ -5,6 +5,7 @@
 
 #include "feedid/small_matrix.hpp"
 #include "feedid/statistics.hpp"
+#include "feedid/thresholds.hpp"
 
 namespace feedid {
 namespace detail {
@@ -21,19 +22,20 @@ template <typename T, int Bands> struct FrictionPoints {
 /// The rules that turn a standard error into "not identifiable"; the host
 /// applies the same ones after it widens a standard error (jackknife).
 template <typename T> uint32_t stribeck_uncertainty_flags(const DirectionEstimate<T>& e) {
-  const bool uncertain = !(e.breakaway_N > T(0)) || e.breakaway_se > T(0.25) * e.breakaway_N ||
-                         e.stribeck_velocity_se > T(0.25) * e.stribeck_velocity_m_s;
+  constexpr T q = T(thresholds::kFrictionRelativeSe);
+  const bool uncertain = !(e.breakaway_N > T(0)) || e.breakaway_se > q * e.breakaway_N ||
+                         e.stribeck_velocity_se > q * e.stribeck_velocity_m_s;
   return uncertain ? static_cast<uint32_t>(flag_stribeck_uncertain) : 0u;
 }
 template <typename T> uint32_t coulomb_uncertainty_flags(const DirectionEstimate<T>& e) {
-  return e.coulomb_se > T(0.25) * port::abs(e.coulomb_N) ? static_cast<uint32_t>(flag_coulomb_uncertain) : 0u;
+  return e.coulomb_se > T(thresholds::kFrictionRelativeSe) * port::abs(e.coulomb_N) ? static_cast<uint32_t>(flag_coulomb_uncertain) : 0u;
 }
 template <typename T> uint32_t mass_uncertainty_flags(T mass, T mass_se) {
-  return mass_se > T(0.1) * port::abs(mass) ? static_cast<uint32_t>(flag_no_acceleration) : 0u;
+  return mass_se > T(thresholds::kMassRelativeSe) * port::abs(mass) ? static_cast<uint32_t>(flag_no_acceleration) : 0u;
 }
 
 /// Bands with less time than this (s) carry too few samples to count as a point.
-template <typename T> constexpr T min_band_time_s() { return T(2e-3); }
+template <typename T> constexpr T min_band_time_s() { return T(thresholds::kMinBandTime_s); }
 
 template <typename T, int Bands, int C>
 FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d, T mass) {
@@ -141,9 +143,7 @@ bool fit_coulomb_viscous_at(const FrictionPoints<T, Bands>& p, Vector<T, 3>& the
   return port::is_finite(ssr);
 }
 
-/// Points of the coarse log(vs) grid of the Stribeck search (host tools
-/// that search vs use the same grid).
-constexpr int kStribeckGridPoints = 24;
+constexpr int kStribeckGridPoints = thresholds::kStribeckGridPoints;
 
 /// Stribeck velocity search on log(vs): a coarse grid (robust to the local
 /// minima of a flat cost) then golden-section refinement in the best grid
@@ -207,7 +207,7 @@ uint32_t stribeck_coverage_flags(const Statistics<T, Bands, C>& s, int d, T vs) 
     if (mean >= vs / T(3) && mean < vs) ++below;
     if (mean >= vs && mean <= T(3) * vs) ++above;
   }
-  const bool covered = slow_bands >= 2 && slow_time >= T(0.02) && below >= 1 && above >= 1 && below + above >= 3;
+  const bool covered = slow_bands >= thresholds::kStribeckSlowBands && slow_time >= T(thresholds::kStribeckSlowTime_s) && below >= 1 && above >= 1 && below + above >= 3;
   return covered ? 0u : static_cast<uint32_t>(flag_no_low_speed_data);
 }
 
@@ -218,7 +218,8 @@ template <typename T, int Bands, int C>
 uint32_t friction_evidence_flags(const Statistics<T, Bands, C>& s, const Config<T>& cfg, int d,
                                  const DirectionEstimate<T>& e, T vs) {
   uint32_t f = 0;
-  const T floor_v = port::max(T(3) * cfg.velocity_resolution_m_s, T(1.5) * cfg.velocity_min_m_s);
+  const T floor_v = port::max(T(thresholds::kStribeckFloorResolutions) * cfg.velocity_resolution_m_s,
+                              T(thresholds::kStribeckFloorOfVelocityMin) * cfg.velocity_min_m_s);
   if (vs < floor_v) f |= flag_stribeck_below_resolution;
   f |= stribeck_uncertainty_flags(e);
   f |= coulomb_uncertainty_flags(e);
@@ -361,10 +362,10 @@ bool mass_equation(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
 }
 
 template <typename T> T stribeck_lo(const Config<T>& c) {
-  return c.stribeck_min_m_s > T(0) ? c.stribeck_min_m_s : T(0.5) * c.velocity_min_m_s;
+  return c.stribeck_min_m_s > T(0) ? c.stribeck_min_m_s : T(thresholds::kStribeckLowOfVelocityMin) * c.velocity_min_m_s;
 }
 template <typename T> T stribeck_hi(const Config<T>& c) {
-  return c.stribeck_max_m_s > T(0) ? c.stribeck_max_m_s : T(0.25) * c.velocity_max_m_s;
+  return c.stribeck_max_m_s > T(0) ? c.stribeck_max_m_s : T(thresholds::kStribeckHighOfVelocityMax) * c.velocity_max_m_s;
 }
 /// Candidate i of `count` Stribeck velocities, log-spaced over the search range.
 template <typename T> T stribeck_candidate(const Config<T>& c, int i, int count) {

@@ -81,8 +81,8 @@ Prepared prepare(const Trace& trace, const BaselineOptions& opt) {
   p.v_min = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s : c.velocity_min_m_s;
   p.v_max = c.velocity_max_m_s;
   p.max_gap = c.max_gap_s;
-  p.stribeck_lo = feedid::detail::stribeck_lo(c);
-  p.stribeck_hi = feedid::detail::stribeck_hi(c);
+  p.stribeck_lo = feedid::analysis::stribeck_lo(c);
+  p.stribeck_hi = feedid::analysis::stribeck_hi(c);
   return p;
 }
 
@@ -443,7 +443,7 @@ BaselineResult genetic_algorithm(const Trace& trace, const BaselineOptions& opt)
   if (!rows_for(trace, opt, "ga", t0, out, r)) return out;
   // Search box around the linear start (a practitioner's "order of magnitude"
   // box): m, sigma in [0.5, 2] x start; Fc, Fs in [0, 2 |Fc start| + 1 N];
-  // ln vs over the core's Stribeck search range (detail::stribeck_lo/hi).
+  // ln vs over the core's Stribeck search range (analysis::stribeck_lo/hi).
   out.start = linear_start(r);
   const X c = to_x(out.start);
   X lo{}, hi{};

@@ -318,7 +318,7 @@ BatchResult batch_setup(const Config<double>& cfg_in) {
   r.config = probe->config();
   r.layout.init(r.config.velocity_min_m_s, r.config.velocity_max_m_s);
   for (int i = 0; i < kCandidates; ++i)
-    r.stats.vs_candidate[i] = r.magnitude.vs_candidate[i] = detail::stribeck_candidate(r.config, i, kCandidates);
+    r.stats.vs_candidate[i] = r.magnitude.vs_candidate[i] = analysis::stribeck_candidate(r.config, i, kCandidates);
   return r;
 }
 
@@ -579,8 +579,8 @@ Estimate<double> batch_estimate(const std::vector<Sample<double>>& samples, cons
   const BatchResult r = batch_compute(samples, cfg);
   Estimate<double> e;
   e.method = method;
-  const Status st = method == Method::paper ? detail::solve_paper(r.stats, r.config, e)
-                                            : detail::solve_bands(r.stats, r.layout, r.config, e);
+  const Status st = method == Method::paper ? analysis::solve_paper(r.stats, r.config, e)
+                                            : analysis::solve_bands(r.stats, r.layout, r.config, e);
   if (status) *status = st;
   return e;
 }

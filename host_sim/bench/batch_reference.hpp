@@ -37,7 +37,7 @@
 // core's exactly. Every value that enters the statistics is summed
 // independently (long double, in array order).
 //
-// The solve step is shared on purpose (detail::solve_bands / solve_paper):
+// The solve step is shared on purpose (analysis::solve_bands / solve_paper):
 // this reference checks the bookkeeping, not the solver.
 #pragma once
 

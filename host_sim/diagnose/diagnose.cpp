@@ -153,8 +153,8 @@ BaseColumns add_base_columns(const Observations& obs, ColumnBank& bank, const Id
   // near 0 if there is none.
   b.stribeck[0] = est.pos.friction_identified() && est.pos.breakaway_N > 0;
   b.stribeck[1] = est.neg.friction_identified() && est.neg.breakaway_N > 0;
-  b.vs_grid = log_grid(feedid::detail::stribeck_lo(base.config), feedid::detail::stribeck_hi(base.config),
-                       feedid::detail::kStribeckGridPoints);
+  b.vs_grid = log_grid(feedid::analysis::stribeck_lo(base.config), feedid::analysis::stribeck_hi(base.config),
+                       feedid::thresholds::kStribeckGridPoints);
   const auto n = static_cast<int>(b.vs_grid.size());
   for (int d = 0; d < 2; ++d) {
     if (!b.stribeck[d]) continue;

@@ -541,7 +541,7 @@ void fill_friction_curve(const Core& core, IdentifyResult& r) {
     for (int j = 0; j < Core::bands; ++j) {
       const auto& b = st.band[d][j];
       const double t = b.time_s.get();
-      if (t < feedid::detail::min_band_time_s<double>()) continue;  // the core's own rule for a band point
+      if (t < feedid::analysis::min_band_time_s<double>()) continue;  // the core's own rule for a band point
       r.friction_curve[d].push_back({b.speed.get() / t, (b.force.get() - r.estimate.mass_kg * b.dvel.get()) / t, t});
     }
 }
@@ -679,7 +679,7 @@ void refit_mass_on_blocks(IdentifyResult& r) {
   }
   r.se_cutoff[0] = block_mass_cutoff_spread(r, b.mass_kg);
   r.estimate.mass_se_kg = std::hypot(b.mass_se_kg, r.se_timing[0], r.se_cutoff[0]);
-  r.estimate.mass_flags |= feedid::detail::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
+  r.estimate.mass_flags |= feedid::analysis::mass_uncertainty_flags(r.estimate.mass_kg, r.estimate.mass_se_kg);
 }
 
 namespace {
@@ -763,12 +763,12 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
     m.reason = "no friction identified";
     return m;
   }
-  const auto p = feedid::detail::friction_points(core.statistics(), d, mass);
+  const auto p = feedid::analysis::friction_points(core.statistics(), d, mass);
   feedid::Vector<double, 3> th4, th2, inv2;
   double ssr4 = 0.0, ssr2 = 0.0;
   const bool has_dip = de.breakaway_N > 0 && de.stribeck_velocity_m_s > 0 &&
-                       feedid::detail::fit_friction_at(p, de.stribeck_velocity_m_s, th4, ssr4);
-  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2) || p.count < 6) {
+                       feedid::analysis::fit_friction_at(p, de.stribeck_velocity_m_s, th4, ssr4);
+  if (!feedid::analysis::fit_coulomb_viscous_at(p, th2, ssr2, &inv2) || p.count < 6) {
     m.stribeck = has_dip;
     m.reason = "too few velocity bands to weigh the Stribeck law";
     return m;
@@ -797,10 +797,10 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
 }  // namespace
 
 bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de) {
-  const auto p = feedid::detail::friction_points(st, d, mass);
+  const auto p = feedid::analysis::friction_points(st, d, mass);
   feedid::Vector<double, 3> th2, inv2;
   double ssr2 = 0.0;
-  if (!feedid::detail::fit_coulomb_viscous_at(p, th2, ssr2, &inv2)) return false;
+  if (!feedid::analysis::fit_coulomb_viscous_at(p, th2, ssr2, &inv2)) return false;
   const double s2 = ssr2 / std::max(static_cast<double>(p.count) - 2.0, 1.0);
   de.coulomb_N = th2.v[0];
   de.viscous_Ns_m = th2.v[1];
@@ -810,7 +810,7 @@ bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::Di
   de.stribeck_velocity_m_s = 0.0;
   de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical | feedid::flag_coulomb_uncertain);
   if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
-  de.flags |= feedid::detail::coulomb_uncertainty_flags(de);
+  de.flags |= feedid::analysis::coulomb_uncertainty_flags(de);
   if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
   return true;
 }
@@ -942,7 +942,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
                  {"velocity_resolution_m_s", c.velocity_resolution_m_s}, {"section_enter_m_s", c.section_enter_m_s},
                  {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
                  {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s},
-                 {"stribeck_search_m_s", {feedid::detail::stribeck_lo(c), feedid::detail::stribeck_hi(c)}},
+                 {"stribeck_search_m_s", {feedid::analysis::stribeck_lo(c), feedid::analysis::stribeck_hi(c)}},
                  {"force_lag_samples", c.force_lag_samples}};
   nlohmann::json curve;
   for (int d = 0; d < 2; ++d) {

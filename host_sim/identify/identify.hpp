@@ -184,7 +184,9 @@ struct SymmetricFriction {
   bool agree = false;
   double coulomb_N = 0.0, coulomb_se = 0.0, viscous_Ns_m = 0.0, viscous_se = 0.0;
   /// The pooled Fc by the core's rule (coulomb_uncertainty_flags): known to a quarter of its value.
-  bool coulomb_identified() const { return agree && !(coulomb_se > 0.25 * std::fabs(coulomb_N)); }
+  bool coulomb_identified() const {
+    return agree && !(coulomb_se > feedid::thresholds::kFrictionRelativeSe * std::fabs(coulomb_N));
+  }
 };
 
 /// One velocity band of the measured friction curve (inertia removed).

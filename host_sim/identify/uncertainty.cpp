@@ -17,8 +17,8 @@ std::array<double*, 9> se_fields(feedid::Estimate<double>& e) {
 feedid::Status solve_stats(const Stats& s, const Core& layout_of, feedid::Method method, feedid::Estimate<double>& e) {
   e = feedid::Estimate<double>{};
   e.method = method;
-  return method == feedid::Method::paper ? feedid::detail::solve_paper(s, layout_of.config(), e)
-                                         : feedid::detail::solve_bands(s, layout_of.layout(), layout_of.config(), e);
+  return method == feedid::Method::paper ? feedid::analysis::solve_paper(s, layout_of.config(), e)
+                                         : feedid::analysis::solve_bands(s, layout_of.layout(), layout_of.config(), e);
 }
 
 /// Delete-one-chunk jackknife: sqrt((K-1)/K sum (theta_-i - mean)^2).
@@ -170,11 +170,11 @@ void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
   for (auto* d : {&e.pos, &e.neg}) {
     // Fc's rule on its widened standard error, whatever the core's said.
     if (d->friction_identified())
-      d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::detail::coulomb_uncertainty_flags(*d);
+      d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::analysis::coulomb_uncertainty_flags(*d);
     if (d->flags & feedid::flag_stribeck_uncertain) continue;
-    d->flags |= feedid::detail::stribeck_uncertainty_flags(*d);
+    d->flags |= feedid::analysis::stribeck_uncertainty_flags(*d);
   }
-  if (e.mass_identified()) e.mass_flags |= feedid::detail::mass_uncertainty_flags(e.mass_kg, e.mass_se_kg);
+  if (e.mass_identified()) e.mass_flags |= feedid::analysis::mass_uncertainty_flags(e.mass_kg, e.mass_se_kg);
 }
 
 }  // namespace feedid::host
