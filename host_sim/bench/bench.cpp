@@ -1,5 +1,6 @@
 // feedid bench: see bench.hpp and docs/benchmarks.md.
 #include "bench.hpp"
+#include "io/output_file.hpp"
 
 #include <malloc.h>
 #include <unistd.h>
@@ -411,12 +412,9 @@ json machine_json() {
 }
 
 bool write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  if (!f) { std::fprintf(stderr, "error: %s: cannot write\n", path.c_str()); return false; }
-  f << text;
-  f.close();
-  if (!f) { std::fprintf(stderr, "error: %s: write failed\n", path.c_str()); return false; }
-  return true;
+  const std::string err = write_whole_file(path, text);
+  if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
+  return err.empty();
 }
 
 bool parse_methods(const std::string& s, std::vector<std::string>& out) {
@@ -1019,9 +1017,7 @@ int run_diagnose_cost(const BenchOptions& o) {
                     {"identify", {{"seconds", id.seconds}, {"cpu_seconds", id.cpu_seconds}, {"peak_rss_bytes", id.peak_rss_bytes}}},
                     {"diagnose", {{"seconds", dg.seconds}, {"cpu_seconds", dg.cpu_seconds}, {"peak_rss_bytes", dg.peak_rss_bytes}}},
                     {"time_ratio", t_ratio}, {"memory_ratio", std::isfinite(m_ratio) ? json(m_ratio) : json(nullptr)}};
-    std::ofstream f(o.json_path);
-    f << j.dump(2) << "\n";
-    if (!f) return 1;
+    if (!write_text(o.json_path, j.dump(2) + "\n")) return 1;
   }
   return 0;
 }

@@ -13,6 +13,7 @@
 // Cases are independent and seeded from (seed, index), so the result does not
 // depend on the number of threads.
 #include "blind_bench.hpp"
+#include "io/output_file.hpp"
 
 #include "model/constants.hpp"
 
@@ -945,11 +946,16 @@ int write_case(const BlindOptions& opt, const std::vector<std::string>& schedule
     std::fprintf(stderr, "%s\n", error.c_str());
     return 2;
   }
-  std::ofstream key(opt.case_path + ".truth.json");
-  key << nlohmann::json{{"effect", bc.truth.label}, {"parameters", bc.truth.effect}, {"setup", bc.truth.setup}}.dump(2) << "\n";
+  const std::string err = write_whole_file(
+      opt.case_path + ".truth.json",
+      nlohmann::json{{"effect", bc.truth.label}, {"parameters", bc.truth.effect}, {"setup", bc.truth.setup}}.dump(2) + "\n");
+  if (!err.empty()) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
   std::printf("wrote case %d (%s) to %s and its truth to %s.truth.json\n", opt.write_case, bc.truth.label.c_str(),
               opt.case_path.c_str(), opt.case_path.c_str());
-  return key ? 0 : 2;
+  return 0;
 }
 
 namespace {
@@ -1071,10 +1077,9 @@ void print_scores(const Scores& s, double wall_s, int threads, double gen_total,
 
 /// Writes `text` to path; false (and a message) when it cannot.
 bool write_output(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f) std::fprintf(stderr, "error: %s: cannot write\n", path.c_str());
-  return static_cast<bool>(f);
+  const std::string err = write_whole_file(path, text);
+  if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
+  return err.empty();
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 #include "coverage.hpp"
+#include "io/output_file.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -224,9 +225,8 @@ int run_coverage(const CoverageOptions& opt) {
   const std::string md = markdown(out, opt, failed);
   std::fputs(md.c_str(), stdout);
   if (!opt.markdown_path.empty()) {
-    std::ofstream f(opt.markdown_path);
-    f << md;
-    if (!f) { std::fprintf(stderr, "error: %s: cannot write\n", opt.markdown_path.c_str()); return 1; }
+    const std::string err = write_whole_file(opt.markdown_path, md);
+    if (!err.empty()) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
   }
   if (!opt.json_path.empty()) {
     nlohmann::json j = nlohmann::json::array();
@@ -236,9 +236,8 @@ int run_coverage(const CoverageOptions& opt) {
                    {"velocity_log", o.velocity}, {"position", o.position}, {"err", o.err}, {"se", o.se},
                    {"identified", o.identified}, {"lm", o.lm}, {"lm_err", o.lm_err}});
     }
-    std::ofstream f(opt.json_path);
-    f << j.dump(1) << "\n";
-    if (!f) { std::fprintf(stderr, "error: %s: cannot write\n", opt.json_path.c_str()); return 1; }
+    const std::string err = write_whole_file(opt.json_path, j.dump(1) + "\n");
+    if (!err.empty()) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
   }
   return 0;
 }

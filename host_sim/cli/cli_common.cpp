@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "io/progress.hpp"
+#include "io/output_file.hpp"
 #include "report/report.hpp"
 #include "io/trace_files.hpp"
 #include "signals/filters.hpp"
@@ -164,11 +165,25 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
       ->capture_default_str();
 }
 
-bool write_json(const std::string& path, const nlohmann::json& j) {
-  std::ofstream f(path);
-  if (!f) { std::fprintf(stderr, "error: %s: cannot write\n", path.c_str()); return false; }
-  f << j.dump(2) << "\n";
-  return static_cast<bool>(f);
+bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {
+  const std::string err = write_whole_file(path, j.dump(2) + "\n", inputs);
+  if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
+  return err.empty();
+}
+
+std::string output_over_input(const CLI::App& sub) {
+  auto values = [&sub](std::initializer_list<const char*> names) {
+    std::vector<std::string> v;
+    for (const char* n : names)
+      if (const CLI::Option* o = sub.get_option_no_throw(n))
+        for (const std::string& r : o->results()) v.push_back(r);
+    return v;
+  };
+  const auto inputs = values({"--in", "--model", "--in-list"});
+  for (const std::string& out : values({"--json", "--out", "--plot", "--truth", "--friction-plot", "--markdown"}))
+    for (const std::string& in : inputs)
+      if (same_file(out, in)) return out + ": refusing to write an output over the input " + in;
+  return "";
 }
 
 Trace run_simulation(const SimConfig& cfg) {

@@ -44,7 +44,13 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u);
 void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method);
 
 /// Writes j to path; prints the error and returns false when it cannot.
-bool write_json(const std::string& path, const nlohmann::json& j);
+bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs = {});
+
+/// Why the parsed subcommand would write an output over one of its inputs
+/// (--json, --out, --plot, --truth, --friction-plot or --markdown naming the
+/// file of --in, --model or --in-list), or empty. Checked once, in main,
+/// before any command runs.
+std::string output_over_input(const CLI::App& sub);
 
 /// simulate() with progress on stderr.
 Trace run_simulation(const SimConfig& cfg);

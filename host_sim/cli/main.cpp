@@ -2,14 +2,32 @@
 // trace, and (with later commands) diagnose the sim-to-real gap.
 #include <CLI/CLI.hpp>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <iostream>
 #include <exception>
+#include <string>
 #include <memory>
 #include <vector>
 
 #include "cli_common.hpp"
 
 using namespace feedid::host::cli;
+
+namespace {
+/// A command whose printed result did not reach standard output (a full
+/// disk, a closed pipe) has failed, whatever it returned.
+int with_stdout_checked(int rc) {
+  std::cout.flush();
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0 || !std::cout) {
+    std::fprintf(stderr, "error: standard output: cannot write: %s\n", std::strerror(errno != 0 ? errno : EIO));
+    return rc == 0 ? 1 : rc;
+  }
+  return rc;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"feedid: identify a feed drive's mass and Stribeck friction from a trace, and diagnose the sim-to-real gap"};
@@ -27,14 +45,23 @@ int main(int argc, char** argv) {
   commands.push_back(make_coverage_command());
   commands.push_back(make_bench_command());
   for (auto& c : commands) c->add(app);
+  app.set_version_flag("--version", std::string("feedid ") + FEEDID_VERSION);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every usage error 2, as the README says.
+    return app.exit(e) == 0 ? 0 : 2;
   }
   try {
-    for (auto& c : commands)
-      if (*c->app) return c->run();
+    for (auto& c : commands) {
+      if (!*c->app) continue;
+      const std::string clash = output_over_input(*c->app);
+      if (!clash.empty()) {
+        std::fprintf(stderr, "error: %s\n", clash.c_str());
+        return 2;
+      }
+      return with_stdout_checked(c->run());
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;

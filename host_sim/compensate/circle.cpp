@@ -1,5 +1,6 @@
 // The closed-loop circle test. Host only.
 #include "circle.hpp"
+#include "io/output_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -244,9 +245,9 @@ int run_circle_command(const CircleOptions& opt) {
   std::printf("largest quadrant glitch %.0f %% lower with the identified compensation\n", 100.0 * r.glitch_reduction);
   std::string err;
   if (!opt.json_path.empty()) {
-    std::ofstream f(opt.json_path);
-    if (!(f << to_json(r, opt).dump(2) << "\n")) {
-      std::fprintf(stderr, "error: %s: cannot write\n", opt.json_path.c_str());
+    err = write_whole_file(opt.json_path, to_json(r, opt).dump(2) + "\n");
+    if (!err.empty()) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
   }

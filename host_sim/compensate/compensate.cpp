@@ -1,5 +1,6 @@
 // Friction compensation tables from an identified model. Host only.
 #include "compensate.hpp"
+#include "io/output_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -194,9 +195,9 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
   if (out_path.empty()) {
     std::cout << text;
   } else {
-    std::ofstream o(out_path);
-    if (!(o << text)) {
-      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+    const std::string err = write_whole_file(out_path, text, {model_path});
+    if (!err.empty()) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
     std::printf("%zu points per direction up to %.4g m/s; largest interpolation error %.3g N; wrote %s\n",

@@ -1,5 +1,6 @@
 // Reading and writing traces as CSV. Host only.
 #include "csv_trace.hpp"
+#include "output_file.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -426,12 +427,7 @@ std::size_t CsvStream::rows_repeated() const { return impl_->counts.rows_repeate
 const std::vector<std::string>& CsvStream::skipped_rows() const { return impl_->counts.skipped_rows; }
 
 bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error) {
-  errno = 0;
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (f == nullptr) {
-    error = path + ": cannot write: " + errno_text(errno);
-    return false;
-  }
+  OutputFile f(path);
   // Format into a buffer and write it in large blocks. std::to_chars with
   // general format and precision 17 gives the same text as printf("%.17g")
   // in the C locale, which round-trips every double exactly.
@@ -439,16 +435,6 @@ bool write_trace_csv(const std::string& path, const Trace& trace, std::string& e
   constexpr std::size_t kFlushAt = 1 << 20;
   out.reserve(kFlushAt + 256);
   out += "t,x,v,u\n";
-
-  bool ok = true;
-  int err = 0;
-  auto flush = [&] {
-    if (ok && !out.empty() && std::fwrite(out.data(), 1, out.size(), f) != out.size()) {
-      ok = false;
-      err = errno;
-    }
-    out.clear();
-  };
   auto put = [&](double v, char after) {
     char tmp[40];
     const std::to_chars_result r =
@@ -462,24 +448,14 @@ bool write_trace_csv(const std::string& path, const Trace& trace, std::string& e
     put(s.v_m_s, ',');
     put(s.u_N, '\n');
     if (out.size() >= kFlushAt) {
-      flush();
-      if (!ok) break;
+      if (!f.write(out)) break;
+      out.clear();
     }
   }
-  flush();
-  if (ok && std::fflush(f) != 0) {
-    ok = false;
-    err = errno;
-  }
-  if (std::fclose(f) != 0 && ok) {
-    ok = false;
-    err = errno;
-  }
-  if (!ok) {
-    error = path + ": cannot write: " + errno_text(err != 0 ? err : EIO);
-    return false;
-  }
-  return true;
+  f.write(out);
+  f.commit();
+  error = f.error();
+  return f.ok();
 }
 
 }  // namespace feedid::host

@@ -1,4 +1,5 @@
 #include "svg_plot.hpp"
+#include "output_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -250,12 +251,8 @@ std::string render_svg(const PlotSpec& p) {
 }
 
 bool write_svg(const std::string& path, const PlotSpec& spec, std::string& error) {
-  std::ofstream f(path);
-  if (!f) { error = path + ": cannot open for writing"; return false; }
-  f << render_svg(spec);
-  f.close();
-  if (!f) { error = path + ": write failed"; return false; }
-  return true;
+  error = write_whole_file(path, render_svg(spec));
+  return error.empty();
 }
 
 }  // namespace feedid::host

@@ -1,5 +1,6 @@
 // Friction health from a log of any length. Host only.
 #include "monitor.hpp"
+#include "io/output_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -241,12 +242,8 @@ bool write_trend_svg(const MonitorResult& r, const std::string& path, std::strin
     o << svg << "\n";
   }
   o << "</svg>\n";
-  std::ofstream f(path);
-  if (!(f << o.str())) {
-    error = path + ": cannot write";
-    return false;
-  }
-  return true;
+  error = write_whole_file(path, o.str());
+  return error.empty();
 }
 
 }  // namespace feedid::host

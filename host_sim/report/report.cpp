@@ -1,4 +1,5 @@
 #include "report.hpp"
+#include "io/output_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -274,10 +275,8 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
   o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (" + r.base.units.position + ")", "x");
   o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t");
   o << base_model_html(r.base) << compensation_html(r.base) << "</body>\n</html>\n";
-  std::ofstream f(dir + "/report.html");
-  if (!f) { error = dir + "/report.html: cannot write"; return false; }
-  f << o.str();
-  return static_cast<bool>(f);
+  error = write_whole_file(dir + "/report.html", o.str());
+  return error.empty();
 }
 
 bool write_force_plot_svg(const ValidateResult& r, const std::string& path, const std::string& title,
