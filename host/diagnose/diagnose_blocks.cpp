@@ -257,6 +257,9 @@ std::vector<Segment> Observations::make_segments(const std::vector<double>& acce
     }
     const double dt = interval_dt(j), vm = interval_v(j), xm = 0.5 * (s_.x[j] + s_.x[j + 1]);
     const int d = direction(vm, v_min);
+    // A run starts as the trace does: no reversal or start from rest is
+    // carried over the gap, nor the jump between the runs' positions.
+    if (j > 0 && s_.gap_before(j)) last_dir = 0, resting = true;
     if (d != 0 && d != last_dir) x_rev = xm, last_dir = d;
     if (d != 0 && resting) x_start = xm;
     resting = d == 0;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "diagnose/diagnose.hpp"
+#include "diagnose/diagnose_blocks.hpp"
 #include "io/csv_trace.hpp"
 #include "io/trace_files.hpp"
 #include "test_support.hpp"
@@ -102,6 +103,42 @@ TEST(DiagnosePooledRuns, PositionFrictionInEveryRunIsNamed) {
   ASSERT_EQ(r.effect, "position_friction") << host::summary(r);
   // 10 % of the force, as for one run (diagnose_test.cpp).
   EXPECT_NEAR(r.effect_parameters.value("delta_N", 0.0), 6.0, 0.6) << r.effect_parameters.dump();
+}
+
+/// Two runs at 1 kHz moving forward at 0.05 m/s from their first sample,
+/// the second 10 s after the first and 1 m further on (another file,
+/// another origin).
+host::Signals two_forward_runs() {
+  host::Signals s;
+  s.sample_rate_hz = 1000.0;
+  s.has_position = true;
+  for (int run = 0; run < 2; ++run)
+    for (int k = 0; k < 2000; ++k) {
+      s.t.push_back(run * 12.0 + k / s.sample_rate_hz);
+      s.x.push_back(run * 1.0 + 0.05 * k / s.sample_rate_hz);
+      s.v.push_back(0.05);
+      s.u.push_back(20.0);
+    }
+  return s;
+}
+
+// The presliding candidate's distance since the last reversal (or start
+// from rest) starts again with each run: carried over the gap, the second
+// run's first stroke was 1.1 m past its reversal, the jump between the
+// files' origins.
+TEST(DiagnosePooledRuns, DistanceSinceReversalStartsAgainInEachRun) {
+  const host::Signals s = two_forward_runs();
+  const double v_min = 1e-3;
+  const host::diag::Observations obs(s, v_min, 0.005, host::diag::make_folds(s, 40, v_min));
+  bool second_run_seen = false;
+  for (const host::diag::Segment& sg : obs.segments()) {
+    if (sg.t_start < 12.0) continue;
+    second_run_seen = true;
+    EXPECT_LT(sg.rev0, 1e-3) << "first segment of the second run, at " << sg.t_start << " s";
+    EXPECT_LT(sg.start0, 1e-3);
+    break;
+  }
+  EXPECT_TRUE(second_run_seen);
 }
 
 }  // namespace
