@@ -15,26 +15,49 @@ namespace {
 
 int direction(double v, double v_min) { return v >= v_min ? 1 : (v <= -v_min ? -1 : 0); }
 
-/// Median time between reversals of the motion (s); 0 if it never reverses.
-double median_half_cycle(const Signals& s, double v_min) {
+/// A clock that runs only while there is data: each gap (another run, a
+/// logger pause: Signals::gap_before) counts as one sample period. Without
+/// gaps it is the trace's own clock, to the bit.
+struct DataClock {
+  std::vector<double> tau;    ///< data time of each sample (s)
+  std::vector<double> shift;  ///< t - tau of each sample: the gap time before it (s)
+  explicit DataClock(const Signals& s) : tau(s.t), shift(s.t.size(), 0.0) {
+    for (std::size_t k = 1; k < s.t.size(); ++k) {
+      shift[k] = shift[k - 1] + (s.gap_before(k) ? s.t[k] - s.t[k - 1] - s.period_s() : 0.0);
+      tau[k] = s.t[k] - shift[k];
+    }
+  }
+  /// Trace time of data time u; inside a gap's one period, in the gap.
+  double trace_time(double u) const {
+    const std::size_t k = std::min<std::size_t>(std::upper_bound(tau.begin(), tau.end(), u) - tau.begin(), tau.size() - 1);
+    return u + shift[k];
+  }
+};
+
+/// Median data time between reversals of the motion (s); 0 if it never
+/// reverses. A run starts with no direction: one that moves the other way
+/// than the run before has not reversed.
+double median_half_cycle(const Signals& s, const DataClock& c, double v_min) {
   std::vector<double> halves;
   int dir = 0;
-  double since = s.t.front();
+  double since = c.tau.front();
   for (std::size_t k = 0; k < s.t.size(); ++k) {
+    if (k > 0 && s.gap_before(k)) dir = 0;
     const int d = direction(s.v[k], v_min);
     if (d == 0 || d == dir) continue;
-    if (dir != 0) halves.push_back(s.t[k] - since);
+    if (dir != 0) halves.push_back(c.tau[k] - since);
     dir = d;
-    since = s.t[k];
+    since = c.tau[k];
   }
   if (halves.empty()) return 0.0;
   std::nth_element(halves.begin(), halves.begin() + static_cast<long>(halves.size() / 2), halves.end());
   return halves[halves.size() / 2];
 }
 
-/// Middles of dwells: at least 20 ms slow with the position within a few
-/// quanta (a slow stroke pauses between encoder counts; that is not a dwell).
-std::vector<double> dwell_middles(const Signals& s, double v_min) {
+/// Middles of dwells in data time: at least 20 ms slow with the position
+/// within a few quanta (a slow stroke pauses between encoder counts; that
+/// is not a dwell), inside one run.
+std::vector<double> dwell_middles(const Signals& s, const DataClock& c, double v_min) {
   std::vector<double> rest;
   const double still = std::max(4.0 * s.position_quantum_m, 1e-9);
   for (std::size_t k = 0; s.has_position && k < s.t.size();) {
@@ -43,8 +66,10 @@ std::vector<double> dwell_middles(const Signals& s, double v_min) {
       continue;
     }
     const std::size_t a = k;
-    while (k < s.t.size() && std::fabs(s.v[k]) < v_min && std::fabs(s.x[k] - s.x[a]) <= still) ++k;
-    if (s.t[k - 1] - s.t[a] >= 0.02) rest.push_back(0.5 * (s.t[a] + s.t[k - 1]));
+    while (k < s.t.size() && (k == a || !s.gap_before(k)) && std::fabs(s.v[k]) < v_min &&
+           std::fabs(s.x[k] - s.x[a]) <= still)
+      ++k;
+    if (c.tau[k - 1] - c.tau[a] >= 0.02) rest.push_back(0.5 * (c.tau[a] + c.tau[k - 1]));
     k = std::max(k, a + 1);
   }
   return rest;
@@ -57,12 +82,15 @@ double smoothing_cutoff_hz(const Signals& s) { return std::min(0.2 * s.sample_ra
 }  // namespace
 
 Folds make_folds(const Signals& s, int max_folds, double v_min) {
-  const double t0 = s.t.front(), duration = s.t.back() - t0;
-  const double cycle = 2.0 * median_half_cycle(s, v_min);
+  // Folds are laid on the data clock: on the pooled one, with 10 s between
+  // runs, held-out folds fell into the gaps ("0 held out").
+  const DataClock clock(s);
+  const double t0 = clock.tau.front(), duration = clock.tau.back() - t0;
+  const double cycle = 2.0 * median_half_cycle(s, clock, v_min);
   int folds = max_folds;
-  if (cycle > 0) folds = std::clamp(static_cast<int>(duration / (2.0 * cycle)), 4, max_folds);
+  if (cycle > 0) folds = std::clamp(static_cast<int>(duration / (2.0 * cycle)), std::min(4, max_folds), max_folds);
   const double len = duration / folds;
-  const std::vector<double> rest = dwell_middles(s, v_min);
+  const std::vector<double> rest = dwell_middles(s, clock, v_min);
   Folds f;
   for (int i = 1; i < folds; ++i) {
     const double nominal = t0 + i * len;
@@ -73,6 +101,7 @@ Folds make_folds(const Signals& s, int max_folds, double v_min) {
       edge = *it;
     }
     if (it != rest.begin() && nominal - *(it - 1) < best) edge = *(it - 1);
+    edge = clock.trace_time(edge);
     if (f.edges.empty() || edge > f.edges.back()) f.edges.push_back(edge);
   }
   return f;
@@ -228,6 +257,9 @@ std::vector<Segment> Observations::make_segments(const std::vector<double>& acce
     }
     const double dt = interval_dt(j), vm = interval_v(j), xm = 0.5 * (s_.x[j] + s_.x[j + 1]);
     const int d = direction(vm, v_min);
+    // A run starts as the trace does: no reversal or start from rest is
+    // carried over the gap, nor the jump between the runs' positions.
+    if (j > 0 && s_.gap_before(j)) last_dir = 0, resting = true;
     if (d != 0 && d != last_dir) x_rev = xm, last_dir = d;
     if (d != 0 && resting) x_start = xm;
     resting = d == 0;

@@ -29,6 +29,9 @@ inline std::vector<double> log_grid(double lo, double hi, int n) {
 /// folds over a ladder whose strokes alternate every 0.75 s put every
 /// positive stroke in the identification half), so each fold spans at
 /// least two motion cycles and its edges sit in dwells where there are any.
+/// Folds are laid on the time that holds data (gaps between pooled runs
+/// and logger pauses taken out), so none falls into a gap; edges are
+/// returned on the trace's clock.
 struct Folds {
   std::vector<double> edges;  ///< interior edges, ascending (s)
   int of(double t) const;     ///< fold index of time t (0-based)
