@@ -16,8 +16,42 @@ namespace {
 
 using Monitor = feedid::ChangeMonitor<double, 64>;
 
-/// An epoch's samples identified on their own.
-MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, const MonitorOptions& opt) {
+/// The conventions an identified epoch found, to state to the next epochs:
+/// searching them on every epoch cost most of monitor's time, and they are
+/// the log's, not the epoch's.
+LogConventions conventions_of(const IdentifyResult& r, int epoch) {
+  LogConventions c;
+  c.fixed = true;
+  c.force_sign = r.signals.force_sign.sign;
+  c.force_lag_s = r.signals.force_lag_s;
+  c.velocity_lag_s = r.signals.velocity_lag_s;
+  c.velocity_filter_hz = r.signals.velocity_filter_hz;
+  c.found_at_epoch = epoch;
+  return c;
+}
+
+/// Whether this epoch finds the conventions: none fixed yet, or a re-check due.
+bool conventions_due(const MonitorOptions& opt, const LogConventions& c, int epoch) {
+  const int every = opt.recheck_conventions_every;
+  return !c.fixed || (every > 0 && epoch - c.found_at_epoch >= every);
+}
+
+/// The identify options for an epoch: the fixed conventions stated, where
+/// the user did not state them.
+IdentifyOptions epoch_options(const MonitorOptions& opt, const LogConventions& c) {
+  IdentifyOptions o = opt.identify;
+  if (!c.fixed) return o;
+  if (o.force_sign == 0) o.force_sign = c.force_sign;
+  if (!std::isfinite(o.force_lag_s) && o.alignment == "auto") o.force_lag_s = c.force_lag_s;
+  if (!std::isfinite(o.velocity_lag_s) && std::isfinite(c.velocity_lag_s)) o.velocity_lag_s = c.velocity_lag_s;
+  if (!(o.velocity_filter_hz > 0) && c.velocity_filter_hz > 0) o.velocity_filter_hz = c.velocity_filter_hz;
+  return o;
+}
+
+/// An epoch's samples identified on their own, with the log's conventions
+/// (found here when they are not fixed or due for a re-check).
+MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, const MonitorOptions& opt,
+                            int epoch, LogConventions& conv) {
   MonitorEpoch e;
   e.t_start_s = buf.front().t_s;
   e.t_end_s = buf.back().t_s;
@@ -27,9 +61,17 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   t.has_position = in.has_position();
   t.has_velocity = in.has_velocity();
   t.source = "epoch";
-  const IdentifyResult r = identify(t, opt.identify);
+  const bool searching = conventions_due(opt, conv, epoch);
+  const IdentifyResult r = identify(t, searching ? opt.identify : epoch_options(opt, conv));
   e.error = r.error;
   if (r.error.empty()) e.estimate = r.estimate;
+  if (r.error.empty() && searching) {
+    LogConventions found = conventions_of(r, epoch);
+    found.times_found = conv.times_found + 1;
+    found.times_changed = conv.times_changed + (conv.fixed && (found.force_sign != conv.force_sign ||
+                                                                found.velocity_filter_hz != conv.velocity_filter_hz));
+    conv = found;
+  }
   buf.swap(t.samples);
   buf.clear();  // keeps its capacity: one epoch's memory, reused
   return e;
@@ -72,7 +114,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   TraceSample s;
   auto close_epoch = [&] {
     if (buf.size() < 2) return buf.clear();
-    out.epochs.push_back(identify_epoch(buf, in, opt));
+    out.epochs.push_back(identify_epoch(buf, in, opt, static_cast<int>(out.epochs.size()), out.conventions));
     const MonitorEpoch& ep = out.epochs.back();
     int fresh = 0;
     if (ep.error.empty()) health.update(ep.estimate, ep.t_start_s, ep.t_end_s, fresh);
@@ -85,6 +127,16 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   }
   close_epoch();
   out.error = in.error();
+  double v = 0.0, se = 0.0;
+  for (int i = 0; i < feedid::kTrackedCount; ++i) out.referenced = out.referenced || health.reference(i, v, se);
+  if (out.error.empty() && !out.referenced) {
+    std::size_t identified = 0;
+    for (const MonitorEpoch& ep : out.epochs) identified += ep.error.empty();
+    out.error = "nothing was monitored: " + std::to_string(identified) + " of " + std::to_string(out.epochs.size()) +
+                " epochs of " + std::to_string(opt.detector.epoch_s) + " s could be identified, and a reference needs " +
+                std::to_string(opt.detector.reference_epochs) +
+                " that carry a parameter (a longer log, more motion in both directions, or a longer --epoch-s)";
+  }
   out.rows_skipped = in.rows_skipped();
   out.rows_repeated = in.rows_repeated();
   return out;
@@ -124,7 +176,18 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                       {"change_se", a.change_se},
                       {"change_pct", a.reference != 0 ? 100.0 * a.change / a.reference : 0.0},
                       {"reference", a.reference}});
-  nlohmann::json j = {{"epochs", epochs}, {"alarms", alarms}, {"units", units_json(r.units)}};
+  const LogConventions& c = r.conventions;
+  nlohmann::json conventions = {{"fixed", c.fixed},
+                                {"force_sign", c.force_sign},
+                                {"force_lag_s", c.force_lag_s},
+                                {"velocity_lag_s", std::isfinite(c.velocity_lag_s) ? nlohmann::json(c.velocity_lag_s) : nlohmann::json(nullptr)},
+                                {"velocity_filter_hz", c.velocity_filter_hz},
+                                {"found_at_epoch", c.found_at_epoch},
+                                {"times_found", c.times_found},
+                                {"times_changed", c.times_changed},
+                                {"recheck_every_epochs", opt.recheck_conventions_every}};
+  nlohmann::json j = {{"epochs", epochs}, {"alarms", alarms}, {"conventions", conventions},
+                      {"referenced", r.referenced}, {"units", units_json(r.units)}};
   j["detector"] = {{"epoch_s", opt.detector.epoch_s},
                    {"reference_epochs", opt.detector.reference_epochs},
                    {"cusum_allowance", opt.detector.allowance},
@@ -160,7 +223,7 @@ std::string trend_table(const MonitorResult& r) {
     }
     o << "\n";
   }
-  if (r.alarms.empty()) o << "no alarms\n";
+  if (r.alarms.empty() && r.referenced) o << "no alarms\n";
   for (const auto& a : r.alarms) {
     const Rounded c = round_to_se(a.change, a.change_se);
     std::snprintf(buf, sizeof buf, "ALARM at %.1f s (raised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, a.raised_t_s,

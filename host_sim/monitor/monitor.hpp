@@ -19,6 +19,10 @@ namespace feedid::host {
 struct MonitorOptions {
   feedid::MonitorConfig<double> detector{};   ///< epoch length, reference epochs, CUSUM k and h
   IdentifyOptions identify;                   ///< how each epoch is identified
+  /// The log's conventions (force sign, force and velocity lags, velocity
+  /// cut-off) are found on the first epoch that identifies and then stated
+  /// to every epoch, found afresh every this many epochs (0: never again).
+  int recheck_conventions_every = 60;
   std::function<void(double t_s)> progress;   ///< after each epoch, with its end time
 };
 
@@ -29,10 +33,24 @@ struct MonitorEpoch {
   feedid::Estimate<double> estimate{};
 };
 
+/// A log's conventions as the epochs are told them (IdentifyOptions).
+struct LogConventions {
+  bool fixed = false;
+  int force_sign = 0;
+  double force_lag_s = 0.0, velocity_lag_s = 0.0, velocity_filter_hz = 0.0;
+  int found_at_epoch = -1;   ///< the epoch they were last found on
+  int times_found = 0;       ///< the first time and every re-check
+  int times_changed = 0;     ///< re-checks that found other conventions
+};
+
 struct MonitorResult {
   std::string error;             ///< reading failed (the epochs so far are kept)
   std::vector<MonitorEpoch> epochs;
   std::vector<feedid::ChangeAlarm<double>> alarms;
+  LogConventions conventions;
+  /// Every tracked parameter that got a reference (false: the log never
+  /// carried enough identified epochs to watch anything; error says so).
+  bool referenced = false;
   std::size_t rows_skipped = 0, rows_repeated = 0;
   Units units;
 };

@@ -185,6 +185,29 @@ TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
   }
 }
 
+TEST(Monitor, ConventionsAreFoundOnceAndStatedToEveryLaterEpoch) {
+  const MonitorResult r = monitor_simulated(production(1), "feedid_monitor_conventions.csv");
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(r.conventions.fixed);
+  EXPECT_EQ(r.conventions.found_at_epoch, 0);
+  EXPECT_EQ(r.conventions.times_found, 1) << "24 epochs, a re-check every 60";
+  EXPECT_EQ(r.conventions.force_sign, 1);
+  // A period-averaged force at 2 kHz: its lag is a fraction of a period.
+  EXPECT_LT(std::fabs(r.conventions.force_lag_s), 1e-3);
+  EXPECT_GT(r.conventions.velocity_filter_hz, 0.0);
+  const nlohmann::json j = to_json(r, MonitorOptions{});
+  EXPECT_EQ(j["conventions"]["times_found"], 1);
+}
+
+TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
+  SimConfig c = production(2);
+  c.motion.duration_s = 30.0;  // 3 epochs of 10 s; a reference takes 6
+  const MonitorResult r = monitor_simulated(c, "feedid_monitor_short.csv");
+  EXPECT_FALSE(r.referenced);
+  EXPECT_NE(r.error.find("nothing was monitored"), std::string::npos) << r.error;
+  EXPECT_EQ(trend_table(r).find("no alarms"), std::string::npos) << trend_table(r);
+}
+
 /// Every sample of a simulated trace through a HealthTracker<double> with
 /// the configuration `feedid identify` picks; every complete epoch closed.
 struct TrackRun {
