@@ -41,6 +41,10 @@ struct ValidateCommand : Command {
                 r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
                 r.units.force.c_str());
     if (r.force_sign.sign < 0 || !r.force_sign.conclusive) std::printf("  force %s\n", r.force_sign.describe().c_str());
+    if (r.stretches > 1 || r.stretches_resampled > 0 || r.stretches_on_clock_slots > 0)
+      std::printf("  %zu stretches between time gaps (%zu scored), %zu on their clock's slots (jittered stamps), "
+                  "%zu read onto a uniform grid (uneven steps)\n",
+                  r.stretches, r.stretches_scored, r.stretches_on_clock_slots, r.stretches_resampled);
     if (r.position_wrap.found()) std::printf("  position %s\n", r.position_wrap.describe().c_str());
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
     std::string err;

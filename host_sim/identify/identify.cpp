@@ -10,54 +10,11 @@
 
 #include "signals/alignment.hpp"
 #include "signals/filters.hpp"
-#include "signals/held_values.hpp"
 #include "io/number_format.hpp"
 #include "uncertainty.hpp"
 
 namespace feedid::host {
 namespace {
-
-double quantile_abs(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  for (double& x : v) x = std::fabs(x);
-  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[static_cast<std::size_t>(k)];
-}
-
-/// Encoder quantum: the smallest position step, if the steps are (nearly
-/// all) integer multiples of it; 0 for an unquantised or resampled position.
-double position_quantum(const std::vector<double>& x) {
-  double q = 0.0;
-  const double scale = 1e-12 * std::max(1.0, quantile_abs(x, 1.0));
-  for (std::size_t k = 1; k < x.size(); ++k) {
-    const double d = std::fabs(x[k] - x[k - 1]);
-    if (d > scale && (q == 0.0 || d < q)) q = d;
-  }
-  if (q == 0.0) return 0.0;
-  std::size_t on_grid = 0, n = 0;
-  for (std::size_t k = 1; k < x.size(); k += 7) {
-    const double r = (x[k] - x[k - 1]) / q;
-    ++n;
-    if (std::fabs(r - std::round(r)) < 1e-3) ++on_grid;
-  }
-  return n > 0 && on_grid >= 0.9 * static_cast<double>(n) ? q : 0.0;
-}
-
-/// White-noise level of a velocity from its second differences (m/s);
-/// differences across a gap in time (held-out folds cut out, another run)
-/// are not noise.
-double velocity_noise(const std::vector<double>& v, const std::vector<double>& t, double dt) {
-  double d2 = 0.0;
-  std::size_t nd = 0;
-  for (std::size_t k = 2; k < v.size(); ++k) {
-    if (t[k] - t[k - 1] > 1.5 * dt || t[k - 1] - t[k - 2] > 1.5 * dt) continue;
-    const double e = v[k] - 2.0 * v[k - 1] + v[k - 2];
-    d2 += e * e;
-    ++nd;
-  }
-  return nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
-}
 
 /// The lag a named --alignment states (sample periods); NaN for "auto".
 double named_lag(const std::string& name) {
@@ -269,94 +226,13 @@ void derive_velocity(Signals& s, double fc_hz) {
 }
 
 namespace {
-/// The trace's columns, the rate and the encoder quantum; a velocity-only
-/// log integrated to a position.
-namespace {
-/// Position and velocity columns updated every few rows only (a motor
-/// controller's status frame in a faster loop) spread linearly between
-/// their updates, so that no derivative sees the sawtooth of the holds. A
-/// position counts as held only on changes of more than three encoder
-/// quanta, where a slow axis cannot hold its count by itself.
-void spread_held_columns(const Trace& trace, bool spread_them, Signals& s) {
-  auto hold_of = [&](std::vector<double>& y, double min_change) {
-    const HoldPattern h = detect_hold(y, min_change);
-    if (spread_them && h.period_rows >= 2) spread_held_values(y, s.t, h.period_rows + 1, s.max_step_s());
-    return h.period_rows;
-  };
-  if (trace.has_position) s.position_hold_rows = hold_of(s.x, 3.0 * s.position_quantum_m);
-  if (trace.has_velocity) s.velocity_hold_rows = hold_of(s.v, 0.0);
-  s.held_values_spread = spread_them && (s.position_hold_rows > 1 || s.velocity_hold_rows > 1);
-  if (s.position_hold_rows > 1)
-    s.position_origin = "measured, each value held for " + std::to_string(s.position_hold_rows) +
-                        " rows (updated at 1/" + std::to_string(s.position_hold_rows) + " of the log rate)" +
-                        (spread_them ? ": spread linearly between its updates" : "");
-}
-}  // namespace
-
-/// The force multiplied by the sign stated, or found from its work on the
-/// motion (force_sign.hpp): a reversed force would identify as a negative
-/// mass and negative friction.
-void orient_force(Signals& s, int stated_sign) {
-  s.force_sign = stated_sign != 0 ? stated_force_sign(stated_sign) : find_force_sign(s.t, s.x, s.u, s.max_step_s());
-  if (s.force_sign.sign < 0)
-    for (double& u : s.u) u = -u;
-}
-
-/// Whether the velocity column can stand beside the position: a column
-/// in another unit (rpm beside rad, mm/s beside m), of the other sign, or
-/// on the motor side of a gear is some gain times the position's
-/// derivative, and taken as it is it wrecked the diagnosis (an effect-free
-/// trace came out `unexplained` at 26 times the noise floor with the sign
-/// reversed). Such a column is left out, as if not logged; a given column
-/// (VelocitySource::given) is the caller's.
-void check_velocity_column(Signals& s, const Trace& trace, const IdentifyOptions& opt) {
-  s.has_velocity_column = trace.has_velocity;
-  if (!trace.has_velocity || !trace.has_position || opt.velocity_source == VelocitySource::given) return;
-  s.velocity_column_gain = velocity_column_gain(s);
-  s.has_velocity_column = velocity_column_agrees(s.velocity_column_gain);
-}
-
-Signals read_signals(const Trace& trace, const IdentifyOptions& opt) {
-  Signals s;
-  const std::size_t n = trace.samples.size();
-  s.t.resize(n); s.x.resize(n); s.v.resize(n); s.u.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    s.t[k] = trace.samples[k].t_s;
-    s.x[k] = trace.samples[k].x_m;
-    s.v[k] = trace.samples[k].v_m_s;
-    s.u[k] = trace.samples[k].u_N;
-  }
-  const double dt = median_step(s.t);
-  // Readers reject non-increasing time, so only a trace of fewer than two
-  // samples gets here without a rate; nothing downstream can use it.
-  if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to identify with");
-  s.sample_rate_hz = 1.0 / dt;
-  s.has_position = trace.has_position;
-  if (trace.has_position) s.position_wrap = unwrap_position(s.t, s.x, s.max_step_s());
-  s.position_quantum_m = trace.has_position ? position_quantum(s.x) : 0.0;  // of the lattice as logged
-  spread_held_columns(trace, opt.spread_held_values, s);
-  if (s.position_wrap.found()) s.position_origin += ", " + s.position_wrap.describe();
-  if (!trace.has_velocity && !trace.has_position)
-    throw std::invalid_argument(trace.source + ": neither velocity nor position column");
-  if (!trace.has_position) {
-    // A velocity-only log: its quantisation and the drive's filter hide in
-    // the samples (a low-pass leaves no lattice to read the encoder quantum
-    // from, so the chatter at rest split sections and R^2 fell to 0.06 on a
-    // 100 nm, 8 kHz log). Integrated, it is the position seen through the
-    // drive's filter, and goes the way of a logged position; the force lag
-    // search takes up the filter's delay.
-    s.x = integrate_velocity(s.v, s.t, s.max_step_s());
-    s.position_origin = "integrated from the velocity column (none logged): relative to the start";
-    // A position difference integrates back onto the encoder's lattice; a
-    // filtered column does not, and its sample noise stands in for the
-    // quantum (too low by the filter's noise gain, but on the right side of
-    // a band edge that the derived velocity would put at 1e-4 of top speed).
-    s.position_quantum_m = position_quantum(s.x);
-    s.column_velocity_noise_m_s = velocity_noise(s.v, s.t, dt);
-  }
-  check_velocity_column(s, trace, opt);
-  orient_force(s, opt.force_sign);
-  return s;
+/// What identify's options tell the conditioning (condition.hpp).
+ConditionOptions conditioning(const IdentifyOptions& opt) {
+  ConditionOptions c;
+  c.spread_held_values = opt.spread_held_values;
+  c.force_sign = opt.force_sign;
+  c.velocity_column_given = opt.velocity_source == VelocitySource::given;
+  return c;
 }
 
 /// Timing of the velocity column (periods): `core` is the lag behind the
@@ -459,7 +335,7 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 }  // namespace
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
-  Signals raw = read_signals(trace, opt);
+  Signals raw = condition(trace, conditioning(opt));
   const VelocityTiming timing = time_velocity_column(raw, trace, opt);
   if (raw.has_velocity_column && opt.velocity_source == VelocitySource::given) {
     raw.velocity_origin = "given";

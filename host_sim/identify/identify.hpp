@@ -16,9 +16,7 @@
 #include "io/trace.hpp"
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
-#include "signals/filters.hpp"
-#include "signals/force_sign.hpp"
-#include "signals/position_wrap.hpp"
+#include "signals/condition.hpp"
 
 namespace feedid::host {
 
@@ -87,86 +85,6 @@ struct IdentifyOptions {
   /// Labels only (units.hpp): the arithmetic is the same for any units.
   Units units;
   std::function<void(double)> progress;  ///< fraction done, optional
-};
-
-/// A force lag search's outcome (alignment.hpp, estimate_force_lag).
-struct LagEstimate {
-  double lag_samples = 0.0;  ///< force lag behind the velocity (periods)
-  double se_samples = 0.0;   ///< its standard error (periods)
-  int evaluations = 0;       ///< identifications run for the search
-  bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
-};
-
-/// The signals as the core sees them, one entry per sample.
-struct Signals {
-  std::vector<double> t, x, v, u;
-  std::string velocity_origin;        ///< "measured" or how it was derived
-  std::string position_origin = "measured";  ///< or how x was made (no position column)
-  PositionWrap position_wrap;  ///< jumps of a wrapped position taken out (position_wrap.hpp)
-  /// What the logged force was multiplied by so that it does positive net
-  /// work on the motion, and why (force_sign.hpp).
-  ForceSign force_sign;
-  /// Rows each logged value of position and of the velocity column stood
-  /// for (held_values.hpp; 1: updated every row), and whether they were
-  /// spread linearly between their updates (IdentifyOptions::spread_held_values).
-  int position_hold_rows = 1, velocity_hold_rows = 1;
-  bool held_values_spread = false;
-  double velocity_filter_hz = 0.0;            ///< cut-off of the derived velocity (Hz); 0: given as is
-  std::string velocity_filter_origin;         ///< stated, or how it was chosen
-  /// Cut-offs the block residual could not tell from the chosen one (Hz;
-  /// FilterChoice::rivals_hz); the parameters' spread over them is a term
-  /// of their standard errors.
-  std::vector<double> velocity_filter_rivals_hz;
-  /// Lag of the force behind the velocity as the core pairs them (sample
-  /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
-  double force_lag_samples = -1.0;
-  int velocity_delay_samples = 0;     ///< whole samples v and x were delayed by (a positive lag)
-  double force_lag_s = 0.0;           ///< force lag behind the logged velocity (s)
-  /// Lag of v (what the core sees) behind the motion, before any whole-sample
-  /// delay of the alignment (periods; NaN unknown).
-  double core_velocity_lag = 0.0;
-  double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
-  /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
-  enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
-  std::string force_convention;       ///< nearest named convention of the force log
-  LagEstimate lag_search;             ///< the search behind an estimated lag (before any clamp)
-  /// Part of the estimated lag beyond the conventions, left out when
-  /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
-  double lag_beyond_conventions = 0.0;
-  double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();  ///< velocity lag behind position (s)
-  feedid::ForcePairing<double> pairing() const {
-    feedid::ForcePairing<double> p;
-    (void)p.init(force_lag_samples);
-    return p;
-  }
-  bool has_position = false;          ///< x is a logged position (not zeros)
-  /// The velocity column is logged and used (velocity_column_agrees, or
-  /// there is no position to check it against).
-  bool has_velocity_column = false;
-  /// The velocity column over the position's derivative (velocity_column_gain; NaN: not checked).
-  double velocity_column_gain = std::numeric_limits<double>::quiet_NaN();
-  double sample_rate_hz = 0.0;        ///< from the median time step (> 0: read_signals refuses a trace without one)
-  double period_s() const { return 1.0 / sample_rate_hz; }
-  /// Rate at which the position carries news (Hz): the log rate over the
-  /// rows each value is held for (held_values.hpp).
-  double position_update_rate_hz() const { return sample_rate_hz / std::max(1, position_hold_rows); }
-  /// Longest step within one stretch of samples (s; filters.hpp,
-  /// max_step_s), and the core's max_gap_s (auto_config), so that no
-  /// integral in the core crosses a gap either.
-  double max_step_s() const { return host::max_step_s(period_s()); }
-  /// Whether the step into sample k (k >= 1) is such a gap.
-  bool gap_before(std::size_t k) const { return t[k] - t[k - 1] > max_step_s(); }
-  /// First sample of the stretch that holds sample k, looked for at most
-  /// `reach` samples back (the force pairing needs only its few taps).
-  std::size_t stretch_start(std::size_t k, std::size_t reach = feedid::ForcePairing<double>::history) const {
-    std::size_t i = k;
-    while (i > 0 && k - i < reach && !gap_before(i)) --i;
-    return i;
-  }
-  double position_quantum_m = 0.0;    ///< smallest position step seen (0 if none)
-  /// Sample noise of a velocity column that was integrated and derived
-  /// again (no position logged), kept for the velocity resolution (m/s).
-  double column_velocity_noise_m_s = 0.0;
 };
 
 /// Which friction law a direction's figures come from (model selection,

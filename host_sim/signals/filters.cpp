@@ -93,37 +93,14 @@ void hold_rest(const std::vector<double>& x, std::size_t span, std::vector<doubl
     run_start = k;
   }
 }
-/// y at time q, linear between the samples (t increasing; clamped at the ends).
-double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q) {
-  const auto hi = std::upper_bound(t.begin(), t.end(), q);
-  if (hi == t.begin()) return y.front();
-  if (hi == t.end()) return y.back();
-  const auto k = static_cast<std::size_t>(hi - t.begin());
-  const double w = (q - t[k - 1]) / (t[k] - t[k - 1]);
-  return y[k - 1] + w * (y[k] - y[k - 1]);
-}
-
-/// One stretch without gaps. The filter runs on sample indices, so uneven
-/// time stamps (a PC-side logger: 0.3-9.8 ms steps around 5 ms) would turn
-/// into velocity noise of the size of the steps' spread; such a stretch is
-/// filtered on a uniform grid at the median rate and read back at its own
-/// times.
+/// One stretch without gaps, on the uniform grid it is filtered on
+/// (uniform_grid), then read back at its own times.
 std::vector<double> stretch_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
                                      double rate_hz) {
-  bool uniform = true;
-  for (std::size_t k = 1; k < t.size() && uniform; ++k) uniform = std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01;
-  if (uniform || t.size() < 3) return central_difference(filtfilt_butter4(x, cutoff_hz, rate_hz), t);
-  const double h = 1.0 / rate_hz;
-  const auto n = static_cast<std::size_t>(std::floor((t.back() - t.front()) / h)) + 1;
-  std::vector<double> tg(n), xg(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    tg[k] = t.front() + static_cast<double>(k) * h;
-    xg[k] = interpolate(t, x, tg[k]);
-  }
-  const std::vector<double> vg = central_difference(filtfilt_butter4(xg, cutoff_hz, rate_hz), tg);
-  std::vector<double> v(t.size());
-  for (std::size_t k = 0; k < t.size(); ++k) v[k] = interpolate(tg, vg, t[k]);
-  return v;
+  const std::vector<double> tg = uniform_grid(t, rate_hz);
+  if (tg.empty()) return central_difference(filtfilt_butter4(x, cutoff_hz, rate_hz), t);
+  const std::vector<double> vg = central_difference(filtfilt_butter4(resample(t, x, tg), cutoff_hz, rate_hz), tg);
+  return resample(tg, vg, t);
 }
 }  // namespace
 
@@ -141,6 +118,32 @@ std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std:
   }
   hold_rest(x, static_cast<std::size_t>(std::ceil(rate_hz / cutoff_hz)), v);
   return v;
+}
+
+double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q) {
+  const auto hi = std::upper_bound(t.begin(), t.end(), q);
+  if (hi == t.begin()) return y.front();
+  if (hi == t.end()) return y.back();
+  const auto k = static_cast<std::size_t>(hi - t.begin());
+  const double w = (q - t[k - 1]) / (t[k] - t[k - 1]);
+  return y[k - 1] + w * (y[k] - y[k - 1]);
+}
+
+std::vector<double> resample(const std::vector<double>& t, const std::vector<double>& y, const std::vector<double>& q) {
+  std::vector<double> out(q.size());
+  for (std::size_t k = 0; k < q.size(); ++k) out[k] = interpolate(t, y, q[k]);
+  return out;
+}
+
+std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz) {
+  bool uniform = true;
+  for (std::size_t k = 1; k < t.size() && uniform; ++k) uniform = std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01;
+  if (uniform || t.size() < 3) return {};
+  const double h = 1.0 / rate_hz;
+  const auto n = static_cast<std::size_t>(std::floor((t.back() - t.front()) / h)) + 1;
+  std::vector<double> tg(n);
+  for (std::size_t k = 0; k < n; ++k) tg[k] = t.front() + static_cast<double>(k) * h;
+  return tg;
 }
 
 double median_step(const std::vector<double>& t) {

@@ -24,10 +24,25 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
 /// one-sided at the ends): the derivative at t_k, without lag.
 std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t);
 
+/// The uniform grid at rate_hz from t.front() through t.back() that a
+/// stretch logged with uneven steps is filtered on: the filter runs on
+/// sample indices, so uneven time stamps (a PC-side logger: 0.3-9.8 ms
+/// steps around 5 ms; rows dropped) would turn into derivative noise of the
+/// size of the steps' spread. Empty when every step of t is within 1 % of
+/// 1/rate_hz (or t has fewer than 3 samples): the samples are the grid.
+std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz);
+
+/// y (sampled at increasing t) at time q, linear between the samples and
+/// held beyond the ends.
+double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q);
+/// The same at every time of q.
+std::vector<double> resample(const std::vector<double>& t, const std::vector<double>& y, const std::vector<double>& q);
+
 /// Velocity from position without lag: filtfilt_butter4 at cutoff_hz, then
 /// central differences, on each stretch between steps longer than
 /// max_step_s (a gap between recordings), so that no filter rings across a
-/// restarted clock or a jump of position.
+/// restarted clock or a jump of position; a stretch logged unevenly is
+/// filtered on its uniform_grid and read back at its own times.
 std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
                                         double rate_hz, double max_step_s);
 

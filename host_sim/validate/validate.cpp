@@ -1,62 +1,97 @@
 #include "validate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
+#include "signals/condition.hpp"
 #include "signals/filters.hpp"
 #include "identify/identify.hpp"
 
 namespace feedid::host {
 namespace {
 
-std::vector<double> column(const Trace& tr, double TraceSample::*field) {
-  std::vector<double> out;
-  out.reserve(tr.samples.size());
-  for (const auto& s : tr.samples) out.push_back(s.*field);
-  return out;
+/// One stretch between gaps on the grid the protocol runs on: its own
+/// samples when evenly logged, else the uniform grid at its own median
+/// rate with every column read onto it, as zero_phase_velocity filters an
+/// uneven stretch (filters.hpp, uniform_grid).
+struct ProtocolStretch {
+  std::vector<double> t, x, v_column, u;
+  double rate_hz = 0.0;
+  bool resampled = false;
+};
+
+ProtocolStretch stretch_on_grid(const Signals& s, std::size_t first, std::size_t end) {
+  auto part = [&](const std::vector<double>& y) {
+    return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(first), y.begin() + static_cast<std::ptrdiff_t>(end));
+  };
+  ProtocolStretch p{part(s.t), part(s.x), part(s.v), part(s.u), 0.0, false};
+  p.rate_hz = 1.0 / median_step(p.t);
+  const std::vector<double> grid = uniform_grid(p.t, p.rate_hz);
+  if (grid.empty()) return p;
+  p.x = resample(p.t, p.x, grid);
+  p.v_column = resample(p.t, p.v_column, grid);
+  p.u = resample(p.t, p.u, grid);
+  p.t = grid;
+  p.resampled = true;
+  return p;
 }
 
-double sample_rate(const std::vector<double>& t) {
-  return static_cast<double>(t.size() - 1) / (t.back() - t.front());
+/// Velocity and acceleration of one stretch as the EMPS protocol obtains
+/// them: the position low-passed by a zero-phase 4th-order Butterworth,
+/// then central differences (twice for acceleration). Without a position
+/// column the velocity column is filtered and differentiated once.
+void protocol_derivatives(const ProtocolStretch& p, bool has_position, double filter_hz, std::vector<double>& v,
+                          std::vector<double>& a) {
+  const double fc = std::min(filter_hz, 0.4 * p.rate_hz);
+  v = has_position ? central_difference(filtfilt_butter4(p.x, fc, p.rate_hz), p.t)
+                   : filtfilt_butter4(p.v_column, fc, p.rate_hz);
+  a = central_difference(v, p.t);
 }
 
-/// The force with the sign that makes it do positive net work on the motion
-/// (force_sign.hpp), as identify orients it: a model identified on a
-/// reversed log predicts the force the right way round.
-void orient_force(const Trace& trace, const std::vector<double>& t, std::vector<double>& u, ForceSign& sign) {
-  const double gap_s = max_step_s(median_step(t));
-  const std::vector<double> x = trace.has_position ? column(trace, &TraceSample::x_m)
-                                                   : integrate_velocity(column(trace, &TraceSample::v_m_s), t, gap_s);
-  sign = find_force_sign(t, x, u, gap_s);
-  if (sign.sign < 0)
-    for (double& f : u) f = -f;
-}
+/// Sums of squares of the error and of the force, over every stretch.
+struct ErrorSums {
+  double error = 0.0, force = 0.0;
+  void add(double u, double u_hat) {
+    error += (u - u_hat) * (u - u_hat);
+    force += u * u;
+  }
+  double relative_pct() const { return force > 0 ? 100.0 * std::sqrt(error / force) : 0.0; }
+};
 
-/// The trace with a wrapped position run on (position_wrap.hpp), as
-/// identify reads it.
-Trace unwrapped(const Trace& logged, PositionWrap& wrap) {
-  Trace trace = logged;
-  if (!trace.has_position) return trace;
-  const std::vector<double> t = column(trace, &TraceSample::t_s);
-  std::vector<double> x = column(trace, &TraceSample::x_m);
-  wrap = unwrap_position(t, x, max_step_s(median_step(t)));
-  for (std::size_t k = 0; wrap.found() && k < x.size(); ++k) trace.samples[k].x_m = x[k];
-  return trace;
+/// Adds one stretch to the sums and the decimated series: every sample
+/// after the first drop_first (the filter's edge, as at the start of the
+/// protocol), and the protocol's decimated samples.
+void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_position, const ValidateOptions& opt,
+                   ErrorSums& full, ErrorSums& decimated, ValidateResult& r) {
+  const std::size_t n = p.t.size(), first = static_cast<std::size_t>(opt.drop_first);
+  if (n <= first || n < 3) return;  // nothing left after the filter's edge
+  std::vector<double> v, a;
+  protocol_derivatives(p, has_position, opt.filter_hz, v, a);
+  std::vector<double> u_hat(n);
+  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]);
+  for (std::size_t k = first; k < n; ++k) full.add(p.u[k], u_hat[k]);
+  // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
+  // new Nyquist frequency, like MATLAB decimate's default) and every n-th
+  // sample kept. Measured and predicted force are treated alike.
+  std::vector<double> uf = p.u, uhf = u_hat;
+  if (opt.decimate > 1) {
+    const double fc = 0.8 * 0.5 * p.rate_hz / opt.decimate;
+    uf = filtfilt_butter4(p.u, fc, p.rate_hz);
+    uhf = filtfilt_butter4(u_hat, fc, p.rate_hz);
+  }
+  for (std::size_t k = first; k < n; k += static_cast<std::size_t>(opt.decimate)) {
+    decimated.add(uf[k], uhf[k]);
+    r.t.push_back(p.t[k]);
+    r.u.push_back(uf[k]);
+    r.u_hat.push_back(uhf[k]);
+    r.v.push_back(v[k]);
+  }
+  ++r.stretches_scored;
+  if (p.resampled) ++r.stretches_resampled;
 }
 
 }  // namespace
-
-void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a) {
-  const std::vector<double> t = column(trace, &TraceSample::t_s);
-  const double fs = sample_rate(t);
-  const double fc = std::min(filter_hz, 0.4 * fs);
-  if (trace.has_position) {
-    v = central_difference(filtfilt_butter4(column(trace, &TraceSample::x_m), fc, fs), t);
-  } else {
-    v = filtfilt_butter4(column(trace, &TraceSample::v_m_s), fc, fs);
-  }
-  a = central_difference(v, t);
-}
 
 ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
   const std::size_t n = logged.samples.size();
@@ -66,49 +101,26 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
     throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   ValidateResult r;
   r.units = opt.units;
-  const Trace trace = unwrapped(logged, r.position_wrap);
-  r.velocity_origin = trace.has_position ? "position, zero-phase Butterworth + central differences"
-                                         : "velocity column, zero-phase Butterworth; acceleration by central differences";
-  std::vector<double> v, a;
-  protocol_derivatives(trace, opt.filter_hz, v, a);
-  std::vector<double> u = column(trace, &TraceSample::u_N);
-  const std::vector<double> t = column(trace, &TraceSample::t_s);
-  orient_force(trace, t, u, r.force_sign);
-  std::vector<double> u_hat(n);
-  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]);
-
-  // Every sample (after the dropped start), no decimation.
-  double e2 = 0.0, u2 = 0.0;
-  for (std::size_t k = static_cast<std::size_t>(opt.drop_first); k < n; ++k) {
-    e2 += (u[k] - u_hat[k]) * (u[k] - u_hat[k]);
-    u2 += u[k] * u[k];
-  }
-  r.relative_error_full_pct = 100.0 * std::sqrt(e2 / u2);
-
-  // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
-  // new Nyquist frequency, like MATLAB decimate's default) and every n-th
-  // sample kept. Measured and predicted force are treated alike.
-  std::vector<double> uf = u, uhf = u_hat;
-  if (opt.decimate > 1) {
-    const double fs = sample_rate(t);
-    const double fc = 0.8 * 0.5 * fs / opt.decimate;
-    uf = filtfilt_butter4(u, fc, fs);
-    uhf = filtfilt_butter4(u_hat, fc, fs);
-  }
-  e2 = u2 = 0.0;
-  for (std::size_t k = static_cast<std::size_t>(opt.drop_first); k < n; k += static_cast<std::size_t>(opt.decimate)) {
-    const double e = uf[k] - uhf[k];
-    e2 += e * e;
-    u2 += uf[k] * uf[k];
-    r.t.push_back(t[k]);
-    r.u.push_back(uf[k]);
-    r.u_hat.push_back(uhf[k]);
-    r.v.push_back(v[k]);
-  }
+  // The time base, gaps, wrap and force sign identify uses (condition.hpp).
+  const Signals s = condition(logged, ConditionOptions{});
+  r.force_sign = s.force_sign;
+  r.position_wrap = s.position_wrap;
+  r.stretches_on_clock_slots = s.stretches_on_clock_slots;
+  r.velocity_origin = logged.has_position ? "position, zero-phase Butterworth + central differences"
+                                          : "velocity column, zero-phase Butterworth; acceleration by central differences";
+  ErrorSums full, decimated;
+  const auto parts = stretches(s);
+  for (const auto& [first, end] : parts)
+    score_stretch(model, stretch_on_grid(s, first, end), logged.has_position, opt, full, decimated, r);
+  r.stretches = parts.size();
   r.samples_used = r.t.size();
-  r.relative_error_pct = 100.0 * std::sqrt(e2 / u2);
-  r.error_norm_N = std::sqrt(e2);
-  r.rms_error_N = std::sqrt(e2 / static_cast<double>(r.samples_used));
+  if (r.samples_used == 0)
+    throw std::invalid_argument(logged.source + ": no stretch between time gaps is longer than --drop-first (" +
+                                std::to_string(opt.drop_first) + " samples): nothing to validate on");
+  r.relative_error_full_pct = full.relative_pct();
+  r.relative_error_pct = decimated.relative_pct();
+  r.error_norm_N = std::sqrt(decimated.error);
+  r.rms_error_N = std::sqrt(decimated.error / static_cast<double>(r.samples_used));
   return r;
 }
 
@@ -126,6 +138,10 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
             {"decimate", opt.decimate},
             {"anti_alias", "zero-phase 4th-order Butterworth at 0.8 x new Nyquist"}}},
           {"velocity", r.velocity_origin},
+          {"stretches", r.stretches},
+          {"stretches_scored", r.stretches_scored},
+          {"stretches_resampled", r.stretches_resampled},
+          {"stretches_on_clock_slots", r.stretches_on_clock_slots},
           {"force_sign", r.force_sign.sign},
           {"force_sign_origin", r.force_sign.describe()},
           {"position_unwraps", r.position_wrap.wraps},

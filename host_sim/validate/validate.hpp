@@ -28,6 +28,12 @@ struct ValidateResult {
   double rms_error_N = 0.0;              ///< on the decimated samples
   double error_norm_N = 0.0;             ///< ||u - u_hat|| on the decimated samples
   std::size_t samples_used = 0;
+  /// Stretches between time gaps (pooled runs, cuts, logger pauses); those
+  /// long enough to score; and those logged unevenly (dropped rows, jittered
+  /// stamps), scored on a uniform grid read from their samples.
+  std::size_t stretches = 0, stretches_scored = 0, stretches_resampled = 0;
+  /// Stretches whose jittered stamps were taken to the log's clock (Signals::stretches_on_clock_slots).
+  std::size_t stretches_on_clock_slots = 0;
   std::vector<double> t, u, u_hat, v;    ///< the decimated series (for plots)
   std::string velocity_origin;
   /// What the logged force was multiplied by before the comparison (found
@@ -37,12 +43,11 @@ struct ValidateResult {
   Units units;  ///< ValidateOptions::units
 };
 
-/// Velocity and acceleration as the EMPS protocol obtains them: the position
-/// low-passed by a zero-phase 4th-order Butterworth, then central differences
-/// (twice for acceleration). If the trace has no position, the velocity
-/// column is filtered and differentiated once.
-void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a);
-
+/// The EMPS protocol (docs/emps.md) on each stretch between time gaps of
+/// the conditioned trace (condition.hpp: the time base, gaps, wrap and force
+/// sign identify uses), at the stretch's own rate; no filter or difference
+/// spans a gap, drop_first samples are left out at the start of every
+/// stretch, and the error sums run over all of them.
 ValidateResult validate(const DriveParams& model, const Trace& trace, const ValidateOptions& opt);
 
 nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const ValidateOptions& opt);

@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <random>
 
 #include "io/csv_trace.hpp"
+#include "io/trace_files.hpp"
 #include "identify/identify.hpp"
 #include "validate/validate.hpp"
 
@@ -16,13 +18,17 @@ using namespace feedid::host;
 
 const std::string emps_dir = std::string(FEEDID_SHARED_DIR) + "/data/emps";
 
-Trace read_emps(const std::string& name) {
+CsvColumns emps_columns() {
   CsvColumns c;
   c.time = "t_s";
   c.position = "qm_m";
   c.velocity = "no_velocity_column";
   c.force = "force_N";
-  const CsvResult r = read_trace_csv(emps_dir + "/" + name, c);
+  return c;
+}
+
+Trace read_emps(const std::string& name) {
+  const CsvResult r = read_trace_csv(emps_dir + "/" + name, emps_columns());
   EXPECT_TRUE(r.ok) << r.error;
   return r.trace;
 }
@@ -70,6 +76,91 @@ TEST_F(Emps, ProtocolReproducesPublishedAsymmetricModelError) {
   // THEN it lands within 0.3 points of the published figure, so our
   // protocol is comparable with the published numbers
   EXPECT_NEAR(val.relative_error_pct, 3.1117, 0.3);
+}
+
+// Validate's conditioning (issue 29): the same time base, gaps and row
+// rules as identify, the protocol run stretch by stretch. The model is the
+// one identify finds on DATA_EMPS; the cross-test run is altered the ways
+// logs are: pooled, cut, rows lost, stamps jittered.
+
+/// The model identified on DATA_EMPS, once for all the tests below.
+const DriveParams& emps_model() {
+  static const DriveParams model = [] {
+    const IdentifyResult id = identify(read_emps("DATA_EMPS.csv"), IdentifyOptions{});
+    EXPECT_EQ(id.status, feedid::Status::ok) << id.error;
+    return to_drive_params(id.estimate);
+  }();
+  return model;
+}
+
+double pulses_error_pct(const Trace& trace) { return validate(emps_model(), trace, ValidateOptions{}).relative_error_pct; }
+
+/// DATA_EMPS_PULSES with the samples for which drop(t, k) holds left out.
+template <typename Drop> Trace pulses_without(Drop drop) {
+  const Trace whole = read_emps("DATA_EMPS_PULSES.csv");
+  Trace out = whole;
+  out.samples.clear();
+  for (std::size_t k = 0; k < whole.samples.size(); ++k)
+    if (!drop(whole.samples[k].t_s, k)) out.samples.push_back(whole.samples[k]);
+  return out;
+}
+
+TEST_F(Emps, ValidateOnARecordingPooledWithItselfGivesItsOwnError) {
+  // GIVEN the cross-test run, and the same run pooled with itself (a 10 s gap between)
+  const std::string pulses = emps_dir + "/DATA_EMPS_PULSES.csv";
+  const CsvResult pooled = read_trace_files(std::vector<std::string>{pulses, pulses}, emps_columns());
+  ASSERT_TRUE(pooled.ok) << pooled.error;
+  ASSERT_EQ(pooled.trace.runs.size(), 2u);
+  // WHEN both are validated
+  const double single = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
+  const ValidateResult twice = validate(emps_model(), pooled.trace, ValidateOptions{});
+  // THEN the pooled error is the single run's within 1 % (no filter spans the gap)
+  EXPECT_NEAR(twice.relative_error_pct, single, 0.01 * single);
+  EXPECT_EQ(twice.stretches_scored, 2u);
+}
+
+TEST_F(Emps, ValidateOnARunWithTwoSecondsCutOutStaysNearTheWholeRun) {
+  // GIVEN the cross-test run with 2 s cut out of its middle
+  const Trace whole = read_emps("DATA_EMPS_PULSES.csv");
+  const double mid = 0.5 * (whole.samples.front().t_s + whole.samples.back().t_s);
+  const Trace cut = pulses_without([&](double t, std::size_t) { return t >= mid - 1.0 && t < mid + 1.0; });
+  ASSERT_LT(cut.samples.size() + 1900, whole.samples.size());
+  // WHEN validated
+  const double full = pulses_error_pct(whole);
+  const ValidateResult r = validate(emps_model(), cut, ValidateOptions{});
+  // THEN the error stays within 1.25 times the whole run's, on two stretches
+  EXPECT_LT(r.relative_error_pct, 1.25 * full);
+  EXPECT_EQ(r.stretches_scored, 2u);
+}
+
+TEST_F(Emps, ValidateWithThirtyPercentOfRowsDroppedStaysNearTheWholeRun) {
+  // GIVEN the cross-test run with 30 % of its rows dropped at random
+  std::mt19937 rng(29);
+  std::bernoulli_distribution dropped(0.3);
+  const Trace thinned = pulses_without([&](double, std::size_t) { return dropped(rng); });
+  // WHEN validated
+  const double full = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
+  const ValidateResult r = validate(emps_model(), thinned, ValidateOptions{});
+  // THEN it is scored on the uniform grid the uneven rows are read onto,
+  // within 1.25 times the whole run's error (the lost rows' force noise
+  // aliases into the band the protocol keeps: 4.9 % -> 5.3-5.4 %)
+  EXPECT_GE(r.stretches_resampled, 1u);
+  EXPECT_LT(r.relative_error_pct, 1.25 * full);
+}
+
+TEST_F(Emps, ValidateWithJitteredStampsFindsTheLogsClock) {
+  // GIVEN the cross-test run with its time stamps moved by up to +-0.2 ms (1 ms steps)
+  Trace jittered = read_emps("DATA_EMPS_PULSES.csv");
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> jitter(-2e-4, 2e-4);
+  for (TraceSample& s : jittered.samples) s.t_s += jitter(rng);
+  // WHEN validated
+  const double full = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
+  const ValidateResult r = validate(emps_model(), jittered, ValidateOptions{});
+  // THEN the stamps are taken to the clock's slots, on which the position
+  // is smoother, and the error is the clean run's within 1 %
+  EXPECT_EQ(r.stretches_on_clock_slots, 1u);
+  EXPECT_NEAR(r.relative_error_pct, full, 0.01 * full);
 }
 
 }  // namespace
