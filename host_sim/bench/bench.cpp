@@ -997,8 +997,11 @@ int run_diagnose_cost(const BenchOptions& o) {
   const std::string csv = "/tmp/feedid_cost_" + std::to_string(getpid()) + ".csv";
   std::string error;
   if (!write_trace_csv(csv, simulate(c), error)) throw std::runtime_error(error);
+  std::fprintf(stderr, "diagnose cost: reading alone ...\n");
+  const CostRun rd = cost_of(csv, [](const Trace&) {});
   std::fprintf(stderr, "diagnose cost: identify ...\n");
-  const CostRun id = cost_of(csv, [](const Trace& t) { identify(t, IdentifyOptions{}); });
+  double core_passes = 0.0;
+  const CostRun id = cost_of(csv, [&](const Trace& t) { core_passes = identify(t, IdentifyOptions{}).core_passes; });
   std::fprintf(stderr, "diagnose cost: diagnose ...\n");
   const CostRun dg = cost_of(csv, [](const Trace& t) { diagnose(t, DiagnoseOptions{}); });
   std::remove(csv.c_str());
@@ -1008,14 +1011,20 @@ int run_diagnose_cost(const BenchOptions& o) {
   std::printf("diagnose against identify, one %.0f s trace at %.0f Hz (CSV read included), one run each:\n",
               o.cost_duration_s, o.cost_rate_hz);
   std::printf("  %-9s %9s %9s %11s\n", "command", "wall s", "cpu s", "peak mem");
+  std::printf("  %-9s %9.2f %9.2f %11s\n", "read", rd.seconds, rd.cpu_seconds, human_bytes(static_cast<double>(rd.peak_rss_bytes)).c_str());
   std::printf("  %-9s %9.2f %9.2f %11s\n", "identify", id.seconds, id.cpu_seconds, human_bytes(static_cast<double>(id.peak_rss_bytes)).c_str());
   std::printf("  %-9s %9.2f %9.2f %11s\n", "diagnose", dg.seconds, dg.cpu_seconds, human_bytes(static_cast<double>(dg.peak_rss_bytes)).c_str());
   std::printf("  ratio     %8.2fx %18.2fx   (bar: <= 3x time, <= 2x memory)\n", t_ratio, m_ratio);
+  // The searches' cost: identify against the read it starts with, and the
+  // core's passes over the trace (IdentifyResult::core_passes).
+  std::printf("  identify / read alone: %.2fx wall; %.3g core passes over the trace\n", id.seconds / rd.seconds, core_passes);
   if (!o.json_path.empty()) {
     const json j = {{"mode", "diagnose_cost"}, {"machine", machine_json()}, {"rate_hz", o.cost_rate_hz},
                     {"duration_s", o.cost_duration_s},
                     {"identify", {{"seconds", id.seconds}, {"cpu_seconds", id.cpu_seconds}, {"peak_rss_bytes", id.peak_rss_bytes}}},
                     {"diagnose", {{"seconds", dg.seconds}, {"cpu_seconds", dg.cpu_seconds}, {"peak_rss_bytes", dg.peak_rss_bytes}}},
+                    {"read", {{"seconds", rd.seconds}, {"cpu_seconds", rd.cpu_seconds}, {"peak_rss_bytes", rd.peak_rss_bytes}}},
+                    {"identify_over_read", id.seconds / rd.seconds}, {"identify_core_passes", core_passes},
                     {"time_ratio", t_ratio}, {"memory_ratio", std::isfinite(m_ratio) ? json(m_ratio) : json(nullptr)}};
     if (!write_text(o.json_path, j.dump(2) + "\n")) return 1;
   }

@@ -25,7 +25,7 @@ struct BenchCommand : Command {
     c->add_option("--samples", bo.samples, "core-only: samples to push")->capture_default_str();
     c->add_option("--precision", bo.precision, "core-only: float or double")->capture_default_str();
     c->add_flag("--quick", bo.quick, "two short traces, small GA budget");
-    c->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios");
+    c->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios, and of identify against reading the trace alone");
     c->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
     c->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
     c->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");

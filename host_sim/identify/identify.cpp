@@ -88,28 +88,54 @@ nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
 
 }  // namespace
 
+ForceAges force_ages(const std::vector<double>& u, std::size_t k, std::size_t first, std::size_t last) {
+  ForceAges a;
+  constexpr auto lead = static_cast<std::size_t>(kForceLead);
+  // interval_force_in_chain's rule: taps from before the chain take its
+  // first force; likewise after it, its last.
+  const std::size_t oldest = k - first, newest = last - k;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    a[i] = i < lead ? u[k + std::min(lead - i, newest)] : u[k - std::min(i - lead, oldest)];
+  return a;
+}
+
 double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
                     std::size_t first) {
-  const auto oldest = static_cast<int>(std::min<std::size_t>(k - first, feedid::ForcePairing<double>::history));
-  return p.interval_force_in_chain([&](int age) { return u[k - static_cast<std::size_t>(age)]; }, oldest);
+  const ForceAges a = force_ages(u, k, first, k);
+  return p.interval_force([&a](int age) { return a[static_cast<std::size_t>(age + kForceLead)]; });
 }
 
 namespace {
+/// What a block integrates over an interval: the friction model, and the
+/// logged force at each age the pairing rule can tap (the chain's first
+/// force for taps before it). The rule is linear in its taps
+/// (force_pairing.hpp), so the integral of u - F(v) at any pairing is a
+/// combination of these, and one pass serves every lag of a search.
+struct Integrands {
+  double friction = 0.0;  ///< F(v) (N)
+  ForceAges force{};      ///< u at age 0, 1, ... (N)
+  Integrands& add(const Integrands& o, double w) {
+    friction += w * o.friction;
+    for (std::size_t i = 0; i < force.size(); ++i) force[i] += w * o.force[i];
+    return *this;
+  }
+};
+
 /// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.
 struct BlockSums {
   int dir = 0;
-  double tau = 0.0;         ///< s
-  double impulse = 0.0;     ///< integral of u - F(v) (N s)
-  double phi_impulse = 0.0; ///< same, weighted by phi
-  double dv = 0.0;          ///< velocity change (m/s)
-  double phi_dv = 0.0;      ///< same, weighted by phi
+  double tau = 0.0;           ///< s
+  Integrands impulse;         ///< integrals over the block (N s)
+  Integrands phi_impulse;     ///< same, weighted by phi
+  double dv = 0.0;            ///< velocity change (m/s)
+  double phi_dv = 0.0;        ///< same, weighted by phi
 };
 
 /// The one block rule: blocks of block_s within a direction (above v_min),
 /// and observations from adjacent pairs under a triangular weight w rising
-/// over the first block and falling over the second. visit(impulse, dv,
-/// area, t_end) gets the weighted integrals of u - F(v) (N s) and of dv
-/// (m/s) and the weight's area (s). Under w the velocity change sums by
+/// over the first block and falling over the second. visit(integrals, dv,
+/// area, t_end) gets the weighted integrals of F(v) and of the force taps
+/// (N s) and of dv (m/s) and the weight's area (s). Under w the velocity change sums by
 /// parts to the difference of the two blocks' mean velocities, so no raw
 /// velocity sample carries it: with raw block-end samples, m times the
 /// velocity's noise (a quantum of 0.8 mm/s at 8 kHz and 100 nm) dominated
@@ -120,22 +146,23 @@ struct BlockSums {
 /// same observation.)
 template <typename Visit>
 void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, Visit visit) {
-  const feedid::ForcePairing<double> pairing = s.pairing();
   BlockSums prev, cur;
-  double t_start = 0.0, moment_impulse = 0.0, moment_dv = 0.0;
+  Integrands moment_impulse, g;
+  double t_start = 0.0, moment_dv = 0.0;
   auto close = [&](std::size_t k_end, bool adjacent_next) {
     if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
-      cur.phi_impulse = moment_impulse / cur.tau;
+      cur.phi_impulse = Integrands{}.add(moment_impulse, 1.0 / cur.tau);
       cur.phi_dv = moment_dv / cur.tau;
       if (prev.dir == cur.dir)
-        visit(prev.phi_impulse + cur.impulse - cur.phi_impulse, prev.phi_dv + cur.dv - cur.phi_dv,
-              0.5 * (prev.tau + cur.tau), s.t[k_end]);
+        visit(Integrands{prev.phi_impulse}.add(cur.impulse, 1.0).add(cur.phi_impulse, -1.0),
+              prev.phi_dv + cur.dv - cur.phi_dv, 0.5 * (prev.tau + cur.tau), s.t[k_end]);
       prev = adjacent_next ? cur : BlockSums{};
     } else {
       prev = BlockSums{};
     }
     cur = BlockSums{};
-    moment_impulse = moment_dv = 0.0;
+    moment_impulse = Integrands{};
+    moment_dv = 0.0;
   };
   for (std::size_t k = 1; k < s.t.size(); ++k) {
     const double dt = s.t[k] - s.t[k - 1];
@@ -149,12 +176,15 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
     if (d == 0) continue;
     if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
-    const double g = (paired_force(s.u, pairing, k, s.stretch_start(k)) - stribeck_friction(p, vm)) * dt;
+    g.friction = stribeck_friction(p, vm);
+    std::size_t last = k;  // the stretch's end, as far as a lead can reach
+    while (last + 1 < s.t.size() && last - k < static_cast<std::size_t>(kForceLead) && !s.gap_before(last + 1)) ++last;
+    g.force = force_ages(s.u, k, s.stretch_start(k), last);
     const double dv = s.v[k] - s.v[k - 1];
     const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
-    cur.impulse += g;
+    cur.impulse.add(g, dt);
     cur.dv += dv;
-    moment_impulse += age * g;
+    moment_impulse.add(g, age * dt);
     moment_dv += age * dv;
     cur.tau += dt;
     if (cur.tau >= block_s) close(k, true);
@@ -162,6 +192,20 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
   if (cur.dir != 0) close(s.t.size() - 1, false);  // the last block, as at a gap
 }
 }  // namespace
+
+double BlockPair::impulse(const feedid::ForcePairing<double>& p, int lead) const {
+  return p.interval_force([this, lead](int age) { return force[static_cast<std::size_t>(age - lead + kForceLead)]; }) -
+         friction;
+}
+
+std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  std::vector<BlockPair> out;
+  out.reserve(static_cast<std::size_t>(s.t.empty() ? 0.0 : (s.t.back() - s.t.front()) / block_s) + 1);
+  for_each_block(s, p, v_min, block_s, [&](const Integrands& w, double dv, double area, double t_end) {
+    out.push_back({w.friction, w.force, dv, area, chunk_of(s, t_end)});
+  });
+  return out;
+}
 
 int chunk_of(const Signals& s, double t) {
   const double t0 = s.t.empty() ? 0.0 : s.t.front(), span = s.t.empty() ? 0.0 : s.t.back() - t0;
@@ -181,28 +225,32 @@ double jackknife_se(const std::vector<double>& leave_one_out) {
 
 double convention_force_delay_limit() { return 0.5 + kLagAccuracy; }
 
-BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+BlockResidual block_residual(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                             double mass_kg, int lead) {
   BlockResidual out;
-  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double tau, double t_end) {
-    const double r = (impulse - p.mass_kg * dv) / tau;
+  for (const BlockPair& b : pairs) {
+    const double r = (b.impulse(pairing, lead) - mass_kg * b.dv) / b.area;
     out.sum_squares += r * r;
-    out.chunk_sum_squares[static_cast<std::size_t>(chunk_of(s, t_end))] += r * r;
+    out.chunk_sum_squares[static_cast<std::size_t>(b.chunk)] += r * r;
     ++out.blocks;
-  });
+  }
   return out;
 }
 
-BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  return block_residual(block_pairs(s, p, v_min, block_s), s.pairing(), p.mass_kg);
+}
+
+BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing, int lead) {
   BlockMass out;
   constexpr int chunks = kJackknifeChunks;
-  if (s.t.size() < 2) return out;
   // Sums per contiguous stretch of time, for the delete-one jackknife.
   std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
-  for_each_block(s, p, v_min, block_s, [&](double impulse, double dv, double, double t_end) {
-    const auto c = static_cast<std::size_t>(chunk_of(s, t_end));
-    num[c] += impulse * dv;
-    den[c] += dv * dv;
-  });
+  for (const BlockPair& b : pairs) {
+    const auto c = static_cast<std::size_t>(b.chunk);
+    num[c] += b.impulse(pairing, lead) * b.dv;
+    den[c] += b.dv * b.dv;
+  }
   double n_all = 0.0, d_all = 0.0;
   for (int c = 0; c < chunks; ++c) { n_all += num[c]; d_all += den[c]; }
   if (!(d_all > 0.0)) return out;
@@ -213,6 +261,11 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
   out.mass_se_kg = jackknife_se(leave_out);
   out.ok = std::isfinite(out.mass_se_kg) && std::isfinite(out.mass_kg) && out.mass_kg > 0.0;
   return out;
+}
+
+BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  if (s.t.size() < 2) return BlockMass{};
+  return block_mass(block_pairs(s, p, v_min, block_s), s.pairing());
 }
 
 double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
@@ -450,6 +503,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
   r.skipped_rows = trace.skipped_rows;
   r.runs = trace.runs;
   const std::size_t n = trace.samples.size();
+  const std::uint64_t pushed_before = core_samples_pushed();
   constexpr std::size_t min_samples = 100;
   if (n < min_samples) {
     r.status = feedid::Status::insufficient_data;
@@ -499,6 +553,7 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
     r.se_cutoff = u.cutoff_se;
   }
   refit_mass_on_blocks(r);
+  r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(n);
   return r;
 }
 
@@ -539,8 +594,10 @@ void refit_mass_on_blocks(IdentifyResult& r) {
   // mass came out 13-73 % below kA, the windows' -28 to +10 %, when the
   // lowest cut-off tried was 20 Hz).
   if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
-  const BlockMass b = block_mass(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s,
-                                 r.residual_block_s);
+  // One observation of the blocks serves both pairings (BlockPair).
+  const std::vector<BlockPair> pairs =
+      block_pairs(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+  const BlockMass b = block_mass(pairs, r.signals.pairing());
   if (!b.ok) return;
   r.estimate.mass_kg = b.mass_kg;
   // The block jackknife replaces the windows' one, and the timing term is
@@ -548,9 +605,9 @@ void refit_mass_on_blocks(IdentifyResult& r) {
   // to four times larger, made m's intervals cover 99.5 %.
   r.se_jackknife[0] = b.mass_se_kg;
   if (r.lag_se_periods > 0) {
-    Signals probe = r.signals;
-    probe.force_lag_samples = timing_probe_lag(probe);
-    const BlockMass shifted = block_mass(probe, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+    feedid::ForcePairing<double> probe;
+    (void)probe.init(timing_probe_lag(r.signals));  // within the rule's range by construction
+    const BlockMass shifted = block_mass(pairs, probe);
     if (shifted.ok) r.se_timing[0] = std::fabs(shifted.mass_kg - b.mass_kg) / kTimingProbeStep * r.lag_se_periods;
   }
   r.se_cutoff[0] = block_mass_cutoff_spread(r, b.mass_kg);
@@ -590,6 +647,12 @@ struct RunBoundary {
 };
 }  // namespace
 
+namespace {
+thread_local std::uint64_t pushed_on_this_thread = 0;
+}  // namespace
+
+std::uint64_t core_samples_pushed() { return pushed_on_this_thread; }
+
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
                  std::size_t begin, std::size_t end, const std::vector<std::size_t>& run_starts) {
   CoreRun run;
@@ -616,6 +679,7 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
     if (opt.progress && k % report_every == 0) opt.progress(static_cast<double>(k) / static_cast<double>(n));
   }
   boundary.finish(core.diagnostics());
+  pushed_on_this_thread += n > begin ? n - begin : 0;
   run.status = core.solve(opt.method);
   run.estimate = core.estimate();
   run.diagnostics = core.diagnostics();
@@ -768,7 +832,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                  {"rejected_velocity_jump", g.rejected_velocity_jump}, {"first_rejections", rej},
                  {"sections_pos", g.sections_complete[0]}, {"sections_neg", g.sections_complete[1]},
                  {"sections_short", g.sections_short}, {"sections_split", g.sections_split},
-                 {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks}};
+                 {"mass_windows", g.mass_windows}, {"continuity_breaks", g.continuity_breaks},
+                 {"core_passes", r.core_passes}};
   const auto& c = r.config;
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
                 {"velocity", r.signals.velocity_origin},

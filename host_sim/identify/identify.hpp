@@ -3,6 +3,7 @@
 // samples through the double-precision core, solve, and report. Host only.
 #pragma once
 #include <array>
+#include <cstdint>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -143,6 +144,10 @@ struct IdentifyResult {
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
   std::vector<feedid::Diagnostics> run_diagnostics; ///< the core's counters per run (parallel to runs)
   double duration_s = 0.0;
+  /// Samples pushed through a core by this identification, searches and
+  /// standard errors included, over the trace's samples: the number of
+  /// full passes of the core it cost (core_samples_pushed()).
+  double core_passes = 0.0;
   /// Streamed (identify_stream.hpp): conventions from the head, the core's
   /// own standard errors, no jackknife or block refit.
   bool streamed = false;
@@ -184,6 +189,20 @@ template <typename To, typename From> feedid::Config<To> config_as(const feedid:
   o.force_lag_samples = To(c.force_lag_samples);
   return o;
 }
+
+/// Samples the force may lead the motion by in a lag search (a positive lag
+/// of whole samples: alignment.hpp, kForceLagMax).
+constexpr int kForceLead = 3;
+
+/// Force at ages -kForceLead .. history-1 of the pairing rule's chain
+/// (force_pairing.hpp), age a at index a + kForceLead.
+using ForceAges = std::array<double, feedid::ForcePairing<double>::history + kForceLead>;
+
+/// The forces the pairing rule can tap for the interval ending at sample k
+/// (age 0 is u[k], age -1 u[k+1]); taps before `first` (the start of the
+/// chain, Signals::stretch_start) take u[first], taps after `last` (its
+/// end) u[last]. first < k <= last.
+ForceAges force_ages(const std::vector<double>& u, std::size_t k, std::size_t first, std::size_t last);
 
 /// Force for the interval ending at sample k of a force column, by the
 /// core's pairing rule (force_pairing.hpp); taps before `first` (the start
@@ -240,6 +259,11 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
                  std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1),
                  const std::vector<std::size_t>& run_starts = {});
 
+/// Samples run_core has pushed through a core on this thread so far: the
+/// difference over a call is that call's cost in core passes times the
+/// trace's length (IdentifyResult::core_passes).
+std::uint64_t core_samples_pushed();
+
 /// Contiguous stretches of time of every delete-one jackknife (parameters,
 /// the block mass, the force lag).
 constexpr int kJackknifeChunks = 10;
@@ -267,6 +291,26 @@ struct BlockResidual {
 };
 BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s);
 
+/// One observation of the block rule, kept so that the residual and the
+/// mass can be formed at any pairing of the force without another pass:
+/// the triangle-weighted integrals of the friction model and of the force
+/// at each age, the velocity change and the weight's area.
+struct BlockPair {
+  double friction = 0.0;  ///< integral w F(v) dt (N s)
+  ForceAges force{};      ///< integral w u(age) dt per age (N s)
+  double dv = 0.0;        ///< integral w dv (m/s)
+  double area = 0.0;      ///< integral w (s)
+  int chunk = 0;          ///< chunk_of its end
+  /// integral w (u - F) dt with the force paired by p and led by `lead`
+  /// whole samples (a delay of the motion by as many; N s).
+  double impulse(const feedid::ForcePairing<double>& p, int lead = 0) const;
+};
+/// The block rule's observations of s with friction p (blocks above v_min, of block_s).
+std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, double v_min, double block_s);
+/// The same residual from kept observations, the force paired by `pairing`.
+BlockResidual block_residual(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                             double mass_kg, int lead = 0);
+
 /// Mass fitted on the same blocks, friction held at p: sum(impulse dv) /
 /// sum(dv^2), with a delete-one jackknife over the chunks of time.
 struct BlockMass {
@@ -275,6 +319,7 @@ struct BlockMass {
   double mass_se_kg = 0.0;
 };
 BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s);
+BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing, int lead = 0);
 
 
 

@@ -36,24 +36,37 @@ struct LagCost {
   std::array<double, kJackknifeChunks> chunk_ssr{};
 };
 
-/// The block residual of the model the core identifies on `work` as it is
-/// paired (work.force_lag_samples); cfg's band edges hold it to one set of blocks.
-LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
+/// The model the core identifies on `work` as it is paired
+/// (work.force_lag_samples); not ok where nothing identifies.
+struct HeldModel {
+  bool ok = false;
+  DriveParams params;
+};
+
+HeldModel identify_model(const Signals& work, const feedid::Config<double>& cfg) {
   feedid::Config<double> c = cfg;
   c.force_lag_samples = work.force_lag_samples;
   IdentifyOptions quiet;
   quiet.select_friction_model = false;
   const CoreRun run = run_core(work, c, quiet);
-  LagCost out;
+  HeldModel out;
   if (run.status != feedid::Status::ok) return out;
-  // The mass refitted on the same blocks, as identify() does: the core's
-  // window mass takes raw velocity samples, and with a coarse quantum its
-  // jumps from lag to lag made the cost rough (the lag off by 0.3-1 period
-  // at 8 kHz and 100 nm, and m by 3 of its standard errors with it).
-  DriveParams model = to_drive_params(run.estimate);
-  const BlockMass refit = block_mass(work, model, cfg.velocity_min_m_s, block_length_s(work));
-  if (refit.ok) model.mass_kg = refit.mass_kg;
-  const BlockResidual b = block_residual(work, model, cfg.velocity_min_m_s, block_length_s(work));
+  out.ok = true;
+  out.params = to_drive_params(run.estimate);
+  return out;
+}
+
+/// The block residual of blocks observed with friction `model`, the force
+/// paired by `pairing`, with the mass refitted on the same blocks, as
+/// identify() does: the core's window mass takes raw velocity samples, and
+/// with a coarse quantum its jumps from lag to lag made the cost rough (the
+/// lag off by 0.3-1 period at 8 kHz and 100 nm, and m by 3 of its standard
+/// errors with it).
+LagCost block_cost(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                   const DriveParams& model, int lead = 0) {
+  LagCost out;
+  const BlockMass refit = block_mass(pairs, pairing, lead);
+  const BlockResidual b = block_residual(pairs, pairing, refit.ok ? refit.mass_kg : model.mass_kg, lead);
   if (b.blocks == 0) return out;
   out.ssr = b.sum_squares;
   out.blocks = b.blocks;
@@ -61,11 +74,22 @@ LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
   return out;
 }
 
-LagCost cost_at(const Signals& original, Signals& work, const feedid::Config<double>& cfg, double lag) {
+/// The same on `work` as it is paired; cfg's band edges hold it to one set of blocks.
+LagCost block_cost(const Signals& work, const DriveParams& model, const feedid::Config<double>& cfg) {
+  return block_cost(block_pairs(work, model, cfg.velocity_min_m_s, block_length_s(work)), work.pairing(), model);
+}
+
+/// The block residual of the model the core identifies on `work` as paired.
+LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
+  const HeldModel model = identify_model(work, cfg);
+  return model.ok ? block_cost(work, model.params, cfg) : LagCost{};
+}
+
+/// Pairs `work` (v and x of `original`) at `lag`.
+void pair_at(const Signals& original, Signals& work, double lag) {
   const int delay = whole_delay_for(lag);
   if (delay != work.velocity_delay_samples) delay_motion(original, delay, work);
   work.force_lag_samples = lag - delay;
-  return fit_cost(work, cfg);
 }
 
 /// Vertex of the parabola through (l - h, lo), (l, mid), (l + h, hi), kept
@@ -96,23 +120,72 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   LagEstimate e;
   Signals work = s;
   work.velocity_delay_samples = 0;
-  // Coarse grid on whole periods, then the half periods around the best.
+  // Friction is a function of velocity: a shift of the force moves a
+  // band's mean force by the shift times the change of force across the
+  // band, but misses every block's inertia identity integral(u - F) = m dv
+  // by the shift times the change of force (m jerk dt). So the lags are
+  // scored with one identification's friction held and the mass, which
+  // the lag trades against, refitted on the blocks at each. Held from a
+  // period away, the friction put the vertex 0.02 period (3 standard
+  // errors) off, so the core identifies again at the grid's best point
+  // until that is where it identified: the parabola's points then sit at
+  // and half a period either side of it. The blocks' integrals of each
+  // force tap, kForceLead ahead to the oldest, serve every lag (the rule is
+  // linear in its taps, and a positive lag's delay of the motion is a lead
+  // of the force): one pass over the blocks per identification.
   struct Point { double lag; LagCost c; };
   std::vector<Point> pts;
+  HeldModel model;
+  std::vector<BlockPair> pairs;
+  bool each_identified = false;  // the fallback below: the core identifies at every lag
   auto eval = [&](double lag) {
     for (const Point& p : pts)
       if (std::fabs(p.lag - lag) < 1e-9) return p.c;
-    pts.push_back({lag, cost_at(s, work, cfg, lag)});
-    ++e.evaluations;
+    const int lead = whole_delay_for(lag);
+    feedid::ForcePairing<double> pairing;
+    (void)pairing.init(lag - lead);  // in [-5, 0] for every lag searched
+    if (each_identified) {
+      pair_at(s, work, lag);
+      ++e.evaluations;
+      pts.push_back({lag, fit_cost(work, cfg)});
+    } else {
+      pts.push_back({lag, block_cost(pairs, pairing, model.params, lead)});
+    }
     return pts.back().c;
   };
   auto best_point = [&]() {
     return *std::min_element(pts.begin(), pts.end(), [](const Point& a, const Point& b) { return a.c.ssr < b.c.ssr; });
   };
-  for (double lag = kForceLagMin; lag <= kForceLagMax + 1e-9; lag += 1.0) eval(lag);
-  const double coarse = best_point().lag;
-  for (double d : {-0.5, 0.5})
-    if (coarse + d >= kForceLagMin && coarse + d <= kForceLagMax) eval(coarse + d);
+  auto scan_grid = [&]() {  // whole periods, then the half periods around the best
+    pts.clear();
+    for (double lag = kForceLagMin; lag <= kForceLagMax + 1e-9; lag += 1.0) eval(lag);
+    const double coarse = best_point().lag;
+    for (double d : {-0.5, 0.5})
+      if (coarse + d >= kForceLagMin && coarse + d <= kForceLagMax) eval(coarse + d);
+  };
+  // First identified at a held command's lag, the commonest log (align_force's assumption).
+  const double held = -0.5 - (std::isfinite(s.core_velocity_lag) ? s.core_velocity_lag : 0.0);
+  double identified_at = std::clamp(std::round(2.0 * held) / 2.0, kForceLagMin, kForceLagMax);
+  bool settled = false;
+  for (int round = 0; round < 3 && !settled; ++round) {
+    pair_at(s, work, identified_at);
+    model = identify_model(work, cfg);
+    ++e.evaluations;
+    if (!model.ok) break;
+    pair_at(s, work, 0.0);  // the motion as logged; a positive lag leads the force instead
+    pairs = block_pairs(work, model.params, cfg.velocity_min_m_s, block_length_s(work));
+    scan_grid();
+    settled = std::fabs(best_point().lag - identified_at) < 1e-9;
+    identified_at = best_point().lag;
+  }
+  // Where the held friction does not settle, or settles at an end of the
+  // range, the model fits the log too poorly to be held (pooled 200 Hz
+  // SysId logs went from +2 to -6 periods, and m to a twentieth): every lag
+  // is identified on its own, as the search's measure asks.
+  if (!settled || identified_at <= kForceLagMin + 1e-9 || identified_at >= kForceLagMax - 1e-9) {
+    each_identified = true;
+    scan_grid();
+  }
   const Point best = best_point();
   if (!std::isfinite(best.c.ssr)) return e;
   e.lag_samples = best.lag;
@@ -161,6 +234,13 @@ bool within_one_se(const LagCost& c, const LagCost& best) {
   const double se = jackknife_se(leave_out);
   return std::isfinite(d) && std::isfinite(se) && d <= se;
 }
+
+/// The least block residual of the cut-offs tried (not empty).
+const LagCost& least_of(const std::vector<std::pair<double, LagCost>>& tried) {
+  return std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
+           return a.second.ssr < b.second.ssr;
+         })->second;
+}
 }  // namespace
 
 FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg) {
@@ -169,17 +249,23 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   Signals work = s;
   // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where the filter all but
   // passes the position difference through), lowest first.
+  // Past the least residual, each half octave passes more of the count
+  // noise into the bands, so the residual only grows: the scan stops when
+  // two cut-offs in a row have risen, each beyond a standard error of the
+  // least so far (neither can be chosen or a rival, nor can any above them).
   const double top = 0.4 * s.sample_rate_hz;
   std::vector<std::pair<double, LagCost>> tried;
-  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9); fc *= std::sqrt(2.0)) {
+  int risen = 0;
+  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
     derive_velocity(work, fc);
-    tried.emplace_back(fc, fit_cost(work, cfg));
+    const LagCost cost = fit_cost(work, cfg);
+    const bool rose = !tried.empty() && cost.ssr > tried.back().second.ssr && !within_one_se(cost, least_of(tried));
+    risen = rose ? risen + 1 : 0;
+    tried.emplace_back(fc, cost);
     ++best.candidates;
   }
   if (tried.empty()) return best;
-  const LagCost least = std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
-                          return a.second.ssr < b.second.ssr;
-                        })->second;
+  const LagCost least = least_of(tried);
   if (!std::isfinite(least.ssr)) return best;  // nothing identifies: keep the cut-off as it is
   best.least_block_ssr = least.ssr;
   // The one-standard-error rule (Breiman et al.; Hastie et al., ESL 7.10):

@@ -19,6 +19,7 @@ namespace feedid::host {
 /// mean (+1/2) and a physical delay beyond it that the diagnosis names.
 constexpr double kForceLagMin = -5.0;
 constexpr double kForceLagMax = 3.0;
+static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by whole samples the blocks' taps hold");
 
 
 /// The lag that minimises the residual of the identified model over short
@@ -26,8 +27,12 @@ constexpr double kForceLagMax = 3.0;
 /// for the right pairing; a wrong one leaves about lag * (change of force)
 /// in every block). Grid over [kForceLagMin, kForceLagMax], then a parabola
 /// through the best point and its neighbours; the standard error from its
-/// curvature and the block residual variance. `cfg` is the core
-/// configuration for the trace (its lag is ignored).
+/// curvature and the block residual variance. The friction is the core's
+/// at the pairing s has (once more at the best lag if that is over a
+/// period away) and held over the grid, the mass refitted on the blocks at
+/// each lag; the blocks are observed once per whole delay of the motion
+/// (BlockPair): one or two passes of the core, not one per lag. `cfg` is
+/// the core configuration for the trace (its lag is ignored).
 LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
 
 /// Cut-off of the core's velocity (the zero-phase derivative of position)

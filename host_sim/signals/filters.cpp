@@ -110,6 +110,10 @@ std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std:
   for (std::size_t a = 0; a < x.size();) {
     std::size_t b = a + 1;
     while (b < x.size() && t[b] - t[b - 1] <= max_step_s) ++b;
+    if (a == 0 && b == x.size()) {  // one stretch: no copies of it
+      v = stretch_velocity(x, t, cutoff_hz, rate_hz);
+      break;
+    }
     const std::vector<double> xs(x.begin() + static_cast<std::ptrdiff_t>(a), x.begin() + static_cast<std::ptrdiff_t>(b));
     const std::vector<double> ts(t.begin() + static_cast<std::ptrdiff_t>(a), t.begin() + static_cast<std::ptrdiff_t>(b));
     const std::vector<double> vs = stretch_velocity(xs, ts, cutoff_hz, rate_hz);
