@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "signals/alignment.hpp"
+#include "timing_search.hpp"
 #include "signals/filters.hpp"
 #include "io/number_format.hpp"
 #include "uncertainty.hpp"

@@ -62,7 +62,7 @@ struct IdentifyOptions {
   /// from the work the force does on the motion (force_sign.hpp).
   int force_sign = 0;
   /// Force/velocity pairing: "auto" estimates the lag from the data
-  /// (alignment.hpp); a named convention (held-backward, held-instant,
+  /// (identify/timing_search.hpp); a named convention (held-backward, held-instant,
   /// trapezoid) or force_lag_s states it.
   std::string alignment = "auto";
   /// How far the logged force lags the logged velocity (s); NaN: from `alignment`.
@@ -191,7 +191,7 @@ template <typename To, typename From> feedid::Config<To> config_as(const feedid:
 }
 
 /// Samples the force may lead the motion by in a lag search (a positive lag
-/// of whole samples: alignment.hpp, kForceLagMax).
+/// of whole samples: timing_search.hpp, kForceLagMax).
 constexpr int kForceLead = 3;
 
 /// Force at ages -kForceLead .. history-1 of the pairing rule's chain

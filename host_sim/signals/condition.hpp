@@ -23,7 +23,7 @@
 
 namespace feedid::host {
 
-/// A force lag search's outcome (alignment.hpp, estimate_force_lag).
+/// A force lag search's outcome (identify/timing_search.hpp, estimate_force_lag).
 struct LagEstimate {
   double lag_samples = 0.0;  ///< force lag behind the velocity (periods)
   double se_samples = 0.0;   ///< its standard error (periods)

@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "identify/identify.hpp"
-#include "signals/alignment.hpp"
+#include "identify/timing_search.hpp"
 #include "test_support.hpp"
 
 namespace feedid::test {

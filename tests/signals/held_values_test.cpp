@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "identify/identify.hpp"
-#include "signals/alignment.hpp"
+#include "identify/timing_search.hpp"
 #include "signals/held_values.hpp"
 
 namespace feedid::host {

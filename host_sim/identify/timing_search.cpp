@@ -1,0 +1,268 @@
+#include "timing_search.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <vector>
+
+namespace feedid::host {
+namespace {
+
+/// Sum of squared block residuals of the model identified at one lag.
+struct LagCost {
+  double ssr = std::numeric_limits<double>::infinity();
+  std::size_t blocks = 0;
+  std::array<double, kJackknifeChunks> chunk_ssr{};
+};
+
+/// The model the core identifies on `work` as it is paired
+/// (work.force_lag_samples); not ok where nothing identifies.
+struct HeldModel {
+  bool ok = false;
+  DriveParams params;
+};
+
+HeldModel identify_model(const Signals& work, const feedid::Config<double>& cfg) {
+  feedid::Config<double> c = cfg;
+  c.force_lag_samples = work.force_lag_samples;
+  IdentifyOptions quiet;
+  quiet.select_friction_model = false;
+  const CoreRun run = run_core(work, c, quiet);
+  HeldModel out;
+  if (run.status != feedid::Status::ok) return out;
+  out.ok = true;
+  out.params = to_drive_params(run.estimate);
+  return out;
+}
+
+/// The block residual of blocks observed with friction `model`, the force
+/// paired by `pairing`, with the mass refitted on the same blocks, as
+/// identify() does: the core's window mass takes raw velocity samples, and
+/// with a coarse quantum its jumps from lag to lag made the cost rough (the
+/// lag off by 0.3-1 period at 8 kHz and 100 nm, and m by 3 of its standard
+/// errors with it).
+LagCost block_cost(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                   const DriveParams& model, int lead = 0) {
+  LagCost out;
+  const BlockMass refit = block_mass(pairs, pairing, lead);
+  const BlockResidual b = block_residual(pairs, pairing, refit.ok ? refit.mass_kg : model.mass_kg, lead);
+  if (b.blocks == 0) return out;
+  out.ssr = b.sum_squares;
+  out.blocks = b.blocks;
+  out.chunk_ssr = b.chunk_sum_squares;
+  return out;
+}
+
+/// The same on `work` as it is paired; cfg's band edges hold it to one set of blocks.
+LagCost block_cost(const Signals& work, const DriveParams& model, const feedid::Config<double>& cfg) {
+  return block_cost(block_pairs(work, model, cfg.velocity_min_m_s, block_length_s(work)), work.pairing(), model);
+}
+
+/// The block residual of the model the core identifies on `work` as paired.
+LagCost fit_cost(const Signals& work, const feedid::Config<double>& cfg) {
+  const HeldModel model = identify_model(work, cfg);
+  return model.ok ? block_cost(work, model.params, cfg) : LagCost{};
+}
+
+/// Pairs `work` (v and x of `original`) at `lag`.
+void pair_at(const Signals& original, Signals& work, double lag) {
+  const int delay = whole_delay_for(lag);
+  if (delay != work.velocity_delay_samples) delay_motion(original, delay, work);
+  work.force_lag_samples = lag - delay;
+}
+
+/// Vertex of the parabola through (l - h, lo), (l, mid), (l + h, hi), kept
+/// within h of l; NaN where the three do not curve upwards.
+double vertex(double l, double h, double lo, double mid, double hi) {
+  const double curv = (lo - 2.0 * mid + hi) / (2.0 * h * h);
+  if (!(curv > 0.0) || !std::isfinite(curv)) return std::numeric_limits<double>::quiet_NaN();
+  return l + std::clamp((lo - hi) / (4.0 * h * curv), -h, h);
+}
+
+/// Delete-one-chunk jackknife of the vertex: the lag's scatter over
+/// stretches of the trace. The curvature's figure assumes independent block
+/// residuals; at 8 kHz with a 100 nm encoder the residual curve is rough
+/// and the lag was 0.3-0.5 periods off while that figure said 0.05.
+double jackknife_vertex_se(double l, double h, const LagCost& lo, const LagCost& mid, const LagCost& hi) {
+  std::vector<double> v;
+  for (int c = 0; c < kJackknifeChunks; ++c) {
+    const auto i = static_cast<std::size_t>(c);
+    const double x = vertex(l, h, lo.ssr - lo.chunk_ssr[i], mid.ssr - mid.chunk_ssr[i], hi.ssr - hi.chunk_ssr[i]);
+    if (std::isfinite(x)) v.push_back(x);
+  }
+  return jackknife_se(v);
+}
+
+}  // namespace
+
+LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg) {
+  LagEstimate e;
+  Signals work = s;
+  work.velocity_delay_samples = 0;
+  // Friction is a function of velocity: a shift of the force moves a
+  // band's mean force by the shift times the change of force across the
+  // band, but misses every block's inertia identity integral(u - F) = m dv
+  // by the shift times the change of force (m jerk dt). So the lags are
+  // scored with one identification's friction held and the mass, which
+  // the lag trades against, refitted on the blocks at each. Held from a
+  // period away, the friction put the vertex 0.02 period (3 standard
+  // errors) off, so the core identifies again at the grid's best point
+  // until that is where it identified: the parabola's points then sit at
+  // and half a period either side of it. The blocks' integrals of each
+  // force tap, kForceLead ahead to the oldest, serve every lag (the rule is
+  // linear in its taps, and a positive lag's delay of the motion is a lead
+  // of the force): one pass over the blocks per identification.
+  struct Point { double lag; LagCost c; };
+  std::vector<Point> pts;
+  HeldModel model;
+  std::vector<BlockPair> pairs;
+  bool each_identified = false;  // the fallback below: the core identifies at every lag
+  auto eval = [&](double lag) {
+    for (const Point& p : pts)
+      if (std::fabs(p.lag - lag) < 1e-9) return p.c;
+    const int lead = whole_delay_for(lag);
+    feedid::ForcePairing<double> pairing;
+    (void)pairing.init(lag - lead);  // in [-5, 0] for every lag searched
+    if (each_identified) {
+      pair_at(s, work, lag);
+      ++e.evaluations;
+      pts.push_back({lag, fit_cost(work, cfg)});
+    } else {
+      pts.push_back({lag, block_cost(pairs, pairing, model.params, lead)});
+    }
+    return pts.back().c;
+  };
+  auto best_point = [&]() {
+    return *std::min_element(pts.begin(), pts.end(), [](const Point& a, const Point& b) { return a.c.ssr < b.c.ssr; });
+  };
+  auto scan_grid = [&]() {  // whole periods, then the half periods around the best
+    pts.clear();
+    for (double lag = kForceLagMin; lag <= kForceLagMax + 1e-9; lag += 1.0) eval(lag);
+    const double coarse = best_point().lag;
+    for (double d : {-0.5, 0.5})
+      if (coarse + d >= kForceLagMin && coarse + d <= kForceLagMax) eval(coarse + d);
+  };
+  // First identified at a held command's lag, the commonest log (align_force's assumption).
+  const double held = -0.5 - (std::isfinite(s.core_velocity_lag) ? s.core_velocity_lag : 0.0);
+  double identified_at = std::clamp(std::round(2.0 * held) / 2.0, kForceLagMin, kForceLagMax);
+  bool settled = false;
+  for (int round = 0; round < 3 && !settled; ++round) {
+    pair_at(s, work, identified_at);
+    model = identify_model(work, cfg);
+    ++e.evaluations;
+    if (!model.ok) break;
+    pair_at(s, work, 0.0);  // the motion as logged; a positive lag leads the force instead
+    pairs = block_pairs(work, model.params, cfg.velocity_min_m_s, block_length_s(work));
+    scan_grid();
+    settled = std::fabs(best_point().lag - identified_at) < 1e-9;
+    identified_at = best_point().lag;
+  }
+  // Where the held friction does not settle, or settles at an end of the
+  // range, the model fits the log too poorly to be held (pooled 200 Hz
+  // SysId logs went from +2 to -6 periods, and m to a twentieth): every lag
+  // is identified on its own, as the search's measure asks.
+  if (!settled || identified_at <= kForceLagMin + 1e-9 || identified_at >= kForceLagMax - 1e-9) {
+    each_identified = true;
+    scan_grid();
+  }
+  const Point best = best_point();
+  if (!std::isfinite(best.c.ssr)) return e;
+  e.lag_samples = best.lag;
+  // Parabola through the best point and its neighbours half a period away.
+  const double h = 0.5;
+  if (best.lag - h < kForceLagMin - 1e-9 || best.lag + h > kForceLagMax + 1e-9) {
+    // At the end of the range: the lag is at least that far out. The edge
+    // is still a better pairing than assuming a held command, and the
+    // diagnosis names what lies beyond the conventions a delay.
+    e.se_samples = h;
+    e.ok = true;
+    return e;
+  }
+  const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);
+  const double curv = (lo.ssr - 2.0 * best.c.ssr + hi.ssr) / (2.0 * h * h);  // SSR = a (lag - l0)^2 + c
+  const double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);
+  if (!std::isfinite(at)) return e;
+  e.lag_samples = at;
+  // Residual variance per block, nine model parameters and the lag fitted;
+  // the chunks' scatter where it is larger.
+  const double dof = static_cast<double>(best.c.blocks) - 10.0;
+  const double s2 = dof > 0 ? best.c.ssr / dof : best.c.ssr;
+  e.se_samples = std::sqrt(s2 / curv);
+  const double jack = jackknife_vertex_se(best.lag, h, lo, best.c, hi);
+  if (std::isfinite(jack)) e.se_samples = std::max(e.se_samples, jack);
+  e.ok = true;
+  return e;
+}
+
+double lowest_velocity_filter_hz(const Signals& s) {
+  // Two octaves below the top cut-off of a slow log, or of the rate the
+  // position really comes at: a position held for four rows is sampled at a
+  // quarter of the log rate, and a cut-off smooth enough for that rate
+  // would otherwise never be tried.
+  return std::min(kLowestVelocityFilter_hz, 0.1 * s.position_update_rate_hz());
+}
+
+namespace {
+/// Whether candidate c's block residual is within one standard error of
+/// the best's: the difference's delete-one-chunk jackknife.
+bool within_one_se(const LagCost& c, const LagCost& best) {
+  const double d = c.ssr - best.ssr;
+  std::vector<double> leave_out;
+  for (std::size_t i = 0; i < c.chunk_ssr.size(); ++i)
+    leave_out.push_back(d - (c.chunk_ssr[i] - best.chunk_ssr[i]));
+  const double se = jackknife_se(leave_out);
+  return std::isfinite(d) && std::isfinite(se) && d <= se;
+}
+
+/// The least block residual of the cut-offs tried (not empty).
+const LagCost& least_of(const std::vector<std::pair<double, LagCost>>& tried) {
+  return std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
+           return a.second.ssr < b.second.ssr;
+         })->second;
+}
+}  // namespace
+
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg) {
+  FilterChoice best;
+  best.cutoff_hz = s.velocity_filter_hz;
+  Signals work = s;
+  // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where the filter all but
+  // passes the position difference through), lowest first.
+  // Past the least residual, each half octave passes more of the count
+  // noise into the bands, so the residual only grows: the scan stops when
+  // two cut-offs in a row have risen, each beyond a standard error of the
+  // least so far (neither can be chosen or a rival, nor can any above them).
+  const double top = 0.4 * s.sample_rate_hz;
+  std::vector<std::pair<double, LagCost>> tried;
+  int risen = 0;
+  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
+    derive_velocity(work, fc);
+    const LagCost cost = fit_cost(work, cfg);
+    const bool rose = !tried.empty() && cost.ssr > tried.back().second.ssr && !within_one_se(cost, least_of(tried));
+    risen = rose ? risen + 1 : 0;
+    tried.emplace_back(fc, cost);
+    ++best.candidates;
+  }
+  if (tried.empty()) return best;
+  const LagCost least = least_of(tried);
+  if (!std::isfinite(least.ssr)) return best;  // nothing identifies: keep the cut-off as it is
+  best.least_block_ssr = least.ssr;
+  // The one-standard-error rule (Breiman et al.; Hastie et al., ESL 7.10):
+  // of the cut-offs whose residual is within a standard error of the
+  // least, the smoothest. The others stay as rivals for the standard errors.
+  bool chosen = false;
+  for (const auto& [fc, cost] : tried) {
+    if (!within_one_se(cost, least)) continue;
+    if (chosen) { best.rivals_hz.push_back(fc); continue; }
+    best.cutoff_hz = fc;
+    best.block_ssr = cost.ssr;
+    chosen = true;
+  }
+  return best;
+}
+
+double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg) { return fit_cost(s, cfg).ssr; }
+
+}  // namespace feedid::host

@@ -1,0 +1,79 @@
+// The force lag and the velocity cut-off found from the data: each is the
+// choice whose identified model leaves the least residual over short blocks
+// of motion (NOTES.md, "Logging conventions"; docs/method.md). They run the
+// core, so they live in identify/, above the signals they choose for.
+// Host only.
+#pragma once
+#include <limits>
+#include <vector>
+
+#include "identify/identify.hpp"
+#include "signals/alignment.hpp"
+
+namespace feedid::host {
+
+/// Searched range of the force lag behind the core's velocity (sample periods):
+/// held force (-1/2) less a velocity-only log's filter delay, up to a period
+/// mean (+1/2) and a physical delay beyond it that the diagnosis names.
+constexpr double kForceLagMin = -5.0;
+constexpr double kForceLagMax = 3.0;
+static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by whole samples the blocks' taps hold");
+
+
+/// The lag that minimises the residual of the identified model over short
+/// blocks of motion (the inertia identity integral(u - F) = m dv is exact only
+/// for the right pairing; a wrong one leaves about lag * (change of force)
+/// in every block). Grid over [kForceLagMin, kForceLagMax], then a parabola
+/// through the best point and its neighbours; the standard error from its
+/// curvature and the block residual variance. The friction is the core's
+/// at the pairing s has (once more at the best lag if that is over a
+/// period away) and held over the grid, the mass refitted on the blocks at
+/// each lag; the blocks are observed once per whole delay of the motion
+/// (BlockPair): one or two passes of the core, not one per lag. `cfg` is
+/// the core configuration for the trace (its lag is ignored).
+LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Cut-off of the core's velocity (the zero-phase derivative of position)
+/// before one is chosen, and the lowest tried (Hz; lower on a slow or a held
+/// log: lowest_velocity_filter_hz).
+constexpr double kProvisionalVelocityFilter_hz = 300.0;
+constexpr double kLowestVelocityFilter_hz = 100.0;
+
+/// The lowest cut-off tried (Hz): kLowestVelocityFilter_hz, or 0.1 of the
+/// rate the position is updated at (Signals::position_update_rate_hz) on a
+/// slow log or one whose position is held for several rows.
+double lowest_velocity_filter_hz(const Signals& s);
+
+struct FilterChoice {
+  double cutoff_hz = 0.0;
+  int candidates = 0;  ///< cut-offs tried
+  double block_ssr = std::numeric_limits<double>::infinity();  ///< at the chosen one (N^2)
+  double least_block_ssr = std::numeric_limits<double>::infinity();  ///< the least of all tried (N^2)
+  /// The other cut-offs whose block residual is within one standard error
+  /// (delete-one-chunk jackknife of the difference) of the least: the data
+  /// cannot tell them from the choice.
+  std::vector<double> rivals_hz;
+};
+
+/// The cut-off, from lowest_velocity_filter_hz up to 0.4 of the rate in
+/// half octaves, whose identified model leaves the least block
+/// residual (the measure the lag search minimises) on `s` as aligned, or
+/// the smoothest within one standard error of it (the one-standard-error
+/// rule: on a 200 Hz SysId log three cut-offs were within a standard
+/// error, and the least of them by chance halved the mass). A coarse encoder on a heavy axis
+/// wants smoothing (the counts' noise enters m * dv at every band
+/// crossing: Fs 10 % off at 1 kHz cut-off on a 400 kg, 100 nm, 4 kHz
+/// axis); a fine one does not (vs 3 % off at 300 Hz on a 40 kg, 5 nm one,
+/// where the filter rounds the Stribeck dip). The residual is least where
+/// the parameters are best in both. cfg fixes the band edges for all.
+/// Where the residual cannot tell cut-offs apart (FilterChoice::rivals_hz),
+/// the spread of the parameters over them enters their standard errors
+/// (uncertainty.hpp).
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
+
+/// Sum of squared 10 ms block residuals (N^2) of the model the core
+/// identifies on `s` as paired, at cfg's band edges: the measure the lag
+/// search and the velocity choice minimise. Infinite if nothing identifies.
+double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg);
+
+}  // namespace feedid::host
