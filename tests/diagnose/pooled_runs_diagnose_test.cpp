@@ -138,6 +138,15 @@ TEST(DiagnosePooledRuns, FrictionThatDiffersBetweenRunsIsNotADrift) {
   const std::vector<std::string> kinds = named_kinds(r);
   EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "thermal_drift"), 0) << host::summary(r);
   EXPECT_EQ(r.effect, "none") << host::summary(r);
+  // The level is reported, not hidden: run 3's Coulomb force is 10 N below run 1's.
+  bool reported = false;
+  for (const auto& a : r.ambiguities)
+    for (const auto& l : a.value("levels", nlohmann::json::array()))
+      if (l.value("run", 0) == 3 && l.value("term", "") == "coulomb" && l.value("direction", "") == "positive") {
+        reported = true;
+        EXPECT_NEAR(l.value("change", 0.0), 22.0 - 32.0, 1.0) << l.dump();
+      }
+  EXPECT_TRUE(reported) << r.ambiguities.dump();
 }
 
 /// Runs long enough to show a warm-up of 8 s in each.
