@@ -110,13 +110,11 @@ double drift_decay(const Segment& sg, const std::vector<double>& run_starts, dou
   return std::exp(-(sg.t - run_starts[run_of(run_starts, sg.t)]) / tc);
 }
 
-/// The decay over the moving segments of one run and direction: its means
+/// The decay's means over the moving segments of one run and direction
 /// (dt-weighted, for the Coulomb term; v^2 dt-weighted, for the viscous
-/// term: each the weight its term's least squares gives it), its range and
-/// the range of speed.
+/// term: each the weight its term's least squares gives it).
 struct DecayStats {
   double w = 0.0, w_vv = 0.0, sum = 0.0, sum_vv = 0.0;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo, speed_lo = lo, speed_hi = 0.0;
   double mean() const { return w > 0 ? sum / w : 0.0; }
   double mean_vv() const { return w_vv > 0 ? sum_vv / w_vv : 0.0; }
 };
@@ -135,8 +133,6 @@ std::vector<DecayStats> decay_stats(const Observations& obs, Observations::Resol
     DecayStats& s = st[run_direction(sg, run_starts)];
     s.w += sg.dt, s.sum += d * sg.dt;
     s.w_vv += vv * sg.dt, s.sum_vv += d * vv * sg.dt;
-    s.lo = std::min(s.lo, d), s.hi = std::max(s.hi, d);
-    s.speed_lo = std::min(s.speed_lo, std::fabs(sg.v)), s.speed_hi = std::max(s.speed_hi, std::fabs(sg.v));
   }
   return st;
 }
@@ -144,28 +140,28 @@ std::vector<DecayStats> decay_stats(const Observations& obs, Observations::Resol
 /// Friction cannot push the axis along: with the drift's change added to
 /// the level the trace measures (the base model's friction, fitted without
 /// any effect: the run's mean), the friction force against the motion must
-/// stay positive at every speed and time of every run. Anchoring at the
-/// measured level, not at the joint fit's warm asymptote, matters: a time
-/// constant far beyond the run makes the decay nearly constant, and the
-/// joint fit then trades a huge asymptote against a huge change (-38 V
-/// "drift" against a 0.09 V Coulomb force on pooled SysId files). A change
-/// larger than the friction itself fails this test; a warm-up of the
-/// friction that is there never does.
-std::string drift_turns_friction_negative(const std::vector<DecayStats>& st, const MeasuredFriction& f,
-                                          double viscous_change, double coulomb_change) {
-  for (std::size_t k = 0; k < st.size(); ++k) {
-    const DecayStats& s = st[k];
-    if (!(s.w > 0)) continue;
-    const std::size_t d = k % 2;
-    const double coulomb = f.coulomb_N[k], viscous = f.viscous_Ns_m[k];
-    for (double dc : {s.lo - s.mean(), s.hi - s.mean()})
-      for (double dv : {s.lo - s.mean_vv(), s.hi - s.mean_vv()})
-        for (double speed : {s.speed_lo, s.speed_hi}) {
-          const double friction = coulomb + coulomb_change * dc + (viscous + viscous_change * dv) * speed;
-          if (friction < 0.0)
-            return std::string("the friction change exceeds the friction the trace measures: friction against ") +
-                   (d == 0 ? "positive" : "negative") + " motion would turn negative within run " + std::to_string(k / 2 + 1);
-        }
+/// stay positive on every moving segment of every run, at that segment's
+/// speed and time (where the measured friction is not positive itself, a
+/// Coulomb estimate just below zero, the drift must not lower it further).
+/// Anchoring at the measured level, not at the joint fit's warm asymptote,
+/// matters: a time constant far beyond the run makes the decay nearly
+/// constant, and the joint fit then trades a huge asymptote against a huge
+/// change (-38 V "drift" against a 0.09 V Coulomb force on pooled SysId
+/// files). A change larger than the friction itself fails this test; a
+/// warm-up of the friction that is there never does.
+std::string drift_turns_friction_negative(const Observations& obs, const std::vector<double>& run_starts, double tc,
+                                          const MeasuredFriction& f, double viscous_change, double coulomb_change) {
+  const std::vector<DecayStats> st = decay_stats(obs, Observations::Resolution::fine, run_starts, tc);
+  for (const Segment& sg : obs.segments(Observations::Resolution::fine)) {
+    if (sg.block == Segment::kNoBlock) continue;
+    const std::size_t k = run_direction(sg, run_starts);
+    const double d = drift_decay(sg, run_starts, tc), speed = std::fabs(sg.v);
+    const double measured = f.coulomb_N[k] + f.viscous_Ns_m[k] * speed;
+    const double with_drift = measured + coulomb_change * (d - st[k].mean()) + viscous_change * (d - st[k].mean_vv()) * speed;
+    if (with_drift < std::min(0.0, measured))
+      return std::string("the friction change exceeds the friction the trace measures: friction against ") +
+             (sg.v > 0 ? "positive" : "negative") + " motion would turn negative in run " + std::to_string(k / 2 + 1) +
+             " at " + std::to_string(sg.t - run_starts[k / 2]) + " s";
   }
   return std::string();
 }
@@ -196,8 +192,8 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
     return p;
   };
   m.implausible = [&obs, starts = e.run_starts, friction](const nlohmann::json& p, double) {
-    const std::vector<DecayStats> st = decay_stats(obs, Observations::Resolution::fine, starts, p.value("time_constant_s", 1.0));
-    return drift_turns_friction_negative(st, friction, p.value("viscous_change_Ns_m", 0.0), p.value("coulomb_change_N", 0.0));
+    return drift_turns_friction_negative(obs, starts, p.value("time_constant_s", 1.0), friction,
+                                         p.value("viscous_change_Ns_m", 0.0), p.value("coulomb_change_N", 0.0));
   };
   return m;
 }
