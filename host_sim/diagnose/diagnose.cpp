@@ -105,6 +105,15 @@ struct BaseColumns {
   std::vector<double> vs_grid;
   bool stribeck[2] = {false, false};
   std::vector<std::array<int, 2>> grid[2];
+  /// Pooled runs after the first: their own Coulomb and viscous level per
+  /// direction (add_run_levels), where the run moves that way.
+  struct RunLevel {
+    std::size_t run = 0;
+    int direction = 0;  ///< 0 positive, 1 negative
+    bool viscous = false;
+    int col = 0;
+  };
+  std::vector<RunLevel> run_levels;
 };
 
 /// The base model at a vs per direction, plus named effects' columns.
@@ -127,8 +136,18 @@ std::vector<int> model_columns(const BaseColumns& b, const Model& m) {
       const auto& pair = b.grid[d][static_cast<std::size_t>(m.g[d])];
       c.insert(c.end(), pair.begin(), pair.end());
     }
+  for (const auto& l : b.run_levels) c.push_back(l.col);
   for (const auto& t : m.terms) c.insert(c.end(), t.cols.begin(), t.cols.end());
   return c;
+}
+
+/// Each run level's fitted change (parallel to b.run_levels).
+std::vector<double> run_level_changes(const BaseColumns& b, const Model& m) {
+  const std::vector<int> cols = model_columns(b, m);
+  std::vector<double> out;
+  for (const auto& l : b.run_levels)
+    out.push_back(m.fit.theta(static_cast<Eigen::Index>(std::find(cols.begin(), cols.end(), l.col) - cols.begin())));
+  return out;
 }
 
 /// Every column a fit with vs free may use.
@@ -136,6 +155,7 @@ std::vector<int> all_columns(const BaseColumns& b, const Model& m) {
   std::vector<int> c = b.fixed;
   for (int d = 0; d < 2; ++d)
     for (const auto& pair : b.grid[d]) c.insert(c.end(), pair.begin(), pair.end());
+  for (const auto& l : b.run_levels) c.push_back(l.col);
   for (const auto& t : m.terms) c.insert(c.end(), t.cols.begin(), t.cols.end());
   return c;
 }
@@ -173,6 +193,32 @@ BaseColumns add_base_columns(const Observations& obs, ColumnBank& bank, const Id
     for (int g = 0; g < n; ++g) b.grid[d].push_back({bank.add(c.col(2 * g)), bank.add(c.col(2 * g + 1))});
   }
   return b;
+}
+
+/// Pooled recordings are one drive in states the trace cannot relate: each
+/// file's friction level is set by its day (temperature, lubrication,
+/// preload), and the time between files is made up. A level per run is
+/// therefore part of the base model, not of any effect: every run after the
+/// first gets its own Coulomb and viscous change per direction it moves in,
+/// so that a candidate is judged only on what changes within runs. Without
+/// them the thermal drift read the level between files as a warm-up
+/// (-38 V over 123 s against a 0.09 V Coulomb force on pooled SysId
+/// files), and position friction could read it as a range of travel one
+/// file covers (docs/diagnosis.md, "Pooled runs").
+void add_run_levels(const Observations& obs, ColumnBank& bank, const std::vector<double>& run_starts, BaseColumns& b) {
+  for (std::size_t r = 1; r < run_starts.size(); ++r)
+    for (int d = 0; d < 2; ++d)
+      for (bool viscous : {false, true}) {
+        const Vec col = obs.sample_column([&](std::size_t j) {
+          const double v = obs.interval_v(j);
+          if ((d == 0 ? v <= 0 : v >= 0) || diag::run_of(run_starts, obs.interval_t(j)) != r) return 0.0;
+          return viscous ? v : (d == 0 ? 1.0 : -1.0);
+        });
+        bool identified = false;  // a level only held-out folds see cannot be fitted
+        for (std::size_t i = 0; i < obs.size() && !identified; ++i)
+          identified = !obs.obs()[i].heldout && col(static_cast<Eigen::Index>(i)) != 0.0;
+        if (identified) b.run_levels.push_back({r, d, viscous, bank.add(col)});
+      }
 }
 
 /// Fit with vs per direction picked on the grid by coordinate search: an
@@ -600,6 +646,33 @@ void report_offset_ambiguity(const Model& m, const DiagnoseOptions& opt, Diagnos
                     "this trace has no evidence that separates them (a force reading with the axis unloaded would)."}});
 }
 
+/// The base model's level per pooled run (add_run_levels) is a finding, not
+/// an effect: the runs' friction differs, and the trace cannot say whether
+/// by day, load or a warm-up between them. Reported beside the offset's
+/// ambiguity, with each run's change from the first.
+void report_run_levels(const BaseColumns& b, const Model& m, const DiagnoseOptions& opt, DiagnoseResult& out) {
+  if (b.run_levels.empty()) return;
+  const std::vector<double> change = run_level_changes(b, m);
+  const Units& u = opt.identify.units;
+  nlohmann::json runs = nlohmann::json::array();
+  std::string text;
+  for (std::size_t i = 0; i < b.run_levels.size(); ++i) {
+    const auto& l = b.run_levels[i];
+    const char* dir = l.direction == 0 ? "positive" : "negative";
+    runs.push_back({{"run", l.run + 1}, {"direction", dir}, {"term", l.viscous ? "viscous" : "coulomb"},
+                    {"change", change[i]}, {"unit", l.viscous ? u.viscous() : u.force}});
+    if (!l.viscous)
+      text += (text.empty() ? "" : ", ") + std::string("run ") + std::to_string(l.run + 1) + " " + dir + " " +
+              fmt(change[i], u.force);
+  }
+  out.ambiguities.push_back(
+      {{"kinds", {"run_friction_levels"}},
+       {"levels", runs},
+       {"note", "each pooled run has its own Coulomb and viscous friction level in the base model (Coulomb, from the "
+                "first run's: " + text + "): the time between recordings is unknown, so a difference between runs is "
+                "not read as a drift or any other effect"}});
+}
+
 // ---------------------------------------------------------------------------
 // 6. Where the gap lies.
 // ---------------------------------------------------------------------------
@@ -770,6 +843,31 @@ void keep_series(const Observations& obs, const Vec& r_base, const Vec& r_aug, D
   }
 }
 
+/// Where each pooled recording starts on the trace's clock (empty for one).
+std::vector<double> run_starts(const Trace& trace) {
+  std::vector<double> t;
+  for (const TraceRun& r : trace.runs)
+    if (r.first < trace.samples.size()) t.push_back(trace.samples[r.first].t_s);
+  return t;
+}
+
+/// theta: m, Fc+, Fc-, sigma+, sigma-: the friction the trace shows without any effect.
+/// Plus each run's own level (add_run_levels) for pooled runs.
+diag::MeasuredFriction measured_friction(const BaseColumns& b, const Model& base, std::size_t runs) {
+  const Vec& th = base.fit.theta;
+  diag::MeasuredFriction f;
+  for (std::size_t r = 0; r < runs; ++r) {
+    f.coulomb_N.insert(f.coulomb_N.end(), {th(1), th(2)});
+    f.viscous_Ns_m.insert(f.viscous_Ns_m.end(), {th(3), th(4)});
+  }
+  const std::vector<double> change = run_level_changes(b, base);
+  for (std::size_t i = 0; i < b.run_levels.size(); ++i) {
+    const auto& l = b.run_levels[i];
+    (l.viscous ? f.viscous_Ns_m : f.coulomb_N)[2 * l.run + static_cast<std::size_t>(l.direction)] += change[i];
+  }
+  return f;
+}
+
 bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseResult& out) {
   out.blocks_heldout = obs.heldout_count();
   out.blocks_identification = obs.size() - out.blocks_heldout - out.heldout_beyond_identification;
@@ -806,13 +904,16 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
   std::vector<char> id(obs.size());
   for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.obs()[i].heldout ? 0 : 1;
   ColumnBank bank(obs.sample_column([&](std::size_t j) { return obs.interval_force(j); }), id);
-  const BaseColumns base_cols = add_base_columns(obs, bank, out.base);
+  const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
+  BaseColumns base_cols = add_base_columns(obs, bank, out.base);
+  add_run_levels(obs, bank, extent.run_starts, base_cols);
   const Model base = fit_base(bank, base_cols, out.base);
   out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
   if (!enough_observations(trace, obs, out)) return out;
   if (opt.progress) opt.progress(0.2);
 
-  const std::vector<EffectModel> catalogue = diag::effect_catalogue(obs, diag::trace_extent(obs), out.lag_beyond_conventions_s);
+  const std::vector<EffectModel> catalogue =
+      diag::effect_catalogue(obs, extent, out.lag_beyond_conventions_s, measured_friction(base_cols, base, extent.run_starts.size()));
   const Stage st{obs, bank, base_cols, catalogue,
                  point_sampling_floor(obs, out.base.estimate.mass_kg, out.base.signals.force_convention == "instant")};
   const Model final_model = select_effects(st, base, opt, out);
@@ -823,6 +924,7 @@ DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
     out.has_augmented_model = true;
   }
   report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
+  report_run_levels(base_cols, out.effects.empty() ? base : final_model, opt, out);
   out.where = where_gap_lies(obs, base.residual, out.base, opt.block_s);
   if (out.gap_remains && !out.effects.empty()) out.where_left = where_gap_lies(obs, final_model.residual, out.base, opt.block_s);
   keep_series(obs, base.residual, out.effects.empty() ? base.residual : final_model.residual, out);

@@ -7,6 +7,12 @@
 #include <limits>
 
 namespace feedid::host::diag {
+
+std::size_t run_of(const std::vector<double>& run_starts, double t) {
+  const auto it = std::upper_bound(run_starts.begin(), run_starts.end(), t);
+  return it == run_starts.begin() ? 0 : static_cast<std::size_t>(it - run_starts.begin()) - 1;
+}
+
 namespace {
 
 /// Mean of exp(-s/d) while s runs linearly from s0 to s1.
@@ -98,21 +104,96 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
   return m;
 }
 
-/// Viscous and Coulomb friction decaying with time constant tc as the drive warms.
-EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e) {
+/// The warm-up's decay exp(-(t - t_run)/tc) on a segment: time counts from
+/// the start of the segment's own run, the only clock a recording carries.
+double drift_decay(const Segment& sg, const std::vector<double>& run_starts, double tc) {
+  return std::exp(-(sg.t - run_starts[run_of(run_starts, sg.t)]) / tc);
+}
+
+/// The decay's means over the moving segments of one run and direction
+/// (dt-weighted, for the Coulomb term; v^2 dt-weighted, for the viscous
+/// term: each the weight its term's least squares gives it).
+struct DecayStats {
+  double w = 0.0, w_vv = 0.0, sum = 0.0, sum_vv = 0.0;
+  double mean() const { return w > 0 ? sum / w : 0.0; }
+  double mean_vv() const { return w_vv > 0 ? sum_vv / w_vv : 0.0; }
+};
+
+/// Index of a segment's run and direction in decay_stats.
+std::size_t run_direction(const Segment& sg, const std::vector<double>& run_starts) {
+  return 2 * run_of(run_starts, sg.t) + (sg.v > 0 ? 0 : 1);
+}
+
+std::vector<DecayStats> decay_stats(const Observations& obs, Observations::Resolution r,
+                                    const std::vector<double>& run_starts, double tc) {
+  std::vector<DecayStats> st(2 * run_starts.size());
+  for (const Segment& sg : obs.segments(r)) {
+    if (sg.block == Segment::kNoBlock) continue;
+    const double d = drift_decay(sg, run_starts, tc), vv = sg.v * sg.v;
+    DecayStats& s = st[run_direction(sg, run_starts)];
+    s.w += sg.dt, s.sum += d * sg.dt;
+    s.w_vv += vv * sg.dt, s.sum_vv += d * vv * sg.dt;
+  }
+  return st;
+}
+
+/// Friction cannot push the axis along: with the drift's change added to
+/// the level the trace measures (the base model's friction, fitted without
+/// any effect: the run's mean), the friction force against the motion must
+/// stay positive on every moving segment of every run, at that segment's
+/// speed and time (where the measured friction is not positive itself, a
+/// Coulomb estimate just below zero, the drift must not lower it further).
+/// Anchoring at the measured level, not at the joint fit's warm asymptote,
+/// matters: a time constant far beyond the run makes the decay nearly
+/// constant, and the joint fit then trades a huge asymptote against a huge
+/// change (-38 V "drift" against a 0.09 V Coulomb force on pooled SysId
+/// files). A change larger than the friction itself fails this test; a
+/// warm-up of the friction that is there never does.
+std::string drift_turns_friction_negative(const Observations& obs, const std::vector<double>& run_starts, double tc,
+                                          const MeasuredFriction& f, double viscous_change, double coulomb_change) {
+  const std::vector<DecayStats> st = decay_stats(obs, Observations::Resolution::fine, run_starts, tc);
+  for (const Segment& sg : obs.segments(Observations::Resolution::fine)) {
+    if (sg.block == Segment::kNoBlock) continue;
+    const std::size_t k = run_direction(sg, run_starts);
+    const double d = drift_decay(sg, run_starts, tc), speed = std::fabs(sg.v);
+    const double measured = f.coulomb_N[k] + f.viscous_Ns_m[k] * speed;
+    const double with_drift = measured + coulomb_change * (d - st[k].mean()) + viscous_change * (d - st[k].mean_vv()) * speed;
+    if (with_drift < std::min(0.0, measured))
+      return std::string("the friction change exceeds the friction the trace measures: friction against ") +
+             (sg.v > 0 ? "positive" : "negative") + " motion would turn negative in run " + std::to_string(k / 2 + 1) +
+             " at " + std::to_string(sg.t - run_starts[k / 2]) + " s";
+  }
+  return std::string();
+}
+
+/// Viscous and Coulomb friction decaying with time constant tc as the drive
+/// warms, from the start of each run. Pooled runs (docs/diagnosis.md,
+/// "Pooled runs"): the time between recordings is made up, so no drift
+/// spans a run boundary; each run starts the decay afresh, with one
+/// amplitude for all (the same warm-up each time the machine is started).
+/// Each run's own friction level is in the base model (add_run_levels in
+/// diagnose.cpp), so only the change within a run is read as drift.
+EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, const MeasuredFriction& friction) {
   EffectModel m;
   m.kind = effect_name(Effect::thermal_drift);
-  m.grid = log_grid(std::max(1.0, 0.02 * e.duration), 5.0 * e.duration, 40);
+  m.grid = log_grid(std::max(1.0, 0.02 * e.longest_run_s), 5.0 * e.longest_run_s, 40);
   m.continuous = true;
-  m.columns = [&obs, t0 = e.t0](double tc, Observations::Resolution r) {
-    return obs.segment_columns(2, false, r, [t0, tc](std::size_t, const Segment& sg, double* out) {
-      const double decay = std::exp(-(sg.t - t0) / tc);
+  const bool pooled = e.run_starts.size() > 1;
+  m.columns = [&obs, starts = e.run_starts](double tc, Observations::Resolution r) {
+    return obs.segment_columns(2, false, r, [&](std::size_t, const Segment& sg, double* out) {
+      const double decay = drift_decay(sg, starts, tc);
       out[0] = sg.v * decay;
       out[1] = sign_of(sg) * decay;
     });
   };
-  m.parameters = [](double tc, const Vec& c, double) {
-    return nlohmann::json{{"time_constant_s", tc}, {"viscous_change_Ns_m", c(0)}, {"coulomb_change_N", c(1)}};
+  m.parameters = [pooled](double tc, const Vec& c, double) {
+    nlohmann::json p{{"time_constant_s", tc}, {"viscous_change_Ns_m", c(0)}, {"coulomb_change_N", c(1)}};
+    if (pooled) p["time_origin"] = "the start of each run";
+    return p;
+  };
+  m.implausible = [&obs, starts = e.run_starts, friction](const nlohmann::json& p, double) {
+    return drift_turns_friction_negative(obs, starts, p.value("time_constant_s", 1.0), friction,
+                                         p.value("viscous_change_Ns_m", 0.0), p.value("coulomb_change_N", 0.0));
   };
   return m;
 }
@@ -255,7 +336,7 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
 
 }  // namespace
 
-TraceExtent trace_extent(const Observations& obs) {
+TraceExtent trace_extent(const Observations& obs, const std::vector<double>& run_starts) {
   const Signals& s = obs.signals();
   TraceExtent e;
   const auto [lo, hi] = std::minmax_element(s.x.begin(), s.x.end());
@@ -264,12 +345,24 @@ TraceExtent trace_extent(const Observations& obs) {
   e.t0 = s.t.front();
   e.duration = s.t.back() - s.t.front();
   e.sample_rate_hz = s.sample_rate_hz;
+  e.run_starts = {e.t0};
+  for (double t : run_starts)
+    if (t > e.run_starts.back()) e.run_starts.push_back(t);
+  e.longest_run_s = 0.0;
+  for (std::size_t r = 0; r < e.run_starts.size(); ++r) {
+    // A run ends at its last sample: the next run's start less the made-up gap.
+    const double end = r + 1 < e.run_starts.size()
+                           ? *(std::lower_bound(s.t.begin(), s.t.end(), e.run_starts[r + 1]) - 1)
+                           : s.t.back();
+    e.longest_run_s = std::max(e.longest_run_s, end - e.run_starts[r]);
+  }
   return e;
 }
 
-std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s) {
+std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s,
+                                          const MeasuredFriction& friction) {
   return {offset_model(obs),          ripple_model(obs, e),    position_friction_model(obs, e),
-          thermal_drift_model(obs, e), quadratic_viscous_model(obs), presliding_model(obs, e),
+          thermal_drift_model(obs, e, friction), quadratic_viscous_model(obs), presliding_model(obs, e),
           compliance_model(obs, e),    delay_model(obs, e, lag_beyond_conventions_s)};
 }
 

@@ -33,11 +33,28 @@ struct TraceExtent {
   double x_lo = 0.0, travel = 0.0;  ///< m
   double t0 = 0.0, duration = 0.0;  ///< s
   double sample_rate_hz = 0.0;
+  /// Trace time each recording starts (the trace's start first; more when
+  /// runs are pooled, each after a made-up gap) and the longest one's length.
+  std::vector<double> run_starts;
+  double longest_run_s = 0.0;
 };
-TraceExtent trace_extent(const Observations& obs);
+/// run_starts: where pooled recordings start on the trace's clock (the first may be left out).
+TraceExtent trace_extent(const Observations& obs, const std::vector<double>& run_starts = {});
+
+/// Which run (index into TraceExtent::run_starts) time t lies in.
+std::size_t run_of(const std::vector<double>& run_starts, double t);
+
+/// Friction the base model measures, fitted without any effect, per run and
+/// direction (index 2 run + 0 for positive motion, + 1 for negative; both
+/// as magnitudes against the motion).
+struct MeasuredFriction {
+  std::vector<double> coulomb_N, viscous_Ns_m;
+};
 
 /// Every catalogue effect, in effect_kinds() order. A delay is physical only
 /// when the timing search found lag beyond the logging conventions.
-std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s);
+/// The thermal drift is physical only while it keeps the measured friction positive.
+std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s,
+                                          const MeasuredFriction& friction);
 
 }  // namespace feedid::host::diag
