@@ -41,6 +41,7 @@ struct ValidateCommand : Command {
                 r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
                 r.units.force.c_str());
     if (r.force_sign.sign < 0 || !r.force_sign.conclusive) std::printf("  force %s\n", r.force_sign.describe().c_str());
+    note_force_outliers(r.force_outliers, r.units);
     if (r.position_wrap.found()) std::printf("  position %s\n", r.position_wrap.describe().c_str());
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
     std::string err;

@@ -17,6 +17,7 @@
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
 #include "signals/filters.hpp"
+#include "signals/force_outliers.hpp"
 #include "signals/force_sign.hpp"
 #include "signals/position_wrap.hpp"
 
@@ -220,6 +221,9 @@ struct IdentifyResult {
   double residual_block_s = 0.01;  ///< block_length_s of the signals
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
+  /// Forces beyond the limit read from the data, bridged by their neighbours
+  /// (force_outliers.hpp).
+  ForceOutliers force_outliers;
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
   std::vector<feedid::Diagnostics> run_diagnostics; ///< the core's counters per run (parallel to runs)
   double duration_s = 0.0;

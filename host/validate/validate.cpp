@@ -59,14 +59,16 @@ void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<doub
 }
 
 ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
-  const std::size_t n = logged.samples.size();
   if (opt.decimate < 1) throw std::invalid_argument("--decimate must be >= 1");
   if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
-  if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
-    throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   ValidateResult r;
   r.units = opt.units;
-  const Trace trace = unwrapped(logged, r.position_wrap);
+  // The force outliers bridged as identify bridges them (force_outliers.hpp):
+  // one row of 1e12 would be all of ||u||.
+  const Trace trace = unwrapped(bridge_force_outliers(logged, opt.units.force, r.force_outliers), r.position_wrap);
+  const std::size_t n = trace.samples.size();
+  if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
+    throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   r.velocity_origin = trace.has_position ? "position, zero-phase Butterworth + central differences"
                                          : "velocity column, zero-phase Butterworth; acceleration by central differences";
   std::vector<double> v, a;
@@ -126,6 +128,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
             {"decimate", opt.decimate},
             {"anti_alias", "zero-phase 4th-order Butterworth at 0.8 x new Nyquist"}}},
           {"velocity", r.velocity_origin},
+          {"force_outlier_rows", r.force_outliers.rows},
+          {"force_outlier_limit", r.force_outliers.limit},
           {"force_sign", r.force_sign.sign},
           {"force_sign_origin", r.force_sign.describe()},
           {"position_unwraps", r.position_wrap.wraps},
