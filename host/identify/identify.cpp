@@ -869,12 +869,20 @@ nlohmann::json friction_model_json(const IdentifyResult& r) {
 }
 }  // namespace
 
+std::string not_physical(const IdentifyResult& r) {
+  if (r.status != feedid::Status::ok) return "";
+  return non_physical_parameters(to_drive_params(r.estimate), r.units);
+}
+
 nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
   nlohmann::json j;
   j["status"] = feedid::status_name(r.status);
   if (!r.error.empty()) j["error"] = r.error;
+  const std::string unphysical = not_physical(r);
+  j["physical"] = unphysical.empty();
+  if (!unphysical.empty()) j["not_physical"] = unphysical;
   j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
   j["m"] = e.mass_kg;
   j["m_se"] = e.mass_se_kg;
@@ -978,6 +986,9 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
   if (r.signals.position_hold_rows > 1 || r.signals.position_wrap.found()) o << "  position " << r.signals.position_origin << "\n";
+  const std::string unphysical = not_physical(r);
+  if (!unphysical.empty())
+    o << "  NOT PHYSICAL: " << unphysical << " (m must be positive, Fc and sigma not negative)\n";
   if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
     o << "  force " << r.signals.force_sign.describe() << "\n";

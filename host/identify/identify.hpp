@@ -363,6 +363,11 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
 
 
 
+/// The parameters of a solved result that are not physical
+/// (non_physical_parameters); empty when physical or not solved (status
+/// not ok: nothing to judge).
+std::string not_physical(const IdentifyResult& r);
+
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
 

@@ -44,6 +44,18 @@ Trace unwrapped(const Trace& logged, PositionWrap& wrap) {
   return trace;
 }
 
+/// A relative error ||u - u_hat|| / ||u|| needs a measured force to be
+/// relative to and finite sums; without them it printed "-nan %" and exited 0.
+void check_relative_error(double error_squares, double force_squares, const std::string& source) {
+  if (!std::isfinite(error_squares) || !std::isfinite(force_squares))
+    throw std::invalid_argument(source + ": the " + (std::isfinite(force_squares) ? "predicted" : "measured") +
+                                " force is not finite: no relative error to form (a model parameter that is not a "
+                                "finite number?)");
+  if (!(force_squares > 0.0))
+    throw std::invalid_argument(source + ": the measured force is zero on every sample compared: no relative error "
+                                         "to form (is --force the force column?)");
+}
+
 }  // namespace
 
 void protocol_derivatives(const Trace& trace, double filter_hz, std::vector<double>& v, std::vector<double>& a) {
@@ -85,6 +97,7 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
     e2 += (u[k] - u_hat[k]) * (u[k] - u_hat[k]);
     u2 += u[k] * u[k];
   }
+  check_relative_error(e2, u2, trace.source);
   r.relative_error_full_pct = 100.0 * std::sqrt(e2 / u2);
 
   // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
@@ -108,6 +121,7 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
     r.v.push_back(v[k]);
   }
   r.samples_used = r.t.size();
+  check_relative_error(e2, u2, trace.source);
   r.relative_error_pct = 100.0 * std::sqrt(e2 / u2);
   r.error_norm_N = std::sqrt(e2);
   r.rms_error_N = std::sqrt(e2 / static_cast<double>(r.samples_used));

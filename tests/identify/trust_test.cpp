@@ -1,6 +1,7 @@
 // Answers users can trust (issue 30): a force outlier neither turns nor
-// shifts the model, and a log in another force unit identifies as the
-// same model in that unit.
+// shifts the model, a log in another force unit identifies as the same
+// model in that unit, and a model that is not physical is said so by
+// identify, refused by compensate, and no relative error is NaN.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -9,8 +10,10 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "compensate/compensate.hpp"
 #include "identify/identify.hpp"
 #include "test_support.hpp"
+#include "validate/validate.hpp"
 
 namespace feedid::host {
 namespace {
@@ -55,6 +58,7 @@ TEST(Trust, OneOutlierRowChangesNothing) {
     const IdentifyResult r = identify(tr, IdentifyOptions{});
     ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
     EXPECT_EQ(r.signals.force_sign.sign, 1) << outlier;
+    EXPECT_TRUE(not_physical(r).empty()) << not_physical(r);
     EXPECT_EQ(r.force_outliers.rows, 1u) << outlier;
     ASSERT_EQ(r.force_outliers.first.size(), 1u);
     EXPECT_NE(r.force_outliers.first[0].find("sim.csv: t = "), std::string::npos) << r.force_outliers.first[0];
@@ -84,6 +88,64 @@ TEST(Trust, AScaledForceIdentifiesAsTheScaledModel) {
       EXPECT_NEAR(got.value[i] / (scale * want.value[i]), 1.0, 1e-6) << kNames[i] << " at " << scale;
       EXPECT_NEAR(got.se[i] / (scale * want.se[i]), 1.0, 1e-6) << kNames[i] << " s.e. at " << scale;
     }
+  }
+}
+
+// GIVEN a reversed force log identified with its sign stated as logged,
+// THEN the model is not physical, and says so: not_physical names the
+// negative parameters, the JSON has physical false, and compensate
+// refuses it (exit 2, nothing written) instead of writing negative friction.
+TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
+  Trace tr = sim_trace();
+  for (auto& s : tr.samples) s.u_N = -s.u_N;
+  IdentifyOptions stated;
+  stated.force_sign = 1;
+  const IdentifyResult r = identify(tr, stated);
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  const std::string why = not_physical(r);
+  EXPECT_NE(why.find("m = -"), std::string::npos) << why;
+  EXPECT_NE(why.find("sigma+ = -"), std::string::npos) << why;
+  EXPECT_NE(why.find("Fc- = -"), std::string::npos) << why;
+  const nlohmann::json j = to_json(r);
+  EXPECT_FALSE(j.at("physical").get<bool>());
+  EXPECT_NE(summary(r).find("NOT PHYSICAL"), std::string::npos);
+  EXPECT_TRUE(to_json(clean()).at("physical").get<bool>());
+  EXPECT_TRUE(not_physical(clean()).empty());
+
+  const auto dir = std::filesystem::temp_directory_path() / "feedid_trust_test";
+  std::filesystem::create_directories(dir);
+  const std::string model = (dir / "id.json").string(), table = (dir / "table.json").string();
+  std::filesystem::remove(table);
+  std::ofstream(model) << j.dump();
+  EXPECT_EQ(run_compensate(model, table, "json", CompensateOptions{}), 2);
+  EXPECT_FALSE(std::filesystem::exists(table));
+  EXPECT_NE(unusable_model(j).find("not physical"), std::string::npos) << unusable_model(j);
+  std::ofstream(model) << to_json(clean()).dump();
+  EXPECT_EQ(run_compensate(model, table, "json", CompensateOptions{}), 0);
+  EXPECT_TRUE(std::filesystem::exists(table));
+}
+
+// GIVEN a model JSON whose identification failed, THEN compensate names
+// the status instead of tabulating zeros.
+TEST(Trust, CompensateRefusesAFailedIdentification) {
+  nlohmann::json j = to_json(clean());
+  j["status"] = "insufficient_data";
+  j["error"] = "sim.csv: not enough motion to identify";
+  const std::string why = unusable_model(j);
+  EXPECT_NE(why.find("insufficient_data"), std::string::npos) << why;
+  EXPECT_NE(why.find("not enough motion"), std::string::npos) << why;
+}
+
+// GIVEN a trace whose force is zero throughout, THEN validate has no
+// relative error to give and says why (it printed "-nan %" and exited 0).
+TEST(Trust, ValidateOfAZeroForceIsAnError) {
+  Trace tr = sim_trace();
+  for (auto& s : tr.samples) s.u_N = 0.0;
+  try {
+    (void)validate(to_drive_params(clean().estimate), tr, ValidateOptions{});
+    ADD_FAILURE() << "validate gave a relative error of a zero force";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("zero on every sample"), std::string::npos) << e.what();
   }
 }
 

@@ -97,6 +97,7 @@ TEST_F(Emps, OutlierRowsAndForceUnitsLeaveTheModel) {
     ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
     EXPECT_EQ(r.signals.force_sign.sign, 1);
     EXPECT_EQ(r.force_outliers.rows, 1u);
+    EXPECT_TRUE(not_physical(r).empty()) << not_physical(r);
     const auto got = key_parameters(r.estimate);
     for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / want[i], 1.0, 1e-5) << i << " at " << outlier;
   }
