@@ -191,6 +191,11 @@ Trace run_simulation(const SimConfig& cfg) {
   return simulate(cfg, cfg.motion.duration_s > 120 ? std::function<void(double)>(std::ref(p)) : nullptr);
 }
 
+void note_force_outliers(const ForceOutliers& out, const Units& units) {
+  if (out.rows > 0)
+    std::fprintf(stderr, "note: %s; first: %s\n", out.describe(units.force).c_str(), out.first.front().c_str());
+}
+
 int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth) {
   if (!json_path.empty()) {
     auto j = to_json(r);
@@ -201,7 +206,23 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
     std::fprintf(stderr, "error: %s\n", r.error.c_str());
     return 2;
   }
+  note_force_outliers(r.force_outliers, r.units);
+  if (r.diagnostics.rejected_out_of_range > 0)
+    std::fprintf(stderr, "note: the core rejected %llu sample%s out of range (speed beyond %g %s or force beyond %g %s; "
+                 "counts.first_rejections names the first)\n",
+                 static_cast<unsigned long long>(r.diagnostics.rejected_out_of_range),
+                 r.diagnostics.rejected_out_of_range == 1 ? "" : "s", r.config.max_speed_m_s,
+                 r.units.velocity().c_str(), r.config.max_force_N, r.units.force.c_str());
   std::cout << summary(r, truth);
+  const std::string unphysical = not_physical(r);
+  if (!unphysical.empty()) {
+    std::fprintf(stderr, "error: the identified model is not physical: %s. Such a model pushes with the motion, and so "
+                 "would a compensation from it. All of them negative: the force was taken with the wrong sign "
+                 "(--force-scale -1 reverses it where its sign is unconfirmed); one within its standard error of "
+                 "zero: the data do not resolve it; a zero mass or friction: the force carries no signal\n",
+                 unphysical.c_str());
+    return 2;
+  }
   return 0;
 }
 

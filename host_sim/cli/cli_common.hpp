@@ -57,6 +57,8 @@ Trace run_simulation(const SimConfig& cfg);
 
 /// Prints the identify summary, writes its JSON if asked; the exit code.
 int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth);
+/// A note on stderr of the force rows left out as outliers, naming the first (nothing if none).
+void note_force_outliers(const ForceOutliers& out, const Units& units);
 
 /// Whether identify streams: asked, or one CSV above 512 MB (loading it
 /// would take several times its size in memory).

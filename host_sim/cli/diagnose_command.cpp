@@ -44,6 +44,7 @@ struct DiagnoseCommand : Command {
     const DiagnoseResult r = diagnose(csv.trace, opt);
     if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
     if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
+    note_force_outliers(r.force_outliers, opt.identify.units);
     std::cout << summary(r);
     return write_report(r, report_dir, csv.trace.source);
   }

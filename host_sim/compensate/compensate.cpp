@@ -163,6 +163,16 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
   return o.str();
 }
 
+std::string unusable_model(const nlohmann::json& mj) {
+  if (mj.contains("status") && mj["status"] != "ok")
+    return "identify did not solve it (status " + mj["status"].dump() +
+           (mj.contains("error") && mj["error"].is_string() ? ": " + mj["error"].get<std::string>() : std::string()) + ")";
+  const std::string unphysical = non_physical_parameters(model_from_json(mj));
+  if (!unphysical.empty())
+    return "the model is not physical: " + unphysical + " (a compensation from it would push with the motion)";
+  return "";
+}
+
 int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
                    CompensateOptions opt) {
   nlohmann::json mj;
@@ -170,6 +180,16 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     mj = read_json_file(model_path);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  std::string unusable;
+  try {
+    unusable = unusable_model(mj);
+  } catch (const std::exception& e) {
+    unusable = e.what();
+  }
+  if (!unusable.empty()) {
+    std::fprintf(stderr, "error: %s: %s: no compensation written\n", model_path.c_str(), unusable.c_str());
     return 2;
   }
   if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))

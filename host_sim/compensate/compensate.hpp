@@ -50,6 +50,11 @@ double table_error(const CompensationTable& t, int dir, int n = 20000);
 
 nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt);
 std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
+/// Why a model JSON cannot be compensated with: identify's status is not
+/// ok, or a parameter breaks the model's sign rule (non_physical_parameters);
+/// empty when it can. Throws as model_from_json on a malformed model.
+std::string unusable_model(const nlohmann::json& model);
+
 /// `feedid compensate`: reads the model JSON, writes the table; returns the exit code.
 int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
                    CompensateOptions opt);

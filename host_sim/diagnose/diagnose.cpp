@@ -885,8 +885,10 @@ bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseRe
 
 }  // namespace
 
-DiagnoseResult diagnose(const Trace& trace, const DiagnoseOptions& opt) {
+DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   DiagnoseResult out;
+  // Residuals are read block by block: one force row of 1e12 would be all of them.
+  const Trace trace = bridge_force_outliers(logged, opt.identify.units.force, out.force_outliers);
   if (trace.samples.size() < 1000) {
     out.error = trace.source + ": trace too short to diagnose: " + std::to_string(trace.samples.size()) +
                 " samples (need at least 1000, moving in both directions)";
@@ -1016,7 +1018,8 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"convention_force_delay_limit_periods", convention_force_delay_limit()},
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
                           "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
-  j["input"] = {{"position", r.position_origin}, {"force_sign", r.base.signals.force_sign.sign},
+  j["input"] = {{"position", r.position_origin}, {"force_outlier_rows", r.force_outliers.rows},
+                {"force_outlier_limit", r.force_outliers.limit}, {"force_sign", r.base.signals.force_sign.sign},
                 {"force_sign_origin", r.base.signals.force_sign.describe()}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},
                 {"folds", r.folds}, {"blocks_identification", r.blocks_identification},
@@ -1042,6 +1045,7 @@ std::string summary(const DiagnoseResult& r) {
     o << "  " << r.heldout_beyond_identification
       << " held-out observations set aside: the identification folds do not pin the base model down there (prediction variance above half the noise)\n";
   if (r.position_origin != "measured") o << "position " << r.position_origin << "\n";
+  if (r.force_outliers.rows > 0) o << "force: " << r.force_outliers.describe(N) << "\n";
   const ForceSign& sign = r.base.signals.force_sign;
   if (sign.sign < 0 || !sign.conclusive) o << "force " << sign.describe() << "\n";
   o << "effect: " << r.effect << "\n";

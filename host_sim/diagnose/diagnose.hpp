@@ -97,6 +97,7 @@ struct DiagnoseResult {
   double force_lag_s = 0.0;               ///< lag the base model pairs force with (s)
   double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
   std::string position_origin = "measured";  ///< or how it was obtained (integrated from velocity)
+  ForceOutliers force_outliers;  ///< forces beyond the data's limit, bridged as identify bridges them
   int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)
   // Series for the report (observations): centre time, position, velocity, residual before/after.
   std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;

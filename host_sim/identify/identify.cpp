@@ -452,7 +452,9 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
     if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
   c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
   c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
-  c.max_force_N = 1e9;
+  // From the data, so that it scales with the force's unit (force_outliers.hpp):
+  // identify has bridged what lay beyond it; a streamed log's core rejects it.
+  c.max_force_N = force_outlier_limit(s.x, s.u);
   c.max_gap_s = s.max_step_s();
   c.mass_window_s = std::max(0.02, 20.0 * dt);
   c.min_section_s = std::max(0.02, 10.0 * dt);
@@ -495,9 +497,11 @@ std::vector<feedid::Diagnostics> per_run(const std::vector<feedid::Diagnostics>&
 }
 }  // namespace
 
-IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt) {
+IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
   IdentifyResult r;
   r.units = opt.units;
+  // Every stage sees the trace with its force outliers bridged (force_outliers.hpp).
+  const Trace trace = bridge_force_outliers(logged, opt.units.force, r.force_outliers);
   r.rows_skipped = trace.rows_skipped;
   r.rows_repeated = trace.rows_repeated;
   r.skipped_rows = trace.skipped_rows;
@@ -805,12 +809,20 @@ nlohmann::json friction_model_json(const IdentifyResult& r) {
 }
 }  // namespace
 
+std::string not_physical(const IdentifyResult& r) {
+  if (r.status != feedid::Status::ok) return "";
+  return non_physical_parameters(to_drive_params(r.estimate), r.units);
+}
+
 nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
   nlohmann::json j;
   j["status"] = feedid::status_name(r.status);
   if (!r.error.empty()) j["error"] = r.error;
+  const std::string unphysical = not_physical(r);
+  j["physical"] = unphysical.empty();
+  if (!unphysical.empty()) j["not_physical"] = unphysical;
   j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
   j["m"] = e.mass_kg;
   j["m_se"] = e.mass_se_kg;
@@ -854,7 +866,9 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_column_gain", std::isfinite(r.signals.velocity_column_gain) ? nlohmann::json(r.signals.velocity_column_gain) : nlohmann::json()},
                 {"velocity_column_used", r.signals.has_velocity_column},
                 {"position_quantum_m", r.signals.position_quantum_m},
-                {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+                {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows},
+                {"force_outlier_rows", r.force_outliers.rows}, {"force_outlier_limit", r.force_outliers.limit},
+                {"force_outliers", r.force_outliers.first}};
   if (r.streamed)
     j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
                              "errors from a jackknife over ten groups of 10 s blocks dealt round-robin, and the timing "
@@ -882,6 +896,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["config"] = {{"velocity_min_m_s", c.velocity_min_m_s}, {"velocity_max_m_s", c.velocity_max_m_s},
                  {"velocity_resolution_m_s", c.velocity_resolution_m_s}, {"section_enter_m_s", c.section_enter_m_s},
                  {"mass_window_s", c.mass_window_s}, {"max_step_speed_ratio", c.max_step_speed_ratio},
+                 {"max_force_N", c.max_force_N},
                  {"max_acceleration_m_s2", c.max_acceleration_m_s2}, {"max_gap_s", c.max_gap_s},
                  {"stribeck_search_m_s", {feedid::analysis::stribeck_lo(c), feedid::analysis::stribeck_hi(c)}},
                  {"force_lag_samples", c.force_lag_samples}};
@@ -912,6 +927,10 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";
   if (r.signals.position_hold_rows > 1 || r.signals.position_wrap.found()) o << "  position " << r.signals.position_origin << "\n";
+  const std::string unphysical = not_physical(r);
+  if (!unphysical.empty())
+    o << "  NOT PHYSICAL: " << unphysical << " (m must be positive, Fc and sigma not negative)\n";
+  if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
     o << "  force " << r.signals.force_sign.describe() << "\n";
   const Units& u = r.units;

@@ -18,6 +18,7 @@
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
 #include "signals/condition.hpp"
+#include "signals/force_outliers.hpp"
 
 namespace feedid::host {
 
@@ -141,6 +142,9 @@ struct IdentifyResult {
   double residual_block_s = 0.01;  ///< block_length_s of the signals
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
+  /// Forces beyond the limit read from the data, bridged by their neighbours
+  /// (force_outliers.hpp).
+  ForceOutliers force_outliers;
   std::vector<TraceRun> runs;                       ///< pooled recordings (empty for one file)
   std::vector<feedid::Diagnostics> run_diagnostics; ///< the core's counters per run (parallel to runs)
   double duration_s = 0.0;
@@ -323,6 +327,11 @@ BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePai
 
 
 
+
+/// The parameters of a solved result that are not physical
+/// (non_physical_parameters); empty when physical or not solved (status
+/// not ok: nothing to judge).
+std::string not_physical(const IdentifyResult& r);
 
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);

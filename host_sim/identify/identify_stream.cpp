@@ -167,8 +167,12 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     r.error = in.error().empty() ? source + ": too short to identify" : in.error();
     return r;
   }
-  // Conventions, velocity and band edges from the head.
-  r.signals = prepare_signals(chunk, opt);
+  // Conventions, velocity and band edges from the head with its force
+  // outliers bridged; the core rejects those of every chunk by the head's
+  // limit (auto_config's max_force_N), counting them as out of range.
+  r.signals = prepare_signals(bridge_force_outliers(chunk, opt.units.force, r.force_outliers), opt);
+  r.force_outliers.rows = 0;
+  r.force_outliers.first.clear();
   const IdentifyOptions fixed = stated_from(r.signals, opt);
   auto cores = std::make_unique<StreamedCores>();
   r.config = auto_config(r.signals, opt);  // kept as asked when init() rejects it, as identify() does

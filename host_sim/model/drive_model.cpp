@@ -2,6 +2,7 @@
 #include "drive_model.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <stdexcept>
 #include <utility>
@@ -48,6 +49,24 @@ DriveParams to_drive_params(const feedid::Estimate<double>& e) {
   p.pos = dir(e.pos);
   p.neg = dir(e.neg);
   return p;
+}
+
+std::string non_physical_parameters(const DriveParams& p, const Units& units) {
+  std::string out;
+  auto check = [&](bool physical, const std::string& name, double value, const std::string& unit) {
+    if (physical) return;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s%s = %.4g %s", out.empty() ? "" : ", ", name.c_str(), value, unit.c_str());
+    out += buf;
+  };
+  check(p.mass_kg > 0.0, "m", p.mass_kg, units.mass());
+  for (int d = 0; d < 2; ++d) {
+    const DirectionFriction& f = d == 0 ? p.pos : p.neg;
+    const std::string s = d == 0 ? "+" : "-";
+    check(f.coulomb_N >= 0.0, "Fc" + s, f.coulomb_N, units.force);
+    check(f.viscous_Ns_m >= 0.0, "sigma" + s, f.viscous_Ns_m, units.viscous());
+  }
+  return out;
 }
 
 double predict_force(const DriveParams& p, double v_m_s, double a_m_s2) {

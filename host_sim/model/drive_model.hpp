@@ -45,6 +45,12 @@ DriveParams to_drive_params(const feedid::Estimate<double>& e);
 /// core's model functions (friction_magnitude, feedforward).
 feedid::Estimate<double> to_estimate(const DriveParams& p);
 
+/// The parameters that break the model's sign rule, the core's
+/// flag_not_physical (m > 0, Fc >= 0 and sigma >= 0 in both directions), as
+/// "m = -95.2 kg, Fc+ = -20.1 N"; empty for a physical model. Such a model
+/// pushes with the motion, and a friction feedforward from it would too.
+std::string non_physical_parameters(const DriveParams& p, const Units& units = {});
+
 /// Force the model predicts for velocity v and acceleration a (N).
 double predict_force(const DriveParams& p, double v_m_s, double a_m_s2);
 

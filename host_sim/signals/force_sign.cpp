@@ -1,48 +1,86 @@
 #include "force_sign.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 namespace feedid::host {
 namespace {
 
-/// Force times travel and travel, per direction of the step.
-struct TravelWork {
-  double work[2] = {0.0, 0.0};    ///< sum u dx over steps with dx > 0, dx < 0
-  double travel[2] = {0.0, 0.0};  ///< sum |dx| over the same steps
+/// A force over a step of travel |dx| (the weight of the force in a mean over travel).
+struct ForceOverTravel {
+  double force = 0.0;
+  double travel = 0.0;
 };
 
-TravelWork travel_work(const std::vector<double>& t, const std::vector<double>& x, const std::vector<double>& u,
-                       double max_step_s) {
-  TravelWork w;
+/// Forces over the steps that move, per direction ([0]: dx > 0, [1]: dx < 0).
+struct TravelForces {
+  std::vector<ForceOverTravel> of[2];
+  double travel[2] = {0.0, 0.0};
+};
+
+TravelForces travel_forces(const std::vector<double>& t, const std::vector<double>& x, const std::vector<double>& u,
+                           double max_step_s) {
+  TravelForces w;
   for (std::size_t k = 1; k < t.size() && k < x.size() && k < u.size(); ++k) {
     const double dx = x[k] - x[k - 1];
     if (t[k] - t[k - 1] > max_step_s || dx == 0.0 || !std::isfinite(u[k] * dx)) continue;
     const int d = dx > 0 ? 0 : 1;
-    w.work[d] += u[k] * dx;
+    w.of[d].push_back({u[k], std::fabs(dx)});
     w.travel[d] += std::fabs(dx);
   }
   return w;
+}
+
+/// The travel-weighted mean of the forces with kSignTrimmedShare of the
+/// travel cut off at either end of their range (a step straddling a cut
+/// counts with the part inside).
+double trimmed_mean(std::vector<ForceOverTravel> f) {
+  std::sort(f.begin(), f.end(), [](const ForceOverTravel& a, const ForceOverTravel& b) { return a.force < b.force; });
+  double total = 0.0;
+  for (const auto& s : f) total += s.travel;
+  const double lo = kSignTrimmedShare * total, hi = (1.0 - kSignTrimmedShare) * total;
+  double below = 0.0, sum = 0.0, kept = 0.0;
+  for (const auto& s : f) {
+    const double inside = std::min(below + s.travel, hi) - std::max(below, lo);
+    if (inside > 0.0) {
+      sum += s.force * inside;
+      kept += inside;
+    }
+    below += s.travel;
+  }
+  return kept > 0.0 ? sum / kept : 0.0;
+}
+
+/// The forces of both directions along the motion (u sign(dx)), or their magnitudes.
+std::vector<ForceOverTravel> along_motion(const TravelForces& w, bool magnitude) {
+  std::vector<ForceOverTravel> out;
+  for (int d = 0; d < 2; ++d)
+    for (const auto& s : w.of[d]) out.push_back({magnitude ? std::fabs(s.force) : (d == 0 ? s.force : -s.force), s.travel});
+  return out;
 }
 
 }  // namespace
 
 ForceSign find_force_sign(const std::vector<double>& t, const std::vector<double>& x, const std::vector<double>& u,
                           double max_step_s) {
-  const TravelWork w = travel_work(t, x, u, max_step_s);
+  const TravelForces w = travel_forces(t, x, u, max_step_s);
   const double total = w.travel[0] + w.travel[1];
   ForceSign f;
   if (!(total > 0.0)) return f;  // no motion: as logged, ratio NaN
   f.both_directions = w.travel[0] >= 0.1 * total && w.travel[1] >= 0.1 * total;
   if (f.both_directions) {
-    const double f_pos = w.work[0] / w.travel[0], f_neg = -w.work[1] / w.travel[1];
+    const double f_pos = trimmed_mean(w.of[0]), f_neg = trimmed_mean(w.of[1]);
     const double magnitude = std::fabs(f_pos) + std::fabs(f_neg);
     if (!(magnitude > 0.0)) return f;
     f.ratio = (f_pos - f_neg) / magnitude;
   } else {
-    const double absolute = std::fabs(w.work[0]) + std::fabs(w.work[1]);
-    if (!(absolute > 0.0)) return f;
-    f.ratio = (w.work[0] + w.work[1]) / absolute;
+    // Forces along the motion and their magnitudes share the travel
+    // weights, and u sign(dx) <= |u| sample by sample, so their trimmed
+    // means keep that order: the ratio is in [-1, 1].
+    const double magnitude = trimmed_mean(along_motion(w, true));
+    if (!(magnitude > 0.0)) return f;
+    f.ratio = trimmed_mean(along_motion(w, false)) / magnitude;
   }
   f.conclusive = std::fabs(f.ratio) > kConclusiveSignRatio;
   f.sign = f.ratio < -kConclusiveSignRatio ? -1 : 1;
@@ -61,8 +99,10 @@ std::string ForceSign::describe() const {
   if (!std::isfinite(ratio)) return "as logged (no motion to check its sign by)";
   char evidence[160];
   std::snprintf(evidence, sizeof evidence, both_directions
-                    ? "mean force over positive travel less that over negative travel: %+.0f %% of their magnitudes"
-                    : "net work on the motion, which went one way only: %+.0f %% of its absolute work",
+                    ? "interquartile mean force over positive travel less that over negative travel: %+.0f %% of "
+                      "their magnitudes"
+                    : "interquartile mean force along the motion, which went one way only: %+.0f %% of that of its "
+                      "magnitude",
                 100.0 * ratio);
   char buf[400];
   if (sign < 0)

@@ -13,22 +13,33 @@ namespace feedid::host {
 
 /// How far beyond zero the sign's evidence must lie to count as known
 /// (a ratio in [-1, 1], find_force_sign). Friction opposes the motion in
-/// both directions, so the mean force over positive travel exceeds the
-/// mean over negative travel by Fc+ + Fc-, whatever constant offset
-/// (gravity on a vertical axis) both carry; over their sum of magnitudes
-/// that is 1 without an offset (the EMPS and SysId logs, the simulator)
-/// and Fc / offset with one: 0.2 is an offset up to five times the friction.
+/// both directions, so the force over positive travel exceeds the force
+/// over negative travel by Fc+ + Fc-, whatever constant offset (gravity on
+/// a vertical axis) both carry; over their sum of magnitudes that is 1
+/// without an offset (the EMPS and SysId logs, the simulator) and
+/// Fc / offset with one: 0.2 is an offset up to five times the friction.
 /// Inertia adds the kinetic energy a direction's travel ends with, which
 /// from rest is positive too.
 constexpr double kConclusiveSignRatio = 0.2;
+
+/// Share of each direction's travel cut off at either end of its forces
+/// before they are averaged (an interquartile mean): one force row of 1e12
+/// in a log peaking at 152 N (EMPS) outweighed all the others in a plain
+/// mean and negated every force. Samples holding less than a quarter of a
+/// direction's travel, however far out, can move its trimmed mean only
+/// within the range of the other forces; friction shifts the whole
+/// distribution, which the trimmed mean keeps.
+constexpr double kSignTrimmedShare = 0.25;
 
 /// What the logged force was multiplied by, and why.
 struct ForceSign {
   int sign = 1;  ///< +1: as logged; -1: negated
   /// The evidence, of the force as logged, in [-1, 1] (NaN: no motion).
-  /// With travel both ways: (f+ - f-) / (|f+| + |f-|), f+ and f- the mean
-  /// force over positive and over negative travel. Travel one way only:
-  /// the net work over the absolute work, sum u dx / sum |u dx|.
+  /// Means are over travel (weighted by |dx|) and interquartile
+  /// (kSignTrimmedShare). With travel both ways: (f+ - f-) / (|f+| + |f-|),
+  /// f+ and f- the mean force over positive and over negative travel.
+  /// Travel one way only: the mean force along the motion, u sign(dx),
+  /// over the mean of |u| (the net work over the absolute work, robustly).
   double ratio = std::numeric_limits<double>::quiet_NaN();
   bool both_directions = false;  ///< which of the two the ratio is
   /// The ratio is beyond +-kConclusiveSignRatio (or the sign was stated).

@@ -56,7 +56,19 @@ struct ErrorSums {
     error += (u - u_hat) * (u - u_hat);
     force += u * u;
   }
-  double relative_pct() const { return force > 0 ? 100.0 * std::sqrt(error / force) : 0.0; }
+  /// 100 ||u - u_hat|| / ||u||; an error naming why when there is no
+  /// measured force to be relative to or a sum is not finite (it printed
+  /// "-nan %" and exited 0).
+  double relative_pct(const std::string& source) const {
+    if (!std::isfinite(error) || !std::isfinite(force))
+      throw std::invalid_argument(source + ": the " + (std::isfinite(force) ? "predicted" : "measured") +
+                                  " force is not finite: no relative error to form (a model parameter that is not a "
+                                  "finite number?)");
+    if (!(force > 0.0))
+      throw std::invalid_argument(source + ": the measured force is zero on every sample compared: no relative error "
+                                           "to form (is --force the force column?)");
+    return 100.0 * std::sqrt(error / force);
+  }
 };
 
 /// Adds one stretch to the sums and the decimated series: every sample
@@ -101,8 +113,10 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
     throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
   ValidateResult r;
   r.units = opt.units;
-  // The time base, gaps, wrap and force sign identify uses (condition.hpp).
-  const Signals s = condition(logged, ConditionOptions{});
+  // The force outliers bridged, and the time base, gaps, wrap and force
+  // sign, as identify has them (force_outliers.hpp, condition.hpp): one
+  // row of 1e12 would be all of ||u||.
+  const Signals s = condition(bridge_force_outliers(logged, opt.units.force, r.force_outliers), ConditionOptions{});
   r.force_sign = s.force_sign;
   r.position_wrap = s.position_wrap;
   r.stretches_on_clock_slots = s.stretches_on_clock_slots;
@@ -117,8 +131,8 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
   if (r.samples_used == 0)
     throw std::invalid_argument(logged.source + ": no stretch between time gaps is longer than --drop-first (" +
                                 std::to_string(opt.drop_first) + " samples): nothing to validate on");
-  r.relative_error_full_pct = full.relative_pct();
-  r.relative_error_pct = decimated.relative_pct();
+  r.relative_error_full_pct = full.relative_pct(logged.source);
+  r.relative_error_pct = decimated.relative_pct(logged.source);
   r.error_norm_N = std::sqrt(decimated.error);
   r.rms_error_N = std::sqrt(decimated.error / static_cast<double>(r.samples_used));
   return r;
@@ -142,6 +156,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"stretches_scored", r.stretches_scored},
           {"stretches_resampled", r.stretches_resampled},
           {"stretches_on_clock_slots", r.stretches_on_clock_slots},
+          {"force_outlier_rows", r.force_outliers.rows},
+          {"force_outlier_limit", r.force_outliers.limit},
           {"force_sign", r.force_sign.sign},
           {"force_sign_origin", r.force_sign.describe()},
           {"position_unwraps", r.position_wrap.wraps},

@@ -10,6 +10,7 @@
 #include "model/drive_model.hpp"
 #include "io/trace.hpp"
 #include "io/units.hpp"
+#include "signals/force_outliers.hpp"
 #include "signals/force_sign.hpp"
 #include "signals/position_wrap.hpp"
 
@@ -39,6 +40,7 @@ struct ValidateResult {
   /// What the logged force was multiplied by before the comparison (found
   /// from its work on the motion, as identify finds it).
   ForceSign force_sign;
+  ForceOutliers force_outliers;  ///< forces beyond the data's limit, bridged as identify bridges them
   PositionWrap position_wrap;  ///< jumps of a wrapped position taken out, as identify takes them out
   Units units;  ///< ValidateOptions::units
 };

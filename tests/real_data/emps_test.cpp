@@ -4,6 +4,7 @@
 // relative force error 5.98 %).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <filesystem>
 #include <random>
 
@@ -161,6 +162,46 @@ TEST_F(Emps, ValidateWithJitteredStampsFindsTheLogsClock) {
   // is smoother, and the error is the clean run's within 1 %
   EXPECT_EQ(r.stretches_on_clock_slots, 1u);
   EXPECT_NEAR(r.relative_error_pct, full, 0.01 * full);
+}
+
+/// m, sigma+, Fc+, sigma-, Fc-.
+std::array<double, 5> key_parameters(const feedid::Estimate<double>& e) {
+  return {e.mass_kg, e.pos.viscous_Ns_m, e.pos.coulomb_N, e.neg.viscous_Ns_m, e.neg.coulomb_N};
+}
+
+// GIVEN the EMPS log with one force row of 1e12 N or of 1e4 N (it peaks at
+// 152 N), THEN the row is bridged and named, the force keeps its sign, and
+// m, sigma and Fc are the clean log's to 1e-5 (the 1e12 row negated every
+// force, m, sigma and Fc coming out negative with status ok; the 1e4 row
+// moved Fc- from 20.72 to 18.03 N). AND in a force unit of 1/3e7 or 1/1e8 N
+// every sample is used and the parameters scale with the unit to 1e-9
+// (the fixed limit of 1e9 dropped 40 % of the first, all of the second).
+TEST_F(Emps, OutlierRowsAndForceUnitsLeaveTheModel) {
+  const Trace clean = read_emps("DATA_EMPS.csv");
+  const IdentifyResult base = identify(clean, IdentifyOptions{});
+  ASSERT_EQ(base.status, feedid::Status::ok) << base.error;
+  const auto want = key_parameters(base.estimate);
+  for (const double outlier : {1e12, 1e4}) {
+    Trace tr = clean;
+    tr.samples[12000].u_N = outlier;
+    const IdentifyResult r = identify(tr, IdentifyOptions{});
+    ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+    EXPECT_EQ(r.signals.force_sign.sign, 1);
+    EXPECT_EQ(r.force_outliers.rows, 1u);
+    EXPECT_TRUE(not_physical(r).empty()) << not_physical(r);
+    const auto got = key_parameters(r.estimate);
+    for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / want[i], 1.0, 1e-5) << i << " at " << outlier;
+  }
+  for (const double scale : {3e7, 1e8}) {
+    Trace tr = clean;
+    for (auto& s : tr.samples) s.u_N *= scale;
+    const IdentifyResult r = identify(tr, IdentifyOptions{});
+    ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+    EXPECT_EQ(r.force_outliers.rows, 0u);
+    EXPECT_EQ(r.diagnostics.samples_accepted, base.diagnostics.samples_accepted) << scale;
+    const auto got = key_parameters(r.estimate);
+    for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / (scale * want[i]), 1.0, 1e-9) << i << " at " << scale;
+  }
 }
 
 }  // namespace

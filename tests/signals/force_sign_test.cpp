@@ -105,5 +105,36 @@ TEST(ForceSign, AJumpAcrossAGapIsNoMotion) {
   EXPECT_NEAR(f.ratio, 1.0, 0.02);
 }
 
+// GIVEN one force row of 1e12 (+ or -) in either direction's travel, THEN
+// the sign stands: a plain mean over travel took the one row for all of a
+// direction's force and negated the EMPS log (peak 152 N). And a fifth of
+// one direction's samples replaced by 1e6 of the wrong sign cannot turn it
+// either.
+TEST(ForceSign, NoOutlierRowTurnsTheSign) {
+  const Motion clean = reciprocating(10.0, 10.0, 0.0);
+  const double ratio = find_force_sign(clean.t, clean.x, clean.u, 0.01).ratio;
+  for (const std::size_t k : {std::size_t{400}, std::size_t{1400}})  // moving positive, negative
+    for (const double outlier : {1e12, -1e12}) {
+      Motion m = clean;
+      m.u[k] = outlier;
+      const ForceSign f = find_force_sign(m.t, m.x, m.u, 0.01);
+      EXPECT_EQ(f.sign, 1) << k << " " << outlier;
+      EXPECT_NEAR(f.ratio, ratio, 0.01) << k << " " << outlier;
+    }
+  Motion fifth = clean;
+  std::size_t replaced = 0, negative_travel = 0;
+  for (std::size_t k = 1; k < fifth.t.size(); ++k) {
+    if (!(fifth.x[k] < fifth.x[k - 1])) continue;
+    if (negative_travel++ % 5 == 0) {
+      fifth.u[k] = 1e6;  // negative travel pushed positive: evidence of a reversed log
+      ++replaced;
+    }
+  }
+  ASSERT_GE(replaced, 1000u);
+  const ForceSign f = find_force_sign(fifth.t, fifth.x, fifth.u, 0.01);
+  EXPECT_EQ(f.sign, 1) << f.ratio;
+  EXPECT_TRUE(f.conclusive) << f.ratio;
+}
+
 }  // namespace
 }  // namespace feedid::host

@@ -1,0 +1,62 @@
+// Force rows no drive can have logged: a corrupt row, a unit slip, a
+// sentinel value. One row of 1e4 N in the EMPS log (peak 152 N) moved the
+// negative Coulomb force by nine of its standard errors; a fixed limit
+// (1e9 N) both let that row through and dropped 40 % of a log kept in a
+// unit of 3e7. The limit is read from the data instead: it scales with the
+// force's unit, so a scaled log identifies as the scaled result. Host only.
+#pragma once
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "io/trace.hpp"
+
+namespace feedid::host {
+
+/// Quantile of |force| over the moving samples that scales the limit. A
+/// drive's largest force is its acceleration peak, and the peaks of the
+/// logs at hand lie close above it (the largest |force| over this quantile:
+/// 1.01 EMPS, 1.42 EMPS pulses, at most 1.26 on the twenty SysId logs and
+/// 1.05 on the simulator's ladder, sine and production programs); it is
+/// moved only by outliers holding more than a thousandth of the samples.
+constexpr double kForceScaleQuantile = 0.999;
+/// The limit over that quantile: a margin of seven over the largest ratio
+/// seen, for acceleration peaks rarer than the quantile; corrupt rows lie
+/// orders of magnitude beyond (1e4 and 1e12 in EMPS, limit 1505 N).
+constexpr double kForceOutlierFactor = 10.0;
+/// Outlier rows named in messages (the rest are counted).
+constexpr std::size_t kNamedOutliers = 5;
+
+/// The largest |u| a sample may carry (in u's unit): kForceOutlierFactor
+/// times the kForceScaleQuantile quantile of |u| over the samples where x
+/// changed from the sample before (all samples if it never does: forces at
+/// rest, however long the axis waits, say nothing of its peaks). The
+/// largest finite double when that quantile is 0: a force of zeros has no
+/// scale to call anything an outlier by. Non-finite forces are left to the
+/// readers, which reject them.
+double force_outlier_limit(const std::vector<double>& x, const std::vector<double>& u);
+
+/// Force rows beyond the limit, and what became of them.
+struct ForceOutliers {
+  double limit = 0.0;       ///< force_outlier_limit of the trace as logged (its force unit)
+  std::size_t rows = 0;     ///< forces beyond it
+  std::size_t unbridged = 0;  ///< of those, with no good force within their stretch to bridge them by
+  std::vector<std::string> first;  ///< the first kNamedOutliers: file, time and force
+  /// One line for notes and the summary: the count, the limit and how it was found.
+  std::string describe(const std::string& force_unit) const;
+};
+
+/// The trace with each force beyond force_outlier_limit (on the position,
+/// or the velocity's running sum where no position is logged) replaced by
+/// the straight line in time between the nearest good forces either side
+/// within its stretch of samples (the one side's force at a stretch's end).
+/// Only the force is bad: the row's position and velocity stay, so the
+/// velocity is derived on the uniform grid as ever (leaving the row out
+/// moved EMPS's mass by half its standard error through the filter on
+/// position), and the force sign, the lag search, the velocity cut-off and
+/// the core all see the same force. This is the core's own rule for a force
+/// beyond max_force_N, whose next sample bridges the rejected one; a force
+/// with no good one in its stretch is left for the core to reject.
+Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, ForceOutliers& found);
+
+}  // namespace feedid::host
