@@ -10,9 +10,42 @@
 #include "compensate/circle.hpp"
 
 #include "cli_common.hpp"
+#include "io/output_file.hpp"
 
 namespace feedid::host::cli {
 namespace {
+
+/// Runs the circle test, prints the glitches, writes JSON and plot; the exit code.
+int run_circle_report(const CircleOptions& opt) {
+  CircleResult r;
+  try {
+    r = run_circle(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  std::printf("circle R %.4g mm at %.4g mm/s, %g Hz; models %s\n", opt.radius_m * 1e3, opt.feed_m_s * 1e3, opt.rate_hz,
+              opt.model_paths.empty() ? "identified from the simulated drives" : "from the --model files");
+  std::printf("  %-12s %9s %9s %9s %9s %9s\n", "run", "0 deg", "90 deg", "180 deg", "270 deg", "RMS");
+  for (const auto& run : r.runs)
+    std::printf("  %-12s %9.3g %9.3g %9.3g %9.3g %9.3g   (um)\n", run.name.c_str(), run.glitch_um[0], run.glitch_um[1],
+                run.glitch_um[2], run.glitch_um[3], run.rms_um);
+  std::printf("largest quadrant glitch %.0f %% lower with the identified compensation\n", 100.0 * r.glitch_reduction);
+  std::string err;
+  if (!opt.json_path.empty()) {
+    err = write_whole_file(opt.json_path, to_json(r, opt).dump(2) + "\n");
+    if (!err.empty()) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+  }
+  if (!opt.plot_path.empty() && !write_circle_plot(r, opt, opt.plot_path, err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  return 0;
+}
+
 
 struct CircleCommand : Command {
   CircleOptions opt;
@@ -28,7 +61,7 @@ struct CircleCommand : Command {
     app->add_option("--json", opt.json_path, "write runs.{none,identified,wrong_plus,wrong_minus}.{glitch_um,rms_um} as JSON");
     app->add_option("--plot", opt.plot_path, "write the polar radial-error plot as SVG");
   }
-  int run() override { return run_circle_command(opt); }
+  int run() override { return run_circle_report(opt); }
 };
 
 }  // namespace

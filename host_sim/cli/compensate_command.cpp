@@ -1,6 +1,7 @@
 // `feedid compensate` (cli_common.hpp: the shared options and the Command interface).
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -8,11 +9,69 @@
 #include <memory>
 
 #include "compensate/compensate.hpp"
+#include "io/output_file.hpp"
+#include "model/drive_model.hpp"
 
 #include "cli_common.hpp"
 
 namespace feedid::host::cli {
 namespace {
+
+/// Reads the model JSON, refuses one that cannot be compensated with,
+/// writes the table; the exit code.
+int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
+                   CompensateOptions opt) {
+  nlohmann::json mj;
+  try {
+    mj = read_json_file(model_path);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  std::string unusable;
+  try {
+    unusable = unusable_model(mj);
+  } catch (const std::exception& e) {
+    unusable = e.what();
+  }
+  if (!unusable.empty()) {
+    std::fprintf(stderr, "error: %s: %s: no compensation written\n", model_path.c_str(), unusable.c_str());
+    return 2;
+  }
+  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
+    opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
+  if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
+    std::fprintf(stderr, "error: --force-scale %g: must be finite and non-zero\n", opt.force_scale);
+    return 2;
+  }
+  CompensationTable t;
+  try {
+    if (opt.max_speed_m_s <= 0)
+      throw std::invalid_argument(model_path + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
+    t = make_compensation_table(model_from_json(mj), opt.max_speed_m_s, opt.points);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  if (mj.contains("input") && mj["input"].value("force_sign", 1) < 0)
+    std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "
+                 "motion as logged); the table is friction along the logged position, so in the drive's own force "
+                 "sign the feedforward is minus these values\n", model_path.c_str());
+  const std::string text = format == "csv" ? to_csv(t, opt) : to_json(t, opt).dump(2) + "\n";
+  if (out_path.empty()) {
+    std::cout << text;
+  } else {
+    const std::string err = write_whole_file(out_path, text, {model_path});
+    if (!err.empty()) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::printf("%zu points per direction up to %.4g m/s; largest interpolation error %.3g N; wrote %s\n",
+                t.dir[0].size(), t.max_speed_m_s, t.max_interpolation_error_N, out_path.c_str());
+  }
+  return 0;
+}
+
 
 struct CompensateCommand : Command {
   CompensateOptions opt;

@@ -228,34 +228,4 @@ bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const st
   return write_svg(path, circle_plot(r, opt), error);
 }
 
-int run_circle_command(const CircleOptions& opt) {
-  CircleResult r;
-  try {
-    r = run_circle(opt);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  std::printf("circle R %.4g mm at %.4g mm/s, %g Hz; models %s\n", opt.radius_m * 1e3, opt.feed_m_s * 1e3, opt.rate_hz,
-              opt.model_paths.empty() ? "identified from the simulated drives" : "from the --model files");
-  std::printf("  %-12s %9s %9s %9s %9s %9s\n", "run", "0 deg", "90 deg", "180 deg", "270 deg", "RMS");
-  for (const auto& run : r.runs)
-    std::printf("  %-12s %9.3g %9.3g %9.3g %9.3g %9.3g   (um)\n", run.name.c_str(), run.glitch_um[0], run.glitch_um[1],
-                run.glitch_um[2], run.glitch_um[3], run.rms_um);
-  std::printf("largest quadrant glitch %.0f %% lower with the identified compensation\n", 100.0 * r.glitch_reduction);
-  std::string err;
-  if (!opt.json_path.empty()) {
-    err = write_whole_file(opt.json_path, to_json(r, opt).dump(2) + "\n");
-    if (!err.empty()) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
-  }
-  if (!opt.plot_path.empty() && !write_circle_plot(r, opt, opt.plot_path, err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
-    return 1;
-  }
-  return 0;
-}
-
 }  // namespace feedid::host

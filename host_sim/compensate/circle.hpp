@@ -49,7 +49,5 @@ nlohmann::json to_json(const CircleResult& r, const CircleOptions& opt);
 /// The radial error of every run on a polar plot (error magnified).
 PlotSpec circle_plot(const CircleResult& r, const CircleOptions& opt);
 bool write_circle_plot(const CircleResult& r, const CircleOptions& opt, const std::string& path, std::string& error);
-/// `feedid circle`: runs, prints the table, writes JSON and plot; the exit code.
-int run_circle_command(const CircleOptions& opt);
 
 }  // namespace feedid::host

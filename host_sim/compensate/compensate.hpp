@@ -55,8 +55,5 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
 /// empty when it can. Throws as model_from_json on a malformed model.
 std::string unusable_model(const nlohmann::json& model);
 
-/// `feedid compensate`: reads the model JSON, writes the table; returns the exit code.
-int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
-                   CompensateOptions opt);
 
 }  // namespace feedid::host

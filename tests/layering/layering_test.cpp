@@ -75,4 +75,24 @@ TEST(Layering, NoHostFileIncludesTargetCode) {
     EXPECT_NE(i.target, "cortex_m") << i.file << ":" << i.line;
 }
 
+TEST(Layering, OnlyTheCommandLinePrints) {
+  // Results carry their errors; host_sim/cli prints them and chooses the
+  // exit code. The bench apparatus runs its own reports, the firmware trace
+  // generator is its own program, and io/progress.hpp is the progress line
+  // the command line hands down.
+  static const std::regex prints(R"re(std::cout|std::cerr|(^|[^n])printf\(|\bputs\(|fputs\()re");
+  for (const auto& e : fs::recursive_directory_iterator(kRoot / "host_sim")) {
+    const std::string rel = fs::relative(e.path(), kRoot / "host_sim").string();
+    if (rel.rfind("cli/", 0) == 0 || rel.rfind("bench/", 0) == 0 || rel.rfind("firmware_traces/", 0) == 0 ||
+        rel == "io/progress.hpp" || !e.is_regular_file())
+      continue;
+    std::ifstream f(e.path());
+    std::string line;
+    for (int n = 1; std::getline(f, line); ++n) {
+      const auto code = line.substr(0, line.find("//"));
+      EXPECT_FALSE(std::regex_search(code, prints)) << "host_sim/" << rel << ":" << n << " prints: " << line;
+    }
+  }
+}
+
 }  // namespace
