@@ -71,11 +71,15 @@ template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> c
 
   /// One servo sample into the current epoch: Estimator::push, whose
   /// rejections change nothing but its counters. The epoch's clock advances
-  /// by every finite positive dt, rejected samples' included (time passed).
+  /// by every finite positive dt, rejected samples' included (time passed),
+  /// but by no more than the estimator's max_gap_s: a longer step is a gap
+  /// to the estimator, its length says nothing about friction, and a
+  /// corrupt one (1e30 s) would end the epoch at once and leave the clock
+  /// where no later step moves it. An epoch is epoch_s of data.
   /// Context: servo task.
   [[nodiscard]] Status push(const Sample<T>& s) {
     if (!initialized_) return Status::not_initialized;
-    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_.add(s.dt_s);
+    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_.add(port::min(s.dt_s, axis_cfg_.max_gap_s));
     return axis_.push(s);
   }
 

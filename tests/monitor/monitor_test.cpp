@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -262,6 +263,48 @@ TEST(HealthTracker, ChangeFreeProductionMotionRaisesNone) {
     c.logging.velocity = VelocityLog::backward_difference;
     EXPECT_TRUE(track(simulate(c)).alarms.empty()) << "seed " << seed;
   }
+}
+
+// GIVEN production motion where Fc+ rises 6 % at 107 s, through a float
+// tracker, with two corrupt time steps in a row at 15 s (the largest float)
+// THEN the steps are a gap, not time: the epochs stay 10 s of data (24 of
+// them, as on the clean log), the clock stays finite, and the step is
+// still named at its time (a corrupt step used to end an epoch at once and
+// throw the clock, and every alarm time after it, to infinity).
+TEST(HealthTracker, TwoCorruptTimeStepsNeitherEndTheEpochsNorThrowTheClock) {
+  SimConfig c = production(8);
+  c.change.time_s = 107.0;
+  c.change.coulomb_fraction = 0.06;
+  c.change.direction = +1;
+  c.logging.force = ForceLog::instant;
+  c.logging.velocity = VelocityLog::backward_difference;
+  const Trace tr = simulate(c);
+  IdentifyOptions opt;
+  const feedid::Config<float> cfg = config_as<float>(auto_config(prepare_signals(tr, opt), opt));
+  auto h = std::make_unique<HealthTracker<float>>();
+  ASSERT_EQ(h->init(cfg, MonitorConfig<float>{}), Status::ok);
+  int closed = 0, fresh = 0;
+  for (std::size_t k = 1; k < tr.samples.size(); ++k) {
+    Sample<float> s;
+    s.dt_s = static_cast<float>(tr.samples[k].t_s - tr.samples[k - 1].t_s);
+    if (k == 30000 || k == 30001) s.dt_s = std::numeric_limits<float>::max();
+    s.velocity_m_s = static_cast<float>(tr.samples[k].v_m_s);
+    s.force_N = static_cast<float>(tr.samples[k].u_N);
+    (void)h->push(s);
+    if (h->epoch_complete()) {
+      (void)h->close_epoch(fresh);
+      ++closed;
+    }
+  }
+  EXPECT_EQ(closed, 24);
+  EXPECT_TRUE(std::isfinite(h->time_s()));
+  EXPECT_NEAR(h->time_s(), 240.0, 1.0);
+  ASSERT_EQ(h->monitor().alarm_count(), 1);
+  const auto& alarm = h->monitor().alarm(0);
+  EXPECT_EQ(alarm.parameter, feedid::Tracked::coulomb);
+  EXPECT_EQ(alarm.direction, 1);
+  EXPECT_GE(alarm.raised_t_s, c.change.time_s);
+  EXPECT_LE(alarm.raised_t_s, c.change.time_s + 60.0);
 }
 
 TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
