@@ -1,7 +1,9 @@
 // What the subcommands share (cli_common.hpp).
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -120,6 +122,30 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
   return true;
 }
 
+namespace {
+/// A number option that must be finite: "nan" or "inf" were taken as
+/// "from the data" (a NaN lag is the unset value), silently.
+CLI::Validator finite_number() {
+  return CLI::Validator(
+      [](std::string& v) {
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        return end != v.c_str() && *end == '\0' && std::isfinite(x) ? std::string() : v + " is not a finite number";
+      },
+      "FINITE");
+}
+/// A cut-off, band edge or resolution: 0 means "from the data", a
+/// negative value is an error rather than another way of saying 0.
+CLI::Validator zero_or_positive() { return finite_number() & CLI::NonNegativeNumber; }
+/// A scale that multiplies a column: finite and not zero.
+CLI::Validator nonzero_scale() {
+  return finite_number() & CLI::Validator(
+                               [](std::string& v) { return std::strtod(v.c_str(), nullptr) != 0.0 ? std::string() : "a scale of 0"; },
+                               "NONZERO");
+}
+}  // namespace
+
+
 /// Columns, scales, units and bad rows: the input options of every command
 /// that reads a trace CSV.
 void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
@@ -133,13 +159,14 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
                 "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
   c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
   c->add_option("--position-scale", cols.position_scale,
-                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")->capture_default_str();
+                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")
+      ->check(nonzero_scale())->capture_default_str();
   c->add_option("--time-scale", cols.time_scale,
                 "seconds per unit of the time column, e.g. 0.001 for ms; 0 (default): from a unit ending the column's "
-                "name (t_ms, \"time [us]\"), else s")->capture_default_str();
+                "name (t_ms, \"time [us]\"), else s")->check(zero_or_positive())->capture_default_str();
   c->add_option("--force-scale", cols.force_scale,
                 "multiplies force as it is read, e.g. N per A (torque constant x gear ratio x 2 pi / lead), or N m per A")
-      ->capture_default_str();
+      ->check(nonzero_scale())->capture_default_str();
   c->add_option_function<std::string>("--axis", [&u](const std::string& v) { u.axis = v == "rotary" ? Axis::rotary : Axis::linear; },
                                       "linear (m, m/s, N, kg; default) or rotary (rad, rad/s, N m, kg m^2)")
       ->check(CLI::IsMember({"linear", "rotary"}));
@@ -154,15 +181,18 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   c->add_option("--alignment", o.alignment,
                 "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md)")->capture_default_str();
   c->add_option("--force-lag-s", o.force_lag_s,
-                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data");
+                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data")
+      ->check(finite_number());
   c->add_option("--velocity-lag-s", o.velocity_lag_s,
-                "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position");
+                "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position")
+      ->check(finite_number());
   c->add_option("--velocity-filter", o.velocity_filter_hz,
                 "cut-off of the zero-phase filter on position whose derivative the core takes as velocity (Hz); 0 = chosen from the data: of the cut-offs from 100 Hz (0.1 of the rate the position is updated at, if less) to 0.4 of the rate, the smoothest whose model's block residual is within a standard error of the least")
-      ->capture_default_str();
-  c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s, or rad/s); 0 = from the data")->capture_default_str();
+      ->check(zero_or_positive())->capture_default_str();
+  c->add_option("--velocity-min", o.velocity_min_m_s, "lowest band edge (m/s, or rad/s); 0 = from the data")
+      ->check(zero_or_positive())->capture_default_str();
   c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s, or rad/s); 0 = from the data")
-      ->capture_default_str();
+      ->check(zero_or_positive())->capture_default_str();
 }
 
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {

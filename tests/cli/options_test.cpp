@@ -1,0 +1,34 @@
+// Numbers in options are checked as they are parsed: a value that is not
+// a finite number, a negative cut-off or a zero scale is a usage error
+// (exit 2) naming the option, never taken as "from the data".
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+namespace {
+
+int feedid(const std::string& args) {
+  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >/dev/null 2>&1").c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+TEST(Options, InvalidNumbersAreUsageErrors) {
+  // GIVEN a trace that identifies (exit 0) with plain values of the same options
+  const std::string in = ::testing::TempDir() + "feedid_options_30s.csv";
+  ASSERT_EQ(feedid("simulate --duration 30 --out " + in), 0);
+  ASSERT_EQ(feedid("identify --in " + in + " --velocity-filter 300 --force-lag-s 0 --velocity-min 0.0002 --force-scale 2"), 0);
+  // THEN each invalid number is a usage error
+  for (const char* bad : {"--velocity-filter -5", "--force-lag-s nan", "--velocity-lag-s inf", "--velocity-min -1",
+                          "--force-scale 0", "--position-scale nan", "--time-scale -0.001", "--velocity-filter 3x"})
+    EXPECT_EQ(feedid("identify --in " + in + " " + bad), 2) << bad;
+}
+
+TEST(Options, TheDefaultsStillParse) {
+  // The --help of each command lists the defaults, which must pass their own checks.
+  EXPECT_EQ(feedid("identify --help"), 0);
+  EXPECT_EQ(feedid("validate --help"), 0);
+  EXPECT_EQ(feedid("diagnose --help"), 0);
+}
+
+}  // namespace
