@@ -105,6 +105,13 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
     std::fprintf(stderr, "error: no recording: give --in FILE (repeatable) or --in-list FILE\n");
     return false;
   }
+  // Pooling a recording with itself is allowed (it is how a held-out check
+  // is made), but never silently: its samples count twice.
+  for (std::size_t i = 0; i < inputs.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (same_file(inputs[i].path, inputs[j].path))
+        std::fprintf(stderr, "warning: %s is given twice (also as %s): its samples are pooled twice\n",
+                     inputs[i].path.c_str(), inputs[j].path.c_str());
   out = read_trace_files(inputs);
   const std::string path = out.trace.source;
   if (!out.ok) {

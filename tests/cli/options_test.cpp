@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace {
@@ -29,6 +31,19 @@ TEST(Options, TheDefaultsStillParse) {
   EXPECT_EQ(feedid("identify --help"), 0);
   EXPECT_EQ(feedid("validate --help"), 0);
   EXPECT_EQ(feedid("diagnose --help"), 0);
+}
+
+TEST(Options, AFileGivenTwiceIsPooledWithAWarning) {
+  const std::string in = ::testing::TempDir() + "feedid_options_twice.csv";
+  const std::string err = ::testing::TempDir() + "feedid_options_twice.err";
+  ASSERT_EQ(feedid("simulate --duration 30 --out " + in), 0);
+  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid identify --in " + in + " --in " + in + " >/dev/null 2>" +
+                              err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 0);
+  std::ifstream f(err);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("is given twice"), std::string::npos) << text;
 }
 
 }  // namespace
