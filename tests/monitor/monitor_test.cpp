@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <random>
@@ -213,37 +214,62 @@ TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
 /// the configuration `feedid identify` picks; every complete epoch closed.
 struct TrackRun {
   int epochs = 0, solved = 0;
+  double time_s = 0.0;  ///< the tracker's clock at the end
   std::vector<ChangeAlarm<double>> alarms;
 };
-TrackRun track(const Trace& tr) {
+/// Every sample of a simulated trace through a HealthTracker<T> with the
+/// configuration `feedid identify` picks; every complete epoch closed.
+/// `dt_of(k, dt)` may replace sample k's time step (a corrupt log).
+template <typename T = double>
+TrackRun track(const Trace& tr, const std::function<T(std::size_t, T)>& dt_of = nullptr) {
   IdentifyOptions opt;
-  const feedid::Config<double> cfg = auto_config(prepare_signals(tr, opt), opt);
-  auto health = std::make_unique<HealthTracker<double>>();
-  EXPECT_EQ(health->init(cfg, MonitorConfig<double>{}), Status::ok);
+  const feedid::Config<T> cfg = config_as<T>(auto_config(prepare_signals(tr, opt), opt));
+  auto health = std::make_unique<HealthTracker<T>>();
+  EXPECT_EQ(health->init(cfg, MonitorConfig<T>{}), Status::ok);
   TrackRun out;
   for (std::size_t k = 0; k < tr.samples.size(); ++k) {
-    Sample<double> s;
-    s.dt_s = k == 0 ? 0.0 : tr.samples[k].t_s - tr.samples[k - 1].t_s;
-    s.velocity_m_s = tr.samples[k].v_m_s;
-    s.force_N = tr.samples[k].u_N;
+    Sample<T> s;
+    s.dt_s = k == 0 ? T(0) : static_cast<T>(tr.samples[k].t_s - tr.samples[k - 1].t_s);
+    if (dt_of) s.dt_s = dt_of(k, s.dt_s);
+    s.velocity_m_s = static_cast<T>(tr.samples[k].v_m_s);
+    s.force_N = static_cast<T>(tr.samples[k].u_N);
     (void)health->push(s);
     if (!health->epoch_complete()) continue;
     int fresh = 0;
     out.solved += health->close_epoch(fresh) == Status::ok;
     ++out.epochs;
   }
-  for (int i = 0; i < health->monitor().alarm_count(); ++i) out.alarms.push_back(health->monitor().alarm(i));
+  out.time_s = static_cast<double>(health->time_s());
+  for (int i = 0; i < health->monitor().alarm_count(); ++i) {
+    const ChangeAlarm<T>& a = health->monitor().alarm(i);
+    ChangeAlarm<double> d;
+    d.parameter = a.parameter;
+    d.direction = a.direction;
+    d.t_s = a.t_s;
+    d.raised_t_s = a.raised_t_s;
+    d.change = a.change;
+    d.change_se = a.change_se;
+    d.reference = a.reference;
+    out.alarms.push_back(d);
+  }
   return out;
 }
 
-TEST(HealthTracker, NamesACoulombStepOnProductionMotionWithinAMinute) {
-  // GIVEN production motion where Fc+ rises 6 % at 107 s, logged without the host's convention search
+/// Production motion where Fc+ rises 6 % at 107 s, logged without the
+/// host's convention search.
+SimConfig coulomb_step_log() {
   SimConfig c = production(8);
   c.change.time_s = 107.0;
   c.change.coulomb_fraction = 0.06;
   c.change.direction = +1;
   c.logging.force = ForceLog::instant;
   c.logging.velocity = VelocityLog::backward_difference;
+  return c;
+}
+
+TEST(HealthTracker, NamesACoulombStepOnProductionMotionWithinAMinute) {
+  // GIVEN production motion where Fc+ rises 6 % at 107 s, logged without the host's convention search
+  const SimConfig c = coulomb_step_log();
   const TrackRun t = track(simulate(c));
   // THEN each 10 s epoch is closed and solved alone, and the one alarm is Fc+ within 60 s
   EXPECT_EQ(t.epochs, 24);
@@ -272,39 +298,18 @@ TEST(HealthTracker, ChangeFreeProductionMotionRaisesNone) {
 // still named at its time (a corrupt step used to end an epoch at once and
 // throw the clock, and every alarm time after it, to infinity).
 TEST(HealthTracker, TwoCorruptTimeStepsNeitherEndTheEpochsNorThrowTheClock) {
-  SimConfig c = production(8);
-  c.change.time_s = 107.0;
-  c.change.coulomb_fraction = 0.06;
-  c.change.direction = +1;
-  c.logging.force = ForceLog::instant;
-  c.logging.velocity = VelocityLog::backward_difference;
-  const Trace tr = simulate(c);
-  IdentifyOptions opt;
-  const feedid::Config<float> cfg = config_as<float>(auto_config(prepare_signals(tr, opt), opt));
-  auto h = std::make_unique<HealthTracker<float>>();
-  ASSERT_EQ(h->init(cfg, MonitorConfig<float>{}), Status::ok);
-  int closed = 0, fresh = 0;
-  for (std::size_t k = 1; k < tr.samples.size(); ++k) {
-    Sample<float> s;
-    s.dt_s = static_cast<float>(tr.samples[k].t_s - tr.samples[k - 1].t_s);
-    if (k == 30000 || k == 30001) s.dt_s = std::numeric_limits<float>::max();
-    s.velocity_m_s = static_cast<float>(tr.samples[k].v_m_s);
-    s.force_N = static_cast<float>(tr.samples[k].u_N);
-    (void)h->push(s);
-    if (h->epoch_complete()) {
-      (void)h->close_epoch(fresh);
-      ++closed;
-    }
-  }
-  EXPECT_EQ(closed, 24);
-  EXPECT_TRUE(std::isfinite(h->time_s()));
-  EXPECT_NEAR(h->time_s(), 240.0, 1.0);
-  ASSERT_EQ(h->monitor().alarm_count(), 1);
-  const auto& alarm = h->monitor().alarm(0);
-  EXPECT_EQ(alarm.parameter, feedid::Tracked::coulomb);
-  EXPECT_EQ(alarm.direction, 1);
-  EXPECT_GE(alarm.raised_t_s, c.change.time_s);
-  EXPECT_LE(alarm.raised_t_s, c.change.time_s + 60.0);
+  const SimConfig c = coulomb_step_log();
+  const TrackRun t = track<float>(simulate(c), [](std::size_t k, float dt) {
+    return k == 30000 || k == 30001 ? std::numeric_limits<float>::max() : dt;
+  });
+  EXPECT_EQ(t.epochs, 24);
+  EXPECT_TRUE(std::isfinite(t.time_s));
+  EXPECT_NEAR(t.time_s, 240.0, 1.0);
+  ASSERT_EQ(t.alarms.size(), 1u);
+  EXPECT_EQ(t.alarms[0].parameter, feedid::Tracked::coulomb);
+  EXPECT_EQ(t.alarms[0].direction, 1);
+  EXPECT_GE(t.alarms[0].raised_t_s, c.change.time_s);
+  EXPECT_LE(t.alarms[0].raised_t_s, c.change.time_s + 60.0);
 }
 
 TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
