@@ -9,7 +9,7 @@
 #include <memory>
 #include <thread>
 
-#include "sim/drive_sim.hpp"
+#include "core/core_trace.hpp"
 #include "feedid/feedid.hpp"
 #include "feedid_port/spsc_queue.hpp"
 
@@ -173,15 +173,10 @@ TEST(SpscQueue, ConcurrentProducerAndConsumerLoseNothingButOverflow) {
 }
 
 TEST(SpscQueue, HandOffFeedsTheCoreTheSameStreamAsDirectPushes) {
-  // GIVEN a simulated 1 kHz drive trace, and two identical estimators
-  feedid::host::SimConfig sim;
-  sim.controller.servo_rate_hz = 1000.0;
-  sim.motion.duration_s = 20.0;
-  const feedid::host::Trace tr = feedid::host::simulate(sim);
-  feedid::Config<double> cfg;
-  cfg.velocity_min_m_s = 2e-5;
-  cfg.velocity_max_m_s = 0.2;
-  cfg.velocity_resolution_m_s = 1e-5;
+  // GIVEN a 1 kHz ladder of strokes, and two identical estimators
+  const feedid::core_test::StrokeSpec spec;
+  const auto samples = feedid::core_test::stroke_ladder(feedid::core_test::default_drive(), spec);
+  const feedid::Config<double> cfg = feedid::core_test::default_config<double>(spec.encoder_m, spec.rate_hz);
   auto direct = std::make_unique<feedid::Estimator<double>>();
   auto via_queue = std::make_unique<feedid::Estimator<double>>();
   ASSERT_EQ(direct->init(cfg), feedid::Status::ok);
@@ -190,15 +185,11 @@ TEST(SpscQueue, HandOffFeedsTheCoreTheSameStreamAsDirectPushes) {
   CountingLock::reset();
   // WHEN one gets each sample directly and the other through the queue, the
   // "ISR" pushing up to 5 samples before the "task" drains
-  for (std::size_t k = 0; k < tr.samples.size(); ++k) {
-    feedid::Sample<double> s;
-    s.dt_s = k == 0 ? 0.0 : tr.samples[k].t_s - tr.samples[k - 1].t_s;
-    s.position_m = tr.samples[k].x_m;
-    s.velocity_m_s = tr.samples[k].v_m_s;
-    s.force_N = tr.samples[k].u_N;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const feedid::Sample<double>& s = samples[k];
     (void)direct->push(s);
     ASSERT_TRUE(q.push_from_isr(s));
-    if (k % 5 == 4 || k + 1 == tr.samples.size()) {
+    if (k % 5 == 4 || k + 1 == samples.size()) {
       feedid::Sample<double> out;
       while (q.pop(out)) (void)via_queue->push(out);
     }
