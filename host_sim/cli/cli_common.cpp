@@ -70,24 +70,13 @@ void add_bad_row_option(CLI::App* c, CsvColumns& cols) {
 }
 
 namespace {
-/// A drive log steps in ms or less; above this median step (s) the time
-/// column is more likely in ms than the log that slow.
-constexpr double kSlowestLogStep_s = 0.05;
-
-/// A note of each time column read in another unit than s from its name,
-/// and of a log so slow that its time is likely not in seconds (a time in
-/// ms taken as s made the mass 10^6 too large, with no other sign).
-void note_time_unit(const std::vector<TraceInput>& inputs, const Trace& t) {
+/// A note of each time column read in another unit than s from its name
+/// (a log too slow for its unstated seconds is refused in condition()).
+void note_time_unit(const std::vector<TraceInput>& inputs) {
   for (const TraceInput& in : inputs)
     if (in.columns.time_scale == 0.0 && time_unit_from_name(in.columns.time) != 1.0)
       std::fprintf(stderr, "note: %s: time column '%s' read as %g s per unit, from its name (--time-scale to override)\n",
                    in.path.c_str(), in.columns.time.c_str(), time_unit_from_name(in.columns.time));
-  std::vector<double> times;
-  for (const auto& smp : t.samples) times.push_back(smp.t_s);
-  const double step = times.size() > 1 ? median_step(times) : 0.0;
-  if (step > kSlowestLogStep_s)
-    std::fprintf(stderr, "note: %s: the median time step is %g s (%.3g Hz), slow for a drive log: if the time column is not "
-                 "in seconds, give --time-scale (0.001 for ms)\n", t.source.c_str(), step, 1.0 / step);
 }
 }  // namespace
 
@@ -119,7 +108,7 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
     return false;
   }
   const Trace& t = out.trace;
-  note_time_unit(inputs, t);
+  note_time_unit(inputs);
   if (t.rows_skipped > 0)
     std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); first: %s\n", path.c_str(),
                  t.rows_skipped, t.rows_skipped == 1 ? "" : "s", t.skipped_rows.front().c_str());

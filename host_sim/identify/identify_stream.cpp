@@ -158,6 +158,7 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   Trace chunk;
   chunk.has_position = in.has_position();
   chunk.has_velocity = in.has_velocity();
+  chunk.time_unit_stated = in.time_unit_stated();
   chunk.source = source;
   TraceSample next{};
   bool have_next = false;

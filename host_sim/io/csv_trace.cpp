@@ -292,22 +292,34 @@ const char* after_bom(const char* b, const char* e) {
 
 }  // namespace
 
-double time_unit_from_name(std::string_view name) {
+namespace {
+struct TimeUnit {
+  std::string_view suffix;
+  double seconds;
+};
+constexpr TimeUnit kTimeUnits[] = {{"ms", 1e-3}, {"us", 1e-6}, {"\xC2\xB5s", 1e-6}, {"\xCE\xBCs", 1e-6}, {"ns", 1e-9}, {"s", 1.0}};
+
+/// The unit ending a time column's name, after a non-letter or alone; null if none.
+const TimeUnit* unit_ending(std::string_view name) {
   while (!name.empty() && (name.back() == ']' || name.back() == ')' || name.back() == ' ')) name.remove_suffix(1);
-  struct Unit {
-    std::string_view suffix;
-    double seconds;
-  };
-  for (const Unit& u : {Unit{"ms", 1e-3}, Unit{"us", 1e-6}, Unit{"\xC2\xB5s", 1e-6}, Unit{"\xCE\xBCs", 1e-6}, Unit{"ns", 1e-9}}) {
+  for (const TimeUnit& u : kTimeUnits) {
     if (name.size() < u.suffix.size()) continue;
     std::string lower(name.substr(name.size() - u.suffix.size()));
     for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     if (lower != u.suffix) continue;
     const std::size_t before = name.size() - u.suffix.size();
-    if (before == 0 || !std::isalpha(static_cast<unsigned char>(name[before - 1]))) return u.seconds;
+    if (before == 0 || !std::isalpha(static_cast<unsigned char>(name[before - 1]))) return &u;
   }
-  return 1.0;
+  return nullptr;
 }
+}  // namespace
+
+double time_unit_from_name(std::string_view name) {
+  const TimeUnit* u = unit_ending(name);
+  return u ? u->seconds : 1.0;
+}
+
+bool time_unit_stated(const CsvColumns& c) { return c.time_scale > 0 || (unit_ending(c.time) && c.time != "s"); }
 
 CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;
@@ -331,6 +343,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   if (!parse_header(b, e, rules.at(cursor.line), columns, lay, result.error)) return result;
   result.trace.has_position = lay.has_position;
   result.trace.has_velocity = lay.has_velocity;
+  result.trace.time_unit_stated = time_unit_stated(columns);
 
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
@@ -392,6 +405,8 @@ CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_
 }
 
 CsvStream::~CsvStream() = default;
+
+bool CsvStream::time_unit_stated() const { return feedid::host::time_unit_stated(impl_->columns); }
 
 bool CsvStream::next(TraceSample& s) {
   if (!ok_) return false;

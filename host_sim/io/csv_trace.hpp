@@ -39,6 +39,10 @@ double time_unit_from_name(std::string_view name);
 /// Seconds per unit of the time column as the readers apply it.
 inline double time_scale(const CsvColumns& c) { return c.time_scale > 0 ? c.time_scale : time_unit_from_name(c.time); }
 
+/// Whether the time column's unit is stated: by --time-scale, or by a unit
+/// ending its name (s, ms, us, ns after a non-letter: t_s, "time [ms]").
+bool time_unit_stated(const CsvColumns& c);
+
 /// Result of reading: ok, or an error message that names file, line and column.
 struct CsvResult {
   bool ok = false;
@@ -75,6 +79,7 @@ class CsvStream {
   const std::string& error() const { return error_; }
   bool has_position() const { return has_position_; }
   bool has_velocity() const { return has_velocity_; }
+  bool time_unit_stated() const;  ///< as Trace::time_unit_stated
   /// The next kept row; false at the end or on an error.
   bool next(TraceSample& s);
   std::size_t rows_skipped() const;

@@ -95,6 +95,7 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
   Trace& tr = result.trace;
   tr.has_position = has_variable(mat.get(), columns.position);
   tr.has_velocity = has_variable(mat.get(), columns.velocity);
+  tr.time_unit_stated = time_unit_stated(columns);
   if (!tr.has_position && !tr.has_velocity) {
     result.error = path + ": no variable '" + columns.position + "' (position) and no '" + columns.velocity +
                    "' (velocity); need at least one; the file has: " + variable_list(path);

@@ -36,6 +36,10 @@ struct Trace {
   /// integral, section, window or block spans two files.
   std::vector<TraceRun> runs;
   static constexpr double kRunGap_s = 10.0;
+  /// The time column's unit was stated (--time-scale, or a unit ending its
+  /// name: t_s, t_ms, "time [us]"); otherwise seconds were assumed, and a
+  /// log too slow for a drive is refused (condition.hpp).
+  bool time_unit_stated = false;
 };
 
 }  // namespace feedid::host

@@ -76,7 +76,7 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
 CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
   if (inputs.size() == 1) return read_trace_file(inputs.front().path, inputs.front().columns);
   CsvResult all;
-  all.trace.has_position = all.trace.has_velocity = true;
+  all.trace.has_position = all.trace.has_velocity = all.trace.time_unit_stated = true;
   for (const TraceInput& input : inputs) {
     const std::string& path = input.path;
     CsvResult one = read_trace_file(path, input.columns);
@@ -96,6 +96,7 @@ CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
     // A column must be in every file for the pooled trace to have it.
     t.has_position = t.has_position && one.trace.has_position;
     t.has_velocity = t.has_velocity && one.trace.has_velocity;
+    t.time_unit_stated = t.time_unit_stated && one.trace.time_unit_stated;
     t.rows_skipped += one.trace.rows_skipped;
     t.rows_repeated += one.trace.rows_repeated;
     for (auto& why : one.trace.skipped_rows)

@@ -60,6 +60,7 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   t.samples.swap(buf);
   t.has_position = in.has_position();
   t.has_velocity = in.has_velocity();
+  t.time_unit_stated = in.time_unit_stated();
   t.source = "epoch";
   const bool searching = conventions_due(opt, conv, epoch);
   const IdentifyResult r = identify(t, searching ? opt.identify : epoch_options(opt, conv));

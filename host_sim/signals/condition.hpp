@@ -106,6 +106,12 @@ struct Signals {
   double column_velocity_noise_m_s = 0.0;
 };
 
+/// The slowest median time step (s) taken as seconds when the time
+/// column's unit is not stated (Trace::time_unit_stated): servo drives log
+/// at 100 Hz or more (the 200 Hz SysId logs are the slowest seen), and a
+/// 1 kHz log stamped in ms reads as 1 Hz. Slower unstated logs are refused.
+constexpr double kSlowestUnstatedStep_s = 0.05;
+
 /// What the conditioning is told rather than finds.
 struct ConditionOptions {
   /// Spread position and velocity values that the log held for several rows

@@ -110,6 +110,29 @@ TEST(CsvTrace, MissingRenamedTimeColumnIsNamed) {
 // letters are part of a word, is s; --time-scale overrides the name, and a
 // negative one is an error. Taken as s, a time in ms made the mass 10^6
 // too large.
+// GIVEN time columns named with and without a unit, THEN the reader says
+// whether the unit was stated (condition() refuses a log too slow for a
+// drive only when it was not).
+TEST(CsvTrace, TimeUnitIsStatedByNameOrOption) {
+  CsvColumns c;
+  for (const char* stated : {"t_s", "t_ms", "time [us]", "Time (s)"}) {
+    c.time = stated;
+    EXPECT_TRUE(time_unit_stated(c)) << stated;
+  }
+  for (const char* unstated : {"t", "time", "items", "s"}) {
+    c.time = unstated;
+    EXPECT_FALSE(time_unit_stated(c)) << unstated;
+  }
+  c.time_scale = 1.0;
+  EXPECT_TRUE(time_unit_stated(c));
+  const std::string path = write_text("time_unit_stated", "t,x,u\n0,0,1\n1,0.001,1\n");
+  CsvColumns plain;
+  plain.time = "t";
+  EXPECT_FALSE(read_trace_csv(path, plain).trace.time_unit_stated);
+  plain.time_scale = 1e-3;
+  EXPECT_TRUE(read_trace_csv(path, plain).trace.time_unit_stated);
+}
+
 TEST(CsvTrace, TimeColumnInMsIsScaledToSeconds) {
   using feedid::host::time_unit_from_name;
   EXPECT_EQ(time_unit_from_name("t_ms"), 1e-3);

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 #include "signals/condition.hpp"
 
@@ -22,6 +24,31 @@ Trace reciprocating(const std::vector<double>& sampled, const std::vector<double
     tr.samples.push_back({stamped[k], A * std::sin(w * t), 0.0, -mass * A * w * w * std::sin(w * t)});
   }
   return tr;
+}
+
+TEST(Condition, ALogInMsReadAsSecondsIsRefusedUnlessItsUnitIsStated) {
+  // GIVEN a 1 kHz log stamped in ms, read as s (1 Hz) for want of a unit
+  std::vector<double> clock, stamps;
+  for (int k = 0; k < 4000; ++k) {
+    clock.push_back(1e-3 * k);
+    stamps.push_back(static_cast<double>(k));
+  }
+  Trace tr = reciprocating(clock, stamps);
+  // WHEN conditioned  THEN it is refused, naming the step and the option that fixes it
+  try {
+    (void)condition(tr, ConditionOptions{});
+    ADD_FAILURE() << "a 1 Hz log with an unstated time unit was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--time-scale 0.001"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("reciprocating"), std::string::npos) << e.what();
+  }
+  // AND with the unit stated (the user says 1 s steps are meant) it is taken
+  tr.time_unit_stated = true;
+  EXPECT_NO_THROW((void)condition(tr, ConditionOptions{}));
+  // AND a 200 Hz log (the slowest drive logs seen) is taken without a stated unit
+  std::vector<double> slow;
+  for (int k = 0; k < 4000; ++k) slow.push_back(5e-3 * k);
+  EXPECT_NO_THROW((void)condition(reciprocating(slow, slow), ConditionOptions{}));
 }
 
 TEST(Condition, JitteredStampsOfAClockedLogAreTakenToTheClock) {
