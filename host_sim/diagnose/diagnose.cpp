@@ -1019,7 +1019,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
                           "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
   j["input"] = {{"position", r.position_origin}, {"force_outlier_rows", r.force_outliers.rows},
-                {"force_outlier_limit", r.force_outliers.limit}, {"force_sign", r.base.signals.force_sign.sign},
+                {"force_outlier_limit", r.force_outliers.limit}, {"force_saturation", r.force_outliers.saturation.to_json()}, {"force_sign", r.base.signals.force_sign.sign},
                 {"force_sign_origin", r.base.signals.force_sign.describe()}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},
                 {"folds", r.folds}, {"blocks_identification", r.blocks_identification},

@@ -57,13 +57,102 @@ std::vector<double> travel_of(const Trace& t) {
 }
 }  // namespace
 
-Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, ForceOutliers& found) {
+std::string ForceSaturation::describe(const std::string& force_unit) const {
+  char buf[320];
+  std::string levels;
+  if (found_hi) { std::snprintf(buf, sizeof buf, "%+.6g", level_hi); levels += buf; }
+  if (found_lo) { std::snprintf(buf, sizeof buf, "%s%+.6g", found_hi ? " and " : "", level_lo); levels += buf; }
+  std::snprintf(buf, sizeof buf,
+                "clipped at %s %s: %zu rows sit on the level (a drive's limit or the log's range), left out with the rows "
+                "around them (%zu in all), so that no integral spans a force that did not move the axis",
+                levels.c_str(), force_unit.c_str(), rows, rows_left_out);
+  return buf;
+}
+
+nlohmann::json ForceSaturation::to_json() const {
+  if (!found()) return nullptr;
+  return {{"level_hi", found_hi ? nlohmann::json(level_hi) : nlohmann::json()},
+          {"level_lo", found_lo ? nlohmann::json(level_lo) : nlohmann::json()},
+          {"rows", rows}, {"rows_left_out", rows_left_out}};
+}
+
+namespace {
+/// Whether the largest value of `u` (sign +1) or the smallest (-1) is a
+/// clip level (ForceSaturation), and which.
+bool clip_level(const std::vector<double>& u, double sign, double& level) {
+  if (u.empty()) return false;
+  level = sign > 0 ? *std::max_element(u.begin(), u.end()) : *std::min_element(u.begin(), u.end());
+  if (!(sign * level > 0.0) || !std::isfinite(level)) return false;
+  // The force's step at the level: the distance to the nearest value below it.
+  std::size_t on = 0;
+  double step = std::numeric_limits<double>::infinity();
+  for (double x : u) {
+    if (x == level) ++on;
+    else step = std::min(step, sign * (level - x));
+  }
+  // A force that never leaves the level (a constant) has nothing clipped.
+  if (on < kSaturationMinRows || !std::isfinite(step)) return false;
+  const double band = std::max(kSaturationBand * std::fabs(level), std::isfinite(step) ? 3.0 * step : 0.0);
+  std::size_t near = 0;
+  for (double x : u)
+    if (x != level && sign * (level - x) <= band) ++near;
+  return static_cast<double>(on) > kSaturationPileUp * static_cast<double>(near);
+}
+}  // namespace
+
+Trace leave_out_force_saturation(const Trace& logged, ForceSaturation& found) {
+  found = ForceSaturation{};
+  std::vector<double> u, t;
+  for (const TraceSample& s : logged.samples) {
+    u.push_back(s.u_N);
+    t.push_back(s.t_s);
+  }
+  found.found_hi = clip_level(u, 1.0, found.level_hi);
+  found.found_lo = clip_level(u, -1.0, found.level_lo);
+  if (!found.found()) return logged;
+  const std::size_t n = u.size();
+  std::vector<bool> out(n, false);
+  for (std::size_t k = 0; k < n; ++k)
+    out[k] = (found.found_hi && u[k] == found.level_hi) || (found.found_lo && u[k] == found.level_lo);
+  found.rows = static_cast<std::size_t>(std::count(out.begin(), out.end(), true));
+  // Widen each clipped stretch until the kept rows either side are a gap apart.
+  const double gap_s = max_step_s(median_step(t));
+  for (std::size_t a = 0; a < n;) {
+    if (!out[a]) { ++a; continue; }
+    std::size_t b = a;
+    while (b + 1 < n && out[b + 1]) ++b;
+    std::size_t lo = a, hi = b;  // [lo, hi] left out; at either end of the trace nothing is spanned
+    auto is_gap = [&] { return lo == 0 || hi + 1 >= n || t[hi + 1] - t[lo - 1] > gap_s; };
+    while (!is_gap()) { --lo; ++hi; }
+    for (std::size_t k = lo; k <= hi; ++k) out[k] = true;
+    a = hi + 1;
+  }
+  Trace kept = logged;
+  kept.samples.clear();
+  for (TraceRun& run : kept.runs) {
+    const std::size_t first = run.first, last = run.first + run.samples;
+    run.first = kept.samples.size();
+    for (std::size_t k = first; k < last; ++k)
+      if (!out[k]) kept.samples.push_back(logged.samples[k]);
+    run.samples = kept.samples.size() - run.first;
+  }
+  if (kept.runs.empty())
+    for (std::size_t k = 0; k < n; ++k)
+      if (!out[k]) kept.samples.push_back(logged.samples[k]);
+  found.rows_left_out = n - kept.samples.size();
+  return kept;
+}
+
+Trace bridge_force_outliers(const Trace& clipped, const std::string& force_unit, ForceOutliers& found) {
+  ForceSaturation saturation;
+  const Trace logged = leave_out_force_saturation(clipped, saturation);
   std::vector<double> u, t;
   for (const TraceSample& s : logged.samples) {
     u.push_back(s.u_N);
     t.push_back(s.t_s);
   }
   found = ForceOutliers{};
+  found.saturation = saturation;
   found.limit = force_outlier_limit(travel_of(logged), u);
   Trace out = logged;
   const double gap_s = t.size() > 1 ? max_step_s(median_step(t)) : 0.0;

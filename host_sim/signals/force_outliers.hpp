@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "io/trace.hpp"
 
 namespace feedid::host {
@@ -36,8 +38,30 @@ constexpr std::size_t kNamedOutliers = 5;
 /// readers, which reject them.
 double force_outlier_limit(const std::vector<double>& x, const std::vector<double>& u);
 
+/// A clipped force: rows piled up exactly on the largest (or smallest)
+/// value, where an unclipped force passes its peak in a row or two. At
+/// least kSaturationMinRows rows on the level, and over kSaturationPileUp
+/// times as many as lie within kSaturationBand of it below (or within
+/// three of the force's steps, for a coarsely quantised force).
+constexpr std::size_t kSaturationMinRows = 5;
+constexpr double kSaturationPileUp = 4.0;
+constexpr double kSaturationBand = 0.02;
+
+/// The clip levels found, and the rows left out for them.
+struct ForceSaturation {
+  double level_hi = 0.0, level_lo = 0.0;  ///< the levels (u's unit); meaningful where found_*
+  bool found_hi = false, found_lo = false;
+  std::size_t rows = 0;           ///< rows on a level
+  std::size_t rows_left_out = 0;  ///< with the rows around them that make each a gap
+  bool found() const { return found_hi || found_lo; }
+  std::string describe(const std::string& force_unit) const;
+  /// {"level_hi", "level_lo" (null where none), "rows", "rows_left_out"}, or null if no clip.
+  nlohmann::json to_json() const;
+};
+
 /// Force rows beyond the limit, and what became of them.
 struct ForceOutliers {
+  ForceSaturation saturation;  ///< clipped rows, left out before the limit is read
   double limit = 0.0;       ///< force_outlier_limit of the trace as logged (its force unit)
   std::size_t rows = 0;     ///< forces beyond it
   std::size_t unbridged = 0;  ///< of those, with no good force within their stretch to bridge them by
@@ -57,6 +81,14 @@ struct ForceOutliers {
 /// the core all see the same force. This is the core's own rule for a force
 /// beyond max_force_N, whose next sample bridges the rejected one; a force
 /// with no good one in its stretch is left for the core to reject.
+/// Clipped rows (ForceSaturation) are left out first, whole: a clipped
+/// force is not the force that moved the axis (clipped at +-100 N, EMPS's
+/// mass came out 10.5 % low with status ok), and bridging would put a
+/// guess in its place. Each clipped stretch is widened until it is a gap
+/// (Signals::gap_before), so no integral, filter or section spans it.
 Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, ForceOutliers& found);
+
+/// The trace without its clipped rows (the rule above); `found` says what was left out.
+Trace leave_out_force_saturation(const Trace& logged, ForceSaturation& found);
 
 }  // namespace feedid::host

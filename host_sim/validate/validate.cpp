@@ -158,6 +158,7 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"stretches_on_clock_slots", r.stretches_on_clock_slots},
           {"force_outlier_rows", r.force_outliers.rows},
           {"force_outlier_limit", r.force_outliers.limit},
+          {"force_saturation", r.force_outliers.saturation.to_json()},
           {"force_sign", r.force_sign.sign},
           {"force_sign_origin", r.force_sign.describe()},
           {"position_unwraps", r.position_wrap.wraps},

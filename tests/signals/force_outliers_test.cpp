@@ -1,10 +1,12 @@
 // Force rows beyond a limit read from the data (host/signals/force_outliers.hpp).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
+#include "signals/filters.hpp"
 #include "signals/force_outliers.hpp"
 
 namespace feedid::host {
@@ -135,6 +137,46 @@ TEST(ForceOutliers, AForceOfZerosHasNoLimit) {
   ForceOutliers found;
   EXPECT_EQ(bridge_force_outliers(tr, "N", found).samples.size(), tr.samples.size());
   EXPECT_EQ(found.limit, std::numeric_limits<double>::max());
+}
+
+TEST(ForceSaturation, ClippedRowsAreLeftOutAsGapsAndAPeakIsNot) {
+  // GIVEN a reciprocation whose force (peak 19.9 N) is clipped at +-15 N
+  Trace tr = reciprocating(10.0);
+  const Trace unclipped = tr;
+  for (auto& smp : tr.samples) smp.u_N = std::clamp(smp.u_N, -15.0, 15.0);
+  // WHEN screened
+  ForceSaturation found;
+  const Trace kept = leave_out_force_saturation(tr, found);
+  // THEN both levels are found, every clipped row is gone, and the kept
+  // rows either side of each hole are more than a gap apart
+  ASSERT_TRUE(found.found_hi && found.found_lo);
+  EXPECT_EQ(found.level_hi, 15.0);
+  EXPECT_EQ(found.level_lo, -15.0);
+  EXPECT_EQ(found.rows_left_out, tr.samples.size() - kept.samples.size());
+  EXPECT_GE(found.rows_left_out, found.rows);
+  for (const auto& smp : kept.samples) EXPECT_LT(std::fabs(smp.u_N), 15.0);
+  for (std::size_t k = 1; k < kept.samples.size(); ++k) {
+    const double step = kept.samples[k].t_s - kept.samples[k - 1].t_s;
+    EXPECT_TRUE(step < 1.5e-3 || step > max_step_s(1e-3)) << "a hole of " << step << " s is neither a row nor a gap";
+  }
+  // AND the unclipped force, whose peaks pass in a row or two, is left whole
+  ForceSaturation none;
+  EXPECT_EQ(leave_out_force_saturation(unclipped, none).samples.size(), unclipped.samples.size());
+  EXPECT_FALSE(none.found());
+}
+
+TEST(ForceSaturation, ACoarselyQuantisedForceIsNotCalledClipped) {
+  // GIVEN the reciprocation's force (peak 19.9 N) in steps of 5 N, unclipped
+  Trace tr = reciprocating(10.0);
+  for (auto& smp : tr.samples) smp.u_N = 5.0 * std::round(smp.u_N / 5.0);
+  // WHEN screened  THEN no level is a clip: the top step holds no more rows than those below it
+  ForceSaturation found;
+  (void)leave_out_force_saturation(tr, found);
+  EXPECT_FALSE(found.found()) << found.describe("N");
+  // AND neither is a constant force, which has no other value to be clipped from
+  for (auto& smp : tr.samples) smp.u_N = 1.0;
+  (void)leave_out_force_saturation(tr, found);
+  EXPECT_FALSE(found.found()) << found.describe("N");
 }
 
 }  // namespace
