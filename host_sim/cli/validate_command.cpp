@@ -32,10 +32,15 @@ struct ValidateCommand : Command {
     app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
   }
   int run() override {
-    const DriveParams model = model_from_json(read_json_file(model_path));  // errors reach main's handler
+    const nlohmann::json model_json = read_json_file(model_path);
+    const DriveParams model = model_from_json(model_json);  // errors reach main's handler
+    opt.units = input.units();
+    if (const std::string why = model_units_mismatch(model_json, opt.units); !why.empty()) {
+      std::fprintf(stderr, "error: %s: %s\n", model_path.c_str(), why.c_str());
+      return 2;
+    }
     CsvResult csv;
     if (!read_trace(in_path, input, cols, csv)) return 2;
-    opt.units = input.units();
     const ValidateResult r = validate(model, csv.trace, opt);
     std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
                 r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,

@@ -45,4 +45,21 @@ inline nlohmann::json units_json(const Units& u) {
           {"vs", u.velocity()},     {"position", u.position}, {"force", u.force}, {"velocity", u.velocity()}};
 }
 
+/// Why a model JSON cannot be applied to a log read in `run`'s units: its
+/// `units` (identify writes them) name another position or force unit, e.g.
+/// a rotary model (rad, N m) on a linear log (m, N), whose friction and
+/// inertia would be read in the wrong unit with no other sign. Empty when
+/// they agree, or when the model states no units (a hand-written file is
+/// taken in the log's units).
+inline std::string model_units_mismatch(const nlohmann::json& model, const Units& run) {
+  if (!model.is_object() || !model.contains("units") || !model.at("units").is_object()) return "";
+  const nlohmann::json& u = model.at("units");
+  auto stated = [&u](const char* key) { return u.contains(key) && u.at(key).is_string() ? u.at(key).get<std::string>() : ""; };
+  const std::string position = stated("position"), force = stated("force");
+  if ((position.empty() || position == run.position) && (force.empty() || force == run.force)) return "";
+  return "the model is in " + (position.empty() ? run.position : position) + " and " + (force.empty() ? run.force : force) +
+         ", the log is read in " + run.position + " and " + run.force +
+         ": give the log's --axis and --force-unit as the model was identified with (--axis rotary for rad), or a model of this axis";
+}
+
 }  // namespace feedid::host

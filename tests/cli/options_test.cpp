@@ -46,4 +46,15 @@ TEST(Options, AFileGivenTwiceIsPooledWithAWarning) {
   EXPECT_NE(text.find("is given twice"), std::string::npos) << text;
 }
 
+TEST(Options, ARotaryModelIsNotValidatedOnALinearLog) {
+  // GIVEN a model identified as a rotary axis
+  const std::string in = ::testing::TempDir() + "feedid_options_units.csv";
+  const std::string model = ::testing::TempDir() + "feedid_options_units.json";
+  ASSERT_EQ(feedid("simulate --duration 30 --out " + in), 0);
+  ASSERT_EQ(feedid("identify --in " + in + " --axis rotary --json " + model), 0);
+  // THEN validating it on the log read as linear is refused, and read as rotary it runs
+  EXPECT_EQ(feedid("validate --model " + model + " --in " + in), 2);
+  EXPECT_EQ(feedid("validate --model " + model + " --in " + in + " --axis rotary"), 0);
+}
+
 }  // namespace

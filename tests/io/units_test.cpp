@@ -86,6 +86,21 @@ TEST(Units, ForceLabelGivesSysIdStyleUnits) {
   EXPECT_EQ(units_for(Axis::linear, "A").viscous(), "A s/m");
 }
 
+TEST(Units, AModelInOtherUnitsThanTheLogIsNamed) {
+  // GIVEN a rotary model in V (as identify writes SysId's) and logs read linear and rotary
+  const nlohmann::json rotary_v = {{"m", 1.0}, {"units", units_json(units_for(Axis::rotary, "V"))}};
+  // THEN applying it to a linear log in N is refused, naming both units and the fix
+  const std::string why = model_units_mismatch(rotary_v, units_for(Axis::linear));
+  EXPECT_NE(why.find("rad"), std::string::npos) << why;
+  EXPECT_NE(why.find("--axis"), std::string::npos) << why;
+  // AND to a rotary log in V it is not, nor is a model that states no units
+  EXPECT_EQ(model_units_mismatch(rotary_v, units_for(Axis::rotary, "V")), "");
+  EXPECT_EQ(model_units_mismatch(nlohmann::json{{"m", 1.0}}, units_for(Axis::linear)), "");
+  // AND a linear model on a rotary log is refused too
+  const nlohmann::json linear = {{"units", units_json(units_for(Axis::linear))}};
+  EXPECT_NE(model_units_mismatch(linear, units_for(Axis::rotary)), "");
+}
+
 TEST(Units, ScalesApplyAsTheCsvIsRead) {
   CsvColumns cols;
   cols.position_scale = 1e-6;  // encoder counts of 1 um
