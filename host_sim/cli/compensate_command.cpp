@@ -57,7 +57,9 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "
                  "motion as logged); the table is friction along the logged position, so in the drive's own force "
                  "sign the feedforward is minus these values\n", model_path.c_str());
-  const std::string text = format == "csv" ? to_csv(t, opt) : to_json(t, opt).dump(2) + "\n";
+  nlohmann::json table = to_json(t, opt);
+  if (mj.contains("units")) table["model_units"] = mj["units"];  // the table's speeds and forces are in these
+  const std::string text = format == "csv" ? to_csv(t, opt) : table.dump(2) + "\n";
   if (out_path.empty()) {
     std::cout << text;
   } else {
@@ -66,8 +68,11 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
-    std::printf("%zu points per direction up to %.4g m/s; largest interpolation error %.3g N; wrote %s\n",
-                t.dir[0].size(), t.max_speed_m_s, t.max_interpolation_error_N, out_path.c_str());
+    // In the model's own units (identify states them: rad/s and V for a SysId log).
+    const nlohmann::json units = mj.value("units", nlohmann::json::object());
+    std::printf("%zu points per direction up to %.4g %s; largest interpolation error %.3g %s; wrote %s\n",
+                t.dir[0].size(), t.max_speed_m_s, units.value("velocity", std::string("m/s")).c_str(),
+                t.max_interpolation_error_N, units.value("force", std::string("N")).c_str(), out_path.c_str());
   }
   return 0;
 }

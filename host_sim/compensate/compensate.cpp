@@ -52,6 +52,22 @@ std::vector<double> greedy_breakpoints(const DriveParams& m, int dir, double top
   return static_cast<int>(b.size()) - 1 <= segments ? b : std::vector<double>{};
 }
 
+/// Splits segments of `b` at their middles, the one whose chord strays most
+/// first (the widest where none strays: a straight Coulomb + viscous line),
+/// until it has `points` breakpoints: a drive's table takes the count it
+/// was given, and fewer points (2 for a straight line) read as a failure.
+void fill_to_count(const DriveParams& m, int dir, int points, std::vector<double>& b) {
+  while (b.size() >= 2 && static_cast<int>(b.size()) < points) {
+    std::size_t split = 0;
+    double worst = -1.0, widest = -1.0;
+    for (std::size_t i = 0; i + 1 < b.size(); ++i) {
+      const double e = chord_error(m, dir, b[i], b[i + 1]), w = b[i + 1] - b[i];
+      if (e > worst || (e == worst && w > widest)) { worst = e; widest = w; split = i; }
+    }
+    b.insert(b.begin() + static_cast<std::ptrdiff_t>(split) + 1, 0.5 * (b[split] + b[split + 1]));
+  }
+}
+
 std::vector<TablePoint> minimax_table(const DriveParams& m, int dir, double top, int points) {
   // The error of the straight line over the whole range is an upper bound.
   double lo = 0.0, hi = chord_error(m, dir, 0.0, top) + 1e-12;
@@ -66,6 +82,7 @@ std::vector<TablePoint> minimax_table(const DriveParams& m, int dir, double top,
       best = std::move(b);
     }
   }
+  fill_to_count(m, dir, points, best);
   std::vector<TablePoint> t;
   for (double s : best) t.push_back({s, model_friction(m, dir, s)});
   return t;

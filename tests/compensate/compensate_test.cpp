@@ -66,6 +66,20 @@ TEST(CompensationTable, CoulombViscousModelIsExactWithTwoPoints) {
   EXPECT_THROW(make_compensation_table(m, 0.0, 20), std::invalid_argument);
 }
 
+TEST(CompensationTable, AStraightLineStillGetsTheCountAsked) {
+  // GIVEN a Coulomb + viscous model, which two points represent exactly
+  DriveParams m;
+  m.pos.breakaway_N = m.neg.breakaway_N = 0.0;
+  m.pos.stribeck_velocity_m_s = m.neg.stribeck_velocity_m_s = 0.0;
+  // WHEN 20 points are asked  THEN each direction has 20 distinct, rising speeds, still exact
+  const CompensationTable t = make_compensation_table(m, 0.2, 20);
+  for (int d = 0; d < 2; ++d) {
+    ASSERT_EQ(t.dir[d].size(), 20u);
+    for (std::size_t k = 1; k < t.dir[d].size(); ++k) EXPECT_GT(t.dir[d][k].speed_m_s, t.dir[d][k - 1].speed_m_s);
+  }
+  EXPECT_LT(t.max_interpolation_error_N, 1e-9);
+}
+
 TEST(CompensationTable, DriveUnitsDivideByTheForceScale) {
   const DriveParams m;
   CompensateOptions o;
