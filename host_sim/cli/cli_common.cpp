@@ -244,10 +244,7 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
   const std::string unphysical = not_physical(r);
   if (!unphysical.empty()) {
     std::fprintf(stderr, "error: the identified model is not physical: %s. Such a model pushes with the motion, and so "
-                 "would a compensation from it. All of them negative: the force was taken with the wrong sign "
-                 "(--force-scale -1 reverses it where its sign is unconfirmed); one within its standard error of "
-                 "zero: the data do not resolve it; a zero mass or friction: the force carries no signal\n",
-                 unphysical.c_str());
+                 "would a compensation from it. Likeliest cause: %s\n", unphysical.c_str(), not_physical_cause(r).c_str());
     return 2;
   }
   return 0;

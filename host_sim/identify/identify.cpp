@@ -814,6 +814,30 @@ std::string not_physical(const IdentifyResult& r) {
   return non_physical_parameters(to_drive_params(r.estimate), r.units);
 }
 
+std::string not_physical_cause(const IdentifyResult& r) {
+  if (not_physical(r).empty()) return "";
+  const auto& e = r.estimate;
+  const auto& p = e.pos;
+  const auto& n = e.neg;
+  if (e.mass_kg < 0 && p.coulomb_N < 0 && n.coulomb_N < 0)
+    return "every term is negative: the force was taken with the wrong sign (--force-scale -1 reverses it)";
+  const bool pos_low = p.coulomb_N < -2.0 * p.coulomb_se && n.coulomb_N > 0;
+  const bool neg_low = n.coulomb_N < -2.0 * n.coulomb_se && p.coulomb_N > 0;
+  if (pos_low || neg_low) {
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "one direction's Coulomb force is negative and the other's larger: a constant load force (gravity on "
+                  "an inclined or vertical axis, a counterweight, cable drag, a sensor offset) of about %.3g %s adds "
+                  "to one direction and takes from the other; without it the Coulomb force is about %.3g %s. "
+                  "`feedid diagnose` fits it as an offset",
+                  0.5 * (p.coulomb_N - n.coulomb_N), r.units.force.c_str(), 0.5 * (p.coulomb_N + n.coulomb_N),
+                  r.units.force.c_str());
+    return buf;
+  }
+  return "a negative term within about two standard errors of zero: the data do not resolve it; a zero mass or "
+         "friction: the force carries no signal";
+}
+
 nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
@@ -822,7 +846,10 @@ nlohmann::json to_json(const IdentifyResult& r) {
   if (!r.error.empty()) j["error"] = r.error;
   const std::string unphysical = not_physical(r);
   j["physical"] = unphysical.empty();
-  if (!unphysical.empty()) j["not_physical"] = unphysical;
+  if (!unphysical.empty()) {
+    j["not_physical"] = unphysical;
+    j["not_physical_cause"] = not_physical_cause(r);
+  }
   j["method"] = e.method == feedid::Method::paper ? "paper" : "bands";
   j["m"] = e.mass_kg;
   j["m_se"] = e.mass_se_kg;

@@ -333,6 +333,16 @@ BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePai
 /// not ok: nothing to judge).
 std::string not_physical(const IdentifyResult& r);
 
+/// The likeliest cause of a model that is not physical, in words; empty
+/// when it is physical. Every term negative: the force's sign. One
+/// direction's Coulomb force negative beyond two standard errors while the
+/// other's is positive: a constant load force F0 (gravity on an inclined
+/// or vertical axis, a counterweight, cable drag, a sensor offset) adds to
+/// one direction's Coulomb force and takes from the other's, so that
+/// F0 = (Fc+ - Fc-)/2 and the Coulomb force is (Fc+ + Fc-)/2. Within its
+/// standard error of zero: the data do not resolve it.
+std::string not_physical_cause(const IdentifyResult& r);
+
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
 

@@ -110,6 +110,7 @@ TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
   EXPECT_NE(why.find("Fc- = -"), std::string::npos) << why;
   const nlohmann::json j = to_json(r);
   EXPECT_FALSE(j.at("physical").get<bool>());
+  EXPECT_NE(j.at("not_physical_cause").get<std::string>().find("wrong sign"), std::string::npos);
   EXPECT_NE(summary(r).find("NOT PHYSICAL"), std::string::npos);
   EXPECT_TRUE(to_json(clean()).at("physical").get<bool>());
   EXPECT_TRUE(not_physical(clean()).empty());
@@ -131,6 +132,24 @@ TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
   std::ofstream(model) << to_json(clean()).dump();
   EXPECT_EQ(compensate(), 0);
   EXPECT_TRUE(std::filesystem::exists(table));
+}
+
+// GIVEN an axis that carries a constant load of 40 N (gravity on an incline)
+// above its 25/26 N of Coulomb friction, THEN the negative Coulomb force it
+// gives one direction is flagged and put down to a load force of about
+// (Fc+ - Fc-)/2, with the Coulomb force about (Fc+ + Fc-)/2.
+TEST(Trust, ANegativeCoulombForceFromALoadNamesTheLoad) {
+  SimConfig sc = test::sim_config(test::SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 30.0});
+  sc.effects.offset_N = 40.0;
+  const IdentifyResult r = identify(simulate(sc), IdentifyOptions{});
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  ASSERT_FALSE(not_physical(r).empty());
+  EXPECT_NE(r.estimate.neg.flags & feedid::flag_not_physical, 0u);
+  const std::string cause = not_physical_cause(r);
+  EXPECT_NE(cause.find("constant load force"), std::string::npos) << cause;
+  const double load = 0.5 * (r.estimate.pos.coulomb_N - r.estimate.neg.coulomb_N);
+  EXPECT_NEAR(load, 40.0, 4.0);
+  EXPECT_NE(to_json(r).at("not_physical_cause").get<std::string>().find("gravity"), std::string::npos);
 }
 
 // GIVEN a model JSON whose identification failed, THEN compensate names
