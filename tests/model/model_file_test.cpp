@@ -57,6 +57,7 @@ TEST(ModelFile, MissingKeyIsNamed) {
 TEST(ModelFile, UnknownKeyIsAWarningNotAnError) {
   // GIVEN a typo at the top and inside a direction
   json j = emps_reference();
+  j.erase("offset_N");
   j["ofset_N"] = -3.0;
   j["pos"]["sigam"] = 1.0;
   const ModelFile m = model_file_from_json(j, "ref.json");

@@ -1,0 +1,196 @@
+// The controller file and the gains a logged command reveals (controller.hpp).
+#include "controller.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include "model/drive_model.hpp"
+
+namespace feedid::host {
+namespace {
+
+[[noreturn]] void fail(const std::string& source, const std::string& what) {
+  throw std::invalid_argument(source + ": " + what);
+}
+
+double required_number(const nlohmann::json& j, const char* key, const std::string& source) {
+  if (!j.contains(key)) fail(source, std::string("missing key '") + key + "'");
+  const nlohmann::json& v = j.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, std::string("'") + key + "' must be a finite number");
+  return v.get<double>();
+}
+
+std::optional<double> optional_gain(const nlohmann::json& j, const char* key, const std::string& source) {
+  if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
+  const double g = required_number(j, key, source);
+  if (g < 0.0) fail(source, std::string("'") + key + "' must be >= 0");
+  return g;
+}
+
+std::string column_name(const nlohmann::json& j, const char* key, const std::string& source, bool required) {
+  if (!j.contains(key) || (!required && j.at(key).is_null())) {
+    if (required) fail(source, std::string("missing key '") + key + "' (the column of the logged position reference)");
+    return "";
+  }
+  if (!j.at(key).is_string() || j.at(key).get<std::string>().empty())
+    fail(source, std::string("'") + key + "' must be a column name (a non-empty string)");
+  return j.at(key).get<std::string>();
+}
+
+std::vector<double> fir_taps(const nlohmann::json& j, const std::string& source) {
+  if (!j.contains("position_fir")) fail(source, "missing key 'position_fir' (e.g. [1] for none, [0.5, 0.5])");
+  const nlohmann::json& a = j.at("position_fir");
+  if (!a.is_array() || a.empty()) fail(source, "'position_fir' must be a non-empty array of numbers");
+  std::vector<double> taps;
+  double sum = 0.0;
+  for (const auto& v : a) {
+    if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, "'position_fir' must hold finite numbers");
+    taps.push_back(v.get<double>());
+    sum += taps.back();
+  }
+  // A position filter passes a standing position unchanged.
+  if (std::fabs(sum - 1.0) > 1e-6) fail(source, "'position_fir' taps must sum to 1 (they sum to " + std::to_string(sum) + ")");
+  return taps;
+}
+
+}  // namespace
+
+const char* law_name(ControlLaw law) { return law == ControlLaw::p_pi ? "p_pi" : "pd"; }
+
+Controller controller_from_json(const nlohmann::json& j, const std::string& source) {
+  if (!j.is_object()) fail(source, "a controller file must be a JSON object");
+  Controller c;
+  c.source = source;
+  if (j.contains("law")) {
+    const nlohmann::json& l = j.at("law");
+    if (l == "pd") c.law = ControlLaw::pd;
+    else if (l == "p_pi") c.law = ControlLaw::p_pi;
+    else fail(source, "'law' must be \"pd\" or \"p_pi\", not " + l.dump());
+  }
+  c.kp = optional_gain(j, "kp", source);
+  c.kv = optional_gain(j, "kv", source);
+  c.ki = optional_gain(j, "ki", source);
+  c.drive_gain = required_number(j, "drive_gain", source);
+  if (!(c.drive_gain > 0.0)) fail(source, "'drive_gain' must be > 0 (force per command unit)");
+  c.saturation = required_number(j, "saturation", source);
+  if (!(c.saturation > 0.0)) fail(source, "'saturation' must be > 0 (the command limit)");
+  c.position_fir = fir_taps(j, source);
+  const double d = required_number(j, "delay_samples", source);
+  if (d < 0.0 || d != std::floor(d) || d > 1000.0) fail(source, "'delay_samples' must be a whole number of samples, 0 to 1000");
+  c.delay_samples = static_cast<int>(d);
+  c.reference = column_name(j, "reference", source, true);
+  c.extra_command = column_name(j, "extra_command", source, false);
+  static const std::set<std::string> known = {"law", "kp", "kv", "ki", "drive_gain", "saturation", "position_fir",
+                                              "delay_samples", "reference", "extra_command", "comment"};
+  for (const auto& [key, value] : j.items())
+    if (!known.count(key)) c.warnings.push_back(source + ": unknown key '" + key + "' (ignored)");
+  return c;
+}
+
+Controller read_controller_file(const std::string& path) { return controller_from_json(read_json_file(path), path); }
+
+double VelocityEstimate::next(double q) {
+  if (!started_) std::fill(q_.begin(), q_.end(), q);  // at rest before the first sample
+  for (std::size_t i = q_.size() - 1; i > 0; --i) q_[i] = q_[i - 1];
+  q_[0] = q;
+  double qf = 0.0;
+  for (std::size_t i = 0; i < fir_.size(); ++i) qf += fir_[i] * q_[i];
+  const double dq = started_ ? (qf - qf_prev_) / dt_ : 0.0;
+  started_ = true;
+  qf_prev_ = qf;
+  return dq;
+}
+
+bool needs_fit(const Controller& c) { return !c.kp || !c.kv || (c.law == ControlLaw::p_pi && !c.ki); }
+
+Gains resolve_gains(const Controller& c, const GainFit& fit) {
+  Gains g;
+  g.kp = c.kp ? *c.kp : fit.value.kp;
+  g.kv = c.kv ? *c.kv : fit.value.kv;
+  g.ki = c.law == ControlLaw::pd ? 0.0 : (c.ki ? *c.ki : fit.value.ki);
+  return g;
+}
+
+namespace {
+
+/// The fit at one lag: the logged command at k against the regressors at k - lag.
+GainFit fit_at_lag(const Controller& c, const std::vector<double>& t, const std::vector<double>& x,
+                   const std::vector<double>& u, const std::vector<double>& reference,
+                   const std::vector<double>& extra, int lag) {
+  const std::size_t n = t.size();
+  const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+  const bool pi = c.law == ControlLaw::p_pi;
+  const int p = pi ? 5 : 2;
+  // Regressors from the measured position: e = r - q, dq, and their integrals.
+  std::vector<std::array<double, 5>> rows(n);
+  VelocityEstimate vel(c.position_fir, dt);
+  double E = 0.0, D = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double e = reference[k] - x[k], dq = vel.next(x[k]);
+    E += e * dt;
+    D += dq * dt;
+    rows[k] = {e, dq, E, D, 1.0};
+  }
+  std::vector<std::size_t> used;
+  const auto L = static_cast<std::size_t>(lag);
+  for (std::size_t k = L + 1; k < n; ++k) {
+    const double cmd = u[k] / c.drive_gain - (extra.empty() ? 0.0 : extra[k]);
+    if (std::isfinite(cmd) && std::fabs(cmd) < 0.95 * c.saturation) used.push_back(k);
+  }
+  if (used.size() < static_cast<std::size_t>(10 * p))
+    throw std::invalid_argument(c.source + ": only " + std::to_string(used.size()) +
+                                " unsaturated samples to identify the missing gains from the logged command");
+  Eigen::MatrixXd A(used.size(), p);
+  Eigen::VectorXd y(used.size());
+  for (std::size_t i = 0; i < used.size(); ++i) {
+    const std::size_t k = used[i];
+    for (int j = 0; j < p; ++j) A(static_cast<Eigen::Index>(i), j) = rows[k - L][static_cast<std::size_t>(j)];
+    y(static_cast<Eigen::Index>(i)) = u[k] / c.drive_gain - (extra.empty() ? 0.0 : extra[k]);
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+  if (qr.rank() < p)
+    throw std::invalid_argument(c.source + ": the log does not move enough to identify the missing gains "
+                                "(the reference error and the velocity are not independent)");
+  const Eigen::VectorXd b = qr.solve(y);
+  const Eigen::VectorXd res = y - A * b;
+  const double s2 = res.squaredNorm() / static_cast<double>(used.size() - static_cast<std::size_t>(p));
+  const Eigen::MatrixXd cov = s2 * (A.transpose() * A).inverse();
+  GainFit f;
+  f.done = true;
+  f.lag_samples = lag;
+  f.samples = used.size();
+  f.rms_residual = std::sqrt(res.squaredNorm() / static_cast<double>(used.size()));
+  f.rms_command = std::sqrt(y.squaredNorm() / static_cast<double>(used.size()));
+  // b0 = kv kp, b1 = -kv (b2 = ki kp, b3 = -ki, b4 = ki I0 for p_pi).
+  f.value.kv = -b(1);
+  f.se.kv = std::sqrt(cov(1, 1));
+  f.value.kp = b(0) / f.value.kv;
+  // kp = -b0 / b1: gradient (-1/b1, b0/b1^2).
+  const double g0 = -1.0 / b(1), g1 = b(0) / (b(1) * b(1));
+  f.se.kp = std::sqrt(std::max(0.0, g0 * g0 * cov(0, 0) + 2.0 * g0 * g1 * cov(0, 1) + g1 * g1 * cov(1, 1)));
+  if (pi) {
+    f.value.ki = -b(3);
+    f.se.ki = std::sqrt(cov(3, 3));
+  }
+  return f;
+}
+
+}  // namespace
+
+GainFit fit_gains(const Controller& c, const std::vector<double>& t, const std::vector<double>& x,
+                  const std::vector<double>& u, const std::vector<double>& reference,
+                  const std::vector<double>& extra) {
+  GainFit best = fit_at_lag(c, t, x, u, reference, extra, 0);
+  if (c.delay_samples > 0) {
+    const GainFit delayed = fit_at_lag(c, t, x, u, reference, extra, c.delay_samples);
+    if (delayed.rms_residual < best.rms_residual) best = delayed;
+  }
+  return best;
+}
+
+}  // namespace feedid::host
