@@ -1,6 +1,7 @@
 // `feedid replay` (cli_common.hpp: the shared options and the Command interface).
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -27,6 +28,10 @@ void print_gain_fit(const GainFit& f, ControlLaw law) {
   if (law == ControlLaw::p_pi) {
     const Rounded ki = round_to_se(f.value.ki, f.se.ki);
     std::printf(", ki %s +- %s command/m", ki.value.c_str(), ki.se.c_str());
+  }
+  if (std::isfinite(f.extra_gain)) {
+    const Rounded g = round_to_se(f.extra_gain, f.extra_gain_se);
+    std::printf(", extra command x %s +- %s", g.value.c_str(), g.se.c_str());
   }
   std::printf("\n");
 }

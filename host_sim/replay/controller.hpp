@@ -10,6 +10,7 @@
 //
 // Host only.
 #pragma once
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -59,16 +60,21 @@ struct GainFit {
   double rms_residual = 0.0;  ///< of the logged command (command units)
   double rms_command = 0.0;   ///< of the logged command over the same samples
   std::size_t samples = 0;    ///< unsaturated samples fitted
+  /// How much of the logged extra command the logged command holds (1 when
+  /// it is added as logged; NaN without one), with its standard error.
+  double extra_gain = std::nan(""), extra_gain_se = std::nan("");
 };
 
-/// Ordinary least squares of the logged command, u / drive_gain - extra,
-/// on the loop's regressors from the measured position: kv kp (r - q) and
-/// -kv dq (and, for "p_pi", ki kp and -ki times their running integrals,
-/// with a constant for the integral's unknown start), over samples whose
-/// command is below 95 % of the saturation. The log may hold the command as
+/// Ordinary least squares of the logged command, u / drive_gain, on the
+/// loop's regressors from the measured position: kv kp (r - q) and -kv dq
+/// (and, for "p_pi", ki kp and -ki times their running integrals, with a
+/// constant for the integral's unknown start), and the extra command with a
+/// gain of its own (a pulse scaled on its way in would otherwise bias kv),
+/// over samples whose command less the extra is below 95 % of the
+/// saturation. The log may hold the command as
 /// computed or as applied (delay_samples later): both are fitted and the
-/// smaller residual kept. Standard errors from the residual variance,
-/// kp's by the delta method. Throws std::invalid_argument when too few
+/// smaller residual kept. Standard errors by a delete-one-block jackknife
+/// (20 contiguous blocks), which holds for correlated residuals. Throws std::invalid_argument when too few
 /// samples remain or the regressors are degenerate.
 GainFit fit_gains(const Controller& c, const std::vector<double>& t, const std::vector<double>& x,
                   const std::vector<double>& u, const std::vector<double>& reference,

@@ -262,7 +262,9 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
   if (r.gain_fit.done)
     j["gain_fit"] = {{"gains", gains_json(r.gain_fit.value, c.law)}, {"standard_errors", gains_json(r.gain_fit.se, c.law)},
                      {"lag_samples", r.gain_fit.lag_samples}, {"samples", r.gain_fit.samples},
-                     {"rms_residual", r.gain_fit.rms_residual}, {"rms_command", r.gain_fit.rms_command}};
+                     {"rms_residual", r.gain_fit.rms_residual}, {"rms_command", r.gain_fit.rms_command},
+                     {"extra_gain", std::isfinite(r.gain_fit.extra_gain) ? nlohmann::json(r.gain_fit.extra_gain) : nlohmann::json()},
+                     {"extra_gain_se", std::isfinite(r.gain_fit.extra_gain_se) ? nlohmann::json(r.gain_fit.extra_gain_se) : nlohmann::json()}};
   nlohmann::json m = model_json(model.drive);
   m["offset_N"] = model.offset_N;
   j["model"] = m;

@@ -108,4 +108,15 @@ TEST_F(EmpsReplay, LoggedCommandRevealsTheDocumentedGains) {
   EXPECT_NEAR(r.gain_fit.value.kv, 243.45, 0.01 * 243.45);
 }
 
+TEST_F(EmpsReplay, PulsesEnterTheLoggedCommandAsTheReadmeFound) {
+  // GIVEN the PULSES run, whose vir holds the control law plus about 1.014 pulses (README, doubtful point 1)
+  const Controller c = read_controller_file(examples + "/emps_controller.json");
+  const ReplayResult r = replay(read_model_file(examples + "/emps_reference_model.json"), c,
+                                read_logged_run(emps_dir + "/DATA_EMPS_PULSES.csv", emps_columns(), c), ReplayOptions{},
+                                true);
+  // THEN the fit finds that gain, and with it the documented kv within 0.1 %
+  EXPECT_NEAR(r.gain_fit.extra_gain, 1.014, 0.002);
+  EXPECT_NEAR(r.gain_fit.value.kv, 243.45, 0.001 * 243.45);
+}
+
 }  // namespace

@@ -21,8 +21,13 @@ std::string read_all(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
+/// A file name of this test's own (ctest runs the tests in parallel).
+std::string own(const std::string& name) {
+  return dir + "replay_cli_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name;
+}
+
 Outcome feedid(const std::string& args) {
-  const std::string out = dir + "replay_cli.out", err = dir + "replay_cli.err";
+  const std::string out = own("stdout"), err = own("stderr");
   const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >" + out + " 2>" + err).c_str());
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, read_all(out), read_all(err)};
 }
@@ -31,7 +36,7 @@ void write(const std::string& path, const std::string& text) { std::ofstream(pat
 
 /// A logged run: the axis at rest where the reference holds it.
 std::string write_run() {
-  const std::string path = dir + "replay_cli_run.csv";
+  const std::string path = own("run.csv");
   std::ofstream f(path);
   f << "t,x,u,r\n";
   for (int k = 0; k < 500; ++k) f << k * 1e-3 << "," << 0.01 + 1e-6 * k << ",1," << 0.01 + 1e-6 * k << "\n";
@@ -43,7 +48,7 @@ const char* kController = R"({"kp": 50, "kv": 100, "drive_gain": 10, "saturation
 const char* kModel = R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}})";
 
 TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
-  const std::string run = write_run(), c = dir + "replay_cli_c.json", m = dir + "replay_cli_m.json";
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, kController);
   write(m, R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}, "ofset_N": 1})");
   const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
@@ -53,7 +58,7 @@ TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
 }
 
 TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
-  const std::string run = write_run(), c = dir + "replay_cli_c2.json", m = dir + "replay_cli_m2.json";
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1], "delay_samples": 1, "reference": "r"})");
   write(m, kModel);
   const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
@@ -62,7 +67,7 @@ TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
 }
 
 TEST(ReplayCli, MissingReferenceColumnIsNamed) {
-  const std::string run = write_run(), c = dir + "replay_cli_c3.json", m = dir + "replay_cli_m3.json";
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   std::string text = kController;
   text.replace(text.find("\"r\""), 3, "\"qg_m\"");
   write(c, text);

@@ -217,6 +217,8 @@ TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
   EXPECT_GT(r.gain_fit.se.kp, 0.0);
   EXPECT_LT(r.gain_fit.se.kp, 0.01 * 60.0);
   EXPECT_EQ(r.gain_fit.lag_samples, 0);
+  // AND the pulses are found to enter the command as logged (gain 1)
+  EXPECT_NEAR(r.gain_fit.extra_gain, 1.0, 0.01);
   // AND the replay with them is as close as with the given gains
   EXPECT_LT(r.same_processing_pct.force, 0.5);
 }
