@@ -64,6 +64,7 @@ struct ReplayCommand : Command {
     for (const auto& w : model.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     for (const auto& w : controller.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     const LoggedRun run = read_logged_run(in_path, cols, controller);
+    opt.units = input.units();
     const ReplayResult r = replay(model, controller, run, opt, fit_gains_always);
     std::printf("replay of %s in the loop of %s: %zu samples at %.6g s, %d plant substeps; %zu compared (first %d left out)\n",
                 in_path.c_str(), controller_path.c_str(), r.samples, r.dt_s, r.substeps, r.samples_compared, opt.drop_first);

@@ -113,6 +113,16 @@ Gains resolve_gains(const Controller& c, const GainFit& fit) {
   g.kp = c.kp ? *c.kp : fit.value.kp;
   g.kv = c.kv ? *c.kv : fit.value.kv;
   g.ki = c.law == ControlLaw::pd ? 0.0 : (c.ki ? *c.ki : fit.value.ki);
+  // A loop that pushes with the error is no position loop: the log's
+  // command does not follow the law (a force of the other sign, another
+  // reference column), and a replay with such gains would only diverge.
+  const bool fitted_wrong = (!c.kp && !(g.kp > 0.0)) || (!c.kv && !(g.kv > 0.0)) ||
+                            (c.law == ControlLaw::p_pi && !c.ki && g.ki < 0.0);
+  if (fitted_wrong)
+    throw std::invalid_argument(c.source + ": the gains fitted from the logged command are not those of a position "
+                                "loop (kp " + std::to_string(g.kp) + ", kv " + std::to_string(g.kv) + ", ki " +
+                                std::to_string(g.ki) + "): is the force's sign that of the command, and '" +
+                                c.reference + "' the position reference?");
   return g;
 }
 

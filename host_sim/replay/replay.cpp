@@ -182,6 +182,7 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   r.substeps = opt.substeps;
   r.samples = n;
   r.notes = run.notes;
+  r.units = opt.units;
   if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
   r.gains = resolve_gains(c, r.gain_fit);
 
@@ -265,10 +266,11 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
                      {"rms_residual", r.gain_fit.rms_residual}, {"rms_command", r.gain_fit.rms_command},
                      {"extra_gain", std::isfinite(r.gain_fit.extra_gain) ? nlohmann::json(r.gain_fit.extra_gain) : nlohmann::json()},
                      {"extra_gain_se", std::isfinite(r.gain_fit.extra_gain_se) ? nlohmann::json(r.gain_fit.extra_gain_se) : nlohmann::json()}};
-  nlohmann::json m = model_json(model.drive);
+  nlohmann::json m = model_json(model.drive, r.units);
   m["offset_N"] = model.offset_N;
   j["model"] = m;
   j["notes"] = r.notes;
+  j["units"] = units_json(r.units);
   j["simulation"] = {{"sample_period_s", r.dt_s}, {"substeps", r.substeps}, {"samples", r.samples},
                      {"samples_compared", r.samples_compared}, {"saturated_samples", r.saturated_samples},
                      {"stuck_samples", r.stuck_samples},

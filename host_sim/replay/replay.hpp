@@ -21,6 +21,7 @@
 
 #include "controller.hpp"
 #include "io/csv_trace.hpp"
+#include "io/units.hpp"
 #include "model/model_file.hpp"
 
 namespace feedid::host {
@@ -46,6 +47,7 @@ struct ReplayOptions {
   int substeps = 10;       ///< plant integration steps per sample (the reference package: ode45, max step dt/10)
   double filter_hz = 100;  ///< cut-off of the zero-phase Butterworth on the measured position (Hz)
   int drop_first = 49;     ///< samples left out at the start (the filter's edge), as in the protocol
+  Units units;             ///< labels only (units.hpp)
 };
 
 /// Relative errors (%), 100 ||y - y_sim|| / ||y||, of the four signals.
@@ -69,6 +71,7 @@ struct ReplayResult {
   std::size_t saturated_samples = 0;  ///< simulated commands at the limit
   std::size_t stuck_samples = 0;      ///< samples at which the simulated axis was at rest
   std::vector<std::string> notes;     ///< the run's (LoggedRun::notes)
+  Units units;                        ///< ReplayOptions::units
   /// The compared series (every sample after drop_first), for plots.
   std::vector<double> t, x, v, a, u, x_sim, v_sim, a_sim, u_sim;
 };

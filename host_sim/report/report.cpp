@@ -324,17 +324,18 @@ namespace {
 
 struct ReplaySignal {
   const char* name;
-  const char* unit;
+  std::string (*unit)(const Units&);
   const std::vector<double> ReplayResult::*measured;
   const std::vector<double> ReplayResult::*simulated;
   double ReplayFigures::*figure;
 };
 
 const ReplaySignal kReplaySignals[] = {
-    {"position", "m", &ReplayResult::x, &ReplayResult::x_sim, &ReplayFigures::position},
-    {"velocity", "m/s", &ReplayResult::v, &ReplayResult::v_sim, &ReplayFigures::velocity},
-    {"acceleration", "m/s^2", &ReplayResult::a, &ReplayResult::a_sim, &ReplayFigures::acceleration},
-    {"force", "N", &ReplayResult::u, &ReplayResult::u_sim, &ReplayFigures::force},
+    {"position", [](const Units& u) { return u.position; }, &ReplayResult::x, &ReplayResult::x_sim, &ReplayFigures::position},
+    {"velocity", [](const Units& u) { return u.velocity(); }, &ReplayResult::v, &ReplayResult::v_sim, &ReplayFigures::velocity},
+    {"acceleration", [](const Units& u) { return u.acceleration(); }, &ReplayResult::a, &ReplayResult::a_sim,
+     &ReplayFigures::acceleration},
+    {"force", [](const Units& u) { return u.force; }, &ReplayResult::u, &ReplayResult::u_sim, &ReplayFigures::force},
 };
 
 const ReplaySignal& replay_signal(const std::string& name) {
@@ -371,7 +372,7 @@ PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std
   p.title = title;
   p.id = signal;
   p.x = {"time (s)", false};
-  p.y = {std::string(s.name) + " (" + s.unit + ")", false};
+  p.y = {std::string(s.name) + " (" + s.unit(r.units) + ")", false};
   p.series = {meas, sim, diff};
   p.width_px = 1000;
   p.legend = "below";

@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include "model/constants.hpp"
 #include "replay/replay.hpp"
+#include "report/report.hpp"
 #include "sim/drive_sim.hpp"
 
 namespace {
@@ -221,6 +224,35 @@ TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
   EXPECT_NEAR(r.gain_fit.extra_gain, 1.0, 0.01);
   // AND the replay with them is as close as with the given gains
   EXPECT_LT(r.same_processing_pct.force, 0.5);
+}
+
+TEST(Replay, GainsFromAForceOfTheOtherSignAreRefused) {
+  // GIVEN a log whose force has the other sign than the command, and no gains in the file
+  LoggedRun run = simulated_run(true_drive(), 3.0);
+  for (double& u : run.u) u = -u;
+  json j = minimal_controller();
+  j.erase("kp");
+  j.erase("kv");
+  const Controller c = controller_from_json(j, "c.json");
+  // THEN the fit's negative gains are an error that says why, not a replay
+  const std::string e = error_of([&] { replay(model_of(true_drive()), c, run, ReplayOptions{}); });
+  EXPECT_NE(e.find("not those of a position loop"), std::string::npos) << e;
+}
+
+TEST(Replay, ReportPageShowsEverySignal) {
+  const LoggedRun run = simulated_run(true_drive(), 2.0);
+  ReplayOptions opt;
+  opt.units = units_for(Axis::linear);
+  const ReplayResult r = replay(model_of(true_drive()), controller_from_json(minimal_controller(), "c"), run, opt);
+  const std::string dir = ::testing::TempDir() + "replay_report_test";
+  std::string err;
+  ASSERT_TRUE(write_replay_report(r, dir, "simulated", "feedid replay ...", err)) << err;
+  std::ifstream f(dir + "/report.html");
+  const std::string page((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (const char* signal : {"position", "velocity", "acceleration", "force"})
+    EXPECT_NE(page.find(std::string("<h2>") + signal + "</h2>"), std::string::npos) << signal;
+  EXPECT_NE(page.find("acceleration (m/s^2)"), std::string::npos);
+  EXPECT_NE(page.find("the processing alone"), std::string::npos);
 }
 
 TEST(Replay, GapAndShortRunAreErrors) {
