@@ -184,9 +184,9 @@ GainFit fit_at_lag(const Controller& c, const std::vector<double>& t, const std:
   double E = 0.0, D = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
     const double e = reference[k] - x[k], dq = vel.next(x[k]);
+    rows[k] = {e, dq, E, D, 1.0, 0.0};  // the integrals of the errors before k, as the law uses them
     E += e * dt;
     D += dq * dt;
-    rows[k] = {e, dq, E, D, 1.0, 0.0};
   }
   std::vector<std::size_t> used;
   const auto L = static_cast<std::size_t>(lag);

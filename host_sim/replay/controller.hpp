@@ -5,7 +5,8 @@
 //   dq(k)   = (qf(k) - qf(k-1)) / dt                 velocity estimate
 //   ev(k)   = kp (r(k) - q(k)) - dq(k)               velocity error
 //   c(k)    = kv ev(k)              (law "pd")
-//           = kv ev(k) + ki I(k),  I(k) = I(k-1) + ev(k) dt   (law "p_pi")
+//           = kv ev(k) + ki I(k),  I(k) = sum_{j<k} ev(j) dt  (law "p_pi"; the
+//             integral stops growing while c is beyond the limit and ev pushes further)
 //   applied(k) = sat(c(k - delay)) + extra(k),  force = drive_gain * applied
 //
 // Host only.

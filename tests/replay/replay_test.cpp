@@ -106,12 +106,13 @@ DriveParams true_drive() {
 
 /// A run logged from the simulator's own loop at 1 kHz: u = kv (kp (r - x) -
 /// dx) with dx the backward difference (FIR [1]), no delay, plus a pulse
-/// train added to the force; no encoder quantum, no noise.
-LoggedRun simulated_run(const DriveParams& d, double duration_s) {
+/// train added to the force; no encoder quantum, no noise. With
+/// integral_hz, its PI adds ki = kv 2 pi integral_hz on the velocity error.
+LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0) {
   SimConfig cfg;
   cfg.drive = d;
   cfg.controller.servo_rate_hz = 1000.0;
-  cfg.controller.velocity_integral_hz = 0.0;
+  cfg.controller.velocity_integral_hz = integral_hz;
   cfg.controller.acceleration_feedforward = false;
   cfg.sensors.encoder_resolution_m = 0.0;
   ServoAxis axis(cfg);
@@ -224,6 +225,30 @@ TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
   EXPECT_NEAR(r.gain_fit.extra_gain, 1.0, 0.01);
   // AND the replay with them is as close as with the given gains
   EXPECT_LT(r.same_processing_pct.force, 0.5);
+}
+
+TEST(Replay, ProportionalIntegralLoopIsReplayedAndItsGainsFound) {
+  // GIVEN a run of the simulator's PI velocity loop (zero at 8 Hz)
+  const double kv = 2.0 * kPi * 40.0 * 100.0, ki = kv * 2.0 * kPi * 8.0;
+  const LoggedRun run = simulated_run(true_drive(), 7.0, 8.0);
+  json j = minimal_controller();
+  j["law"] = "p_pi";
+  j["ki"] = ki;
+  // WHEN the true model is replayed in the p_pi law with the loop's gains
+  const ReplayResult r = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  // THEN it reproduces the run
+  EXPECT_LT(r.same_processing_pct.velocity, 0.5);
+  EXPECT_LT(r.same_processing_pct.force, 0.5);
+  // WHEN the file gives no gains
+  j.erase("kp");
+  j.erase("kv");
+  j.erase("ki");
+  const ReplayResult f = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  // THEN the regression finds all three
+  EXPECT_NEAR(f.gain_fit.value.kp, 60.0, 0.005 * 60.0);
+  EXPECT_NEAR(f.gain_fit.value.kv, kv, 0.005 * kv);
+  EXPECT_NEAR(f.gain_fit.value.ki, ki, 0.01 * ki);
+  EXPECT_LT(f.same_processing_pct.force, 0.5);
 }
 
 TEST(Replay, GainsFromAForceOfTheOtherSignAreRefused) {
