@@ -144,6 +144,54 @@ class LoopReplay {
   double integral_ = 0.0;         ///< running integral of the velocity error (p_pi)
 };
 
+/// The model in the loop over the run: x, v, a and force at every sample
+/// into r (r.gains, r.dt_s and r.substeps set).
+void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, ReplayResult& r) {
+  const std::size_t n = run.t.size();
+  r.x_sim.resize(n);
+  r.v_sim.resize(n);
+  r.a_sim.resize(n);
+  r.u_sim.resize(n);
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps);
+  loop.start_at(run.x.front());
+  for (std::size_t k = 0; k < n; ++k)
+    loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
+  for (std::size_t k = 0; k < n; ++k)
+    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k]))
+      throw std::invalid_argument(run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
+                                  " (a model or controller value far off?)");
+}
+
+/// The three rows of figures, and the compared series (after drop_first) for plots.
+void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResult& r) {
+  const std::size_t n = run.t.size();
+  const double rate = 1.0 / r.dt_s;
+  std::vector<double> xf, v, a, xsf, vs, as;
+  process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
+  process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);
+  const std::size_t first = static_cast<std::size_t>(opt.drop_first);
+  const std::vector<double> meas[4] = {xf, v, a, run.u};
+  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
+  const std::vector<double> processed[4] = {xsf, vs, as, r.u_sim};
+  r.error_pct = figures(meas, state, first);
+  r.same_processing_pct = figures(meas, processed, first);
+  // The processing's own share: state against processed, relative to the measured norm.
+  RelativeError gap[4];
+  for (int s = 0; s < 4; ++s)
+    for (std::size_t k = first; k < n; ++k) gap[s].add(state[s][k] - processed[s][k], meas[s][k]);
+  r.processing_pct = {gap[0].pct(), gap[1].pct(), gap[2].pct(), gap[3].pct()};
+  auto tail = [&](const std::vector<double>& y) { return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(first), y.end()); };
+  r.t = tail(run.t);
+  r.x = tail(xf);
+  r.v = tail(v);
+  r.a = tail(a);
+  r.u = tail(run.u);
+  r.x_sim = tail(r.x_sim);
+  r.v_sim = tail(r.v_sim);
+  r.a_sim = tail(r.a_sim);
+  r.u_sim = tail(r.u_sim);
+}
+
 }  // namespace
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
@@ -186,44 +234,8 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
   r.gains = resolve_gains(c, r.gain_fit);
 
-  r.x_sim.resize(n);
-  r.v_sim.resize(n);
-  r.a_sim.resize(n);
-  r.u_sim.resize(n);
-  LoopReplay loop(model, c, r.gains, r.dt_s, opt.substeps);
-  loop.start_at(run.x.front());
-  for (std::size_t k = 0; k < n; ++k)
-    loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
-
-  for (std::size_t k = 0; k < n; ++k)
-    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k]))
-      throw std::invalid_argument(run.source + ": the replay left finite numbers at t = " + at_time(run.t[k]) +
-                                  " (a model or controller value far off?)");
-  const double rate = 1.0 / r.dt_s;
-  std::vector<double> xf, v, a, xsf, vs, as;
-  process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
-  process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);
-  const std::size_t first = static_cast<std::size_t>(opt.drop_first);
-  const std::vector<double> meas[4] = {xf, v, a, run.u};
-  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
-  const std::vector<double> processed[4] = {xsf, vs, as, r.u_sim};
-  r.error_pct = figures(meas, state, first);
-  r.same_processing_pct = figures(meas, processed, first);
-  // The processing's own share: state against processed, relative to the measured norm.
-  RelativeError gap[4];
-  for (int s = 0; s < 4; ++s)
-    for (std::size_t k = first; k < n; ++k) gap[s].add(state[s][k] - processed[s][k], meas[s][k]);
-  r.processing_pct = {gap[0].pct(), gap[1].pct(), gap[2].pct(), gap[3].pct()};
-  auto tail = [&](const std::vector<double>& y) { return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(first), y.end()); };
-  r.t = tail(run.t);
-  r.x = tail(xf);
-  r.v = tail(v);
-  r.a = tail(a);
-  r.u = tail(run.u);
-  r.x_sim = tail(r.x_sim);
-  r.v_sim = tail(r.v_sim);
-  r.a_sim = tail(r.a_sim);
-  r.u_sim = tail(r.u_sim);
+  simulate_in_loop(model, c, run, r);
+  compare_with_run(run, opt, r);
   r.samples_compared = r.t.size();
   return r;
 }
