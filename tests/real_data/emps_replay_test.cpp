@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <utility>
 
 #include "identify/identify.hpp"
 #include "io/trace_files.hpp"
@@ -33,9 +34,9 @@ class EmpsReplay : public ::testing::Test {
     if (!std::filesystem::exists(emps_dir + "/DATA_EMPS_PULSES.csv"))
       GTEST_SKIP() << "EMPS data not found at " << emps_dir << " (the shared/ folder is absent); skipping real-data test";
   }
-  ReplayResult replay_on(const ModelFile& m, const std::string& file) {
+  ReplayResult replay_on(const ModelFile& m, const std::string& file, const ReplayOptions& opt = {}) {
     const Controller c = read_controller_file(examples + "/emps_controller.json");
-    return replay(m, c, read_logged_run(emps_dir + "/" + file, emps_columns(), c), ReplayOptions{});
+    return replay(m, c, read_logged_run(emps_dir + "/" + file, emps_columns(), c), opt);
   }
 };
 
@@ -70,6 +71,18 @@ ReplayFigures figure_se(const ModelFile& ref, const ReplayFigures& at_ref,
     se.force = std::hypot(se.force, f.force - at_ref.force);
   }
   return se;
+}
+
+TEST_F(EmpsReplay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
+  // On the run whose pulses step the force (the hardest for the integrator)
+  const ModelFile ref = read_model_file(examples + "/emps_reference_model.json");
+  ReplayOptions fine;
+  fine.substeps = 2 * ReplayOptions{}.substeps;
+  const ReplayFigures a = replay_on(ref, "DATA_EMPS_PULSES.csv").error_pct;
+  const ReplayFigures b = replay_on(ref, "DATA_EMPS_PULSES.csv", fine).error_pct;
+  for (const auto& [x, y] : {std::pair{a.position, b.position}, std::pair{a.velocity, b.velocity},
+                             std::pair{a.acceleration, b.acceleration}, std::pair{a.force, b.force}})
+    EXPECT_NEAR(x, y, 0.01 * y);
 }
 
 TEST_F(EmpsReplay, IdentifiedModelReplaysNoWorseThanThePublishedOne) {
