@@ -5,28 +5,19 @@
 #include <stdexcept>
 
 #include "model/model_file.hpp"
+#include "test_support.hpp"
 
 namespace {
 
 using namespace feedid::host;
 using nlohmann::json;
+using feedid::test::error_of;
 
 json emps_reference() {
   return json{{"m", 95.1089},
               {"pos", {{"sigma", 203.5034}, {"fc", 20.3935}}},
               {"neg", {{"sigma", 203.5034}, {"fc", 20.3935}}},
               {"offset_N", -3.1648}};
-}
-
-/// The message of the std::runtime_error that f throws ("" when none).
-template <class F>
-std::string error_of(F f) {
-  try {
-    f();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(ModelFile, HandWrittenMinimalModelHasNoStribeckDip) {

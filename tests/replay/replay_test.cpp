@@ -13,25 +13,17 @@
 #include "replay/replay.hpp"
 #include "report/report.hpp"
 #include "sim/drive_sim.hpp"
+#include "test_support.hpp"
 
 namespace {
 
 using namespace feedid::host;
 using nlohmann::json;
+using feedid::test::error_of;
 
 json minimal_controller() {
   return json{{"kp", 60.0},         {"kv", 2.0 * kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
               {"position_fir", {1.0}}, {"delay_samples", 0},          {"reference", "r"},  {"extra_command", "pulse"}};
-}
-
-template <class F>
-std::string error_of(F f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(ReplayController, EachMissingRequiredKeyIsNamed) {
