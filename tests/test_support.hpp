@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 #include "sim/drive_sim.hpp"
 #include "feedid/feedid.hpp"
@@ -117,5 +119,16 @@ inline host::Trace rest_jitter_trace(double rate_hz, double quantum_m_s, int max
 
 /// Relative error of an estimate against the truth.
 inline double rel_err(double estimate, double truth) { return std::fabs(estimate / truth - 1.0); }
+
+/// The message of the exception (std::exception) that f throws; "" when it throws none.
+template <class F>
+std::string error_of(F f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
 
 }  // namespace feedid::test

@@ -205,7 +205,7 @@ std::string output_over_input(const CLI::App& sub) {
         for (const std::string& r : o->results()) v.push_back(r);
     return v;
   };
-  const auto inputs = values({"--in", "--model", "--in-list"});
+  const auto inputs = values({"--in", "--model", "--in-list", "--controller"});
   for (const std::string& out : values({"--json", "--out", "--plot", "--truth", "--friction-plot", "--markdown"}))
     for (const std::string& in : inputs)
       if (same_file(out, in)) return out + ": refusing to write an output over the input " + in;

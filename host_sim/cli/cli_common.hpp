@@ -82,6 +82,7 @@ struct Command {
 std::unique_ptr<Command> make_simulate_command();
 std::unique_ptr<Command> make_identify_command();
 std::unique_ptr<Command> make_validate_command();
+std::unique_ptr<Command> make_replay_command();
 std::unique_ptr<Command> make_diagnose_command();
 std::unique_ptr<Command> make_monitor_command();
 std::unique_ptr<Command> make_compensate_command();

@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   commands.push_back(make_identify_command());
   commands.push_back(make_demo_command());
   commands.push_back(make_validate_command());
+  commands.push_back(make_replay_command());
   commands.push_back(make_diagnose_command());
   commands.push_back(make_monitor_command());
   commands.push_back(make_compensate_command());

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -313,6 +315,106 @@ bool write_force_plot_svg(const ValidateResult& r, const std::string& path, cons
                 r.rms_error_N, r.units.force.c_str());
   p.note = buf;
   return write_svg(path, p, error);
+}
+
+}  // namespace feedid::host
+
+namespace feedid::host {
+namespace {
+
+struct ReplaySignal {
+  const char* name;
+  std::string (*unit)(const Units&);
+  const std::vector<double> ReplayResult::*measured;
+  const std::vector<double> ReplayResult::*simulated;
+  double ReplayFigures::*figure;
+};
+
+const ReplaySignal kReplaySignals[] = {
+    {"position", [](const Units& u) { return u.position; }, &ReplayResult::x, &ReplayResult::x_sim, &ReplayFigures::position},
+    {"velocity", [](const Units& u) { return u.velocity(); }, &ReplayResult::v, &ReplayResult::v_sim, &ReplayFigures::velocity},
+    {"acceleration", [](const Units& u) { return u.acceleration(); }, &ReplayResult::a, &ReplayResult::a_sim,
+     &ReplayFigures::acceleration},
+    {"force", [](const Units& u) { return u.force; }, &ReplayResult::u, &ReplayResult::u_sim, &ReplayFigures::force},
+};
+
+const ReplaySignal& replay_signal(const std::string& name) {
+  for (const ReplaySignal& s : kReplaySignals)
+    if (name == s.name) return s;
+  throw std::invalid_argument("no replay signal '" + name + "'");
+}
+
+PlotSeries line_series(const std::string& label, const std::string& color, bool dashed) {
+  PlotSeries s;
+  s.label = label;
+  s.color = color;
+  s.markers = false;
+  s.dashed = dashed;
+  return s;
+}
+
+}  // namespace
+
+PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std::string& title) {
+  const ReplaySignal& s = replay_signal(signal);
+  const std::vector<double>& y = r.*s.measured;
+  const std::vector<double>& y_sim = r.*s.simulated;
+  PlotSeries meas = line_series("measured", "#1f77b4", false), sim = line_series("simulated", "#d62728", true),
+             diff = line_series("measured - simulated", "#7f7f7f", false);
+  const std::size_t every = std::max<std::size_t>(1, r.t.size() / 4000);
+  for (std::size_t k = 0; k < r.t.size(); k += every) {
+    for (PlotSeries* p : {&meas, &sim, &diff}) p->x.push_back(r.t[k]);
+    meas.y.push_back(y[k]);
+    sim.y.push_back(y_sim[k]);
+    diff.y.push_back(y[k] - y_sim[k]);
+  }
+  PlotSpec p;
+  p.title = title;
+  p.id = signal;
+  p.x = {"time (s)", false};
+  p.y = {std::string(s.name) + " (" + s.unit(r.units) + ")", false};
+  p.series = {meas, sim, diff};
+  p.width_px = 1000;
+  p.legend = "below";
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "relative error %.4g %% (both sides processed alike: %.4g %%)", r.error_pct.*s.figure,
+                r.same_processing_pct.*s.figure);
+  p.note = buf;
+  return p;
+}
+
+bool write_replay_report(const ReplayResult& r, const std::string& dir, const std::string& source,
+                         const std::string& command, std::string& error) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) { error = dir + ": cannot create: " + ec.message(); return false; }
+  std::ostringstream o;
+  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>feedid replay: " << html(source)
+    << "</title>\n<style>\nbody{font-family:Helvetica,Arial,sans-serif;max-width:1000px;margin:2em auto;color:#222}\n"
+       "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}"
+       "th{background:#f4f4f4}\n</style>\n</head>\n<body>\n";
+  o << "<h1>Closed-loop replay</h1>\n<p>Run <code>" << html(source) << "</code>, made by <code>" << html(command)
+    << "</code>. docs/reference.md (\"replay\") defines every figure.</p>\n";
+  o << "<table><tr><th>relative error (%)</th>";
+  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
+  const std::pair<const char*, const ReplayFigures*> rows[] = {
+      {"measured processed, simulated from the plant's state (published comparison)", &r.error_pct},
+      {"both sides processed alike", &r.same_processing_pct},
+      {"the processing alone (simulated state against simulated processed)", &r.processing_pct}};
+  for (const auto& [label, f] : rows) {
+    o << "</tr>\n<tr><td style=\"text-align:left\">" << label << "</td>";
+    char buf[32];
+    for (const ReplaySignal& s : kReplaySignals) {
+      std::snprintf(buf, sizeof buf, "%.4g", (*f).*s.figure);
+      o << "<td>" << buf << "</td>";
+    }
+  }
+  o << "</tr></table>\n";
+  for (const ReplaySignal& s : kReplaySignals)
+    o << "<h2>" << s.name << "</h2>\n" << render_svg(replay_plot(r, s.name, std::string("Replay: ") + s.name));
+  o << "</body>\n</html>\n";
+  error = write_whole_file(dir + "/report.html", o.str());
+  return error.empty();
 }
 
 }  // namespace feedid::host

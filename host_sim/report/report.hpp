@@ -8,6 +8,7 @@
 #include "diagnose/diagnose.hpp"
 #include "io/svg_plot.hpp"
 #include "identify/identify.hpp"
+#include "replay/replay.hpp"
 #include "validate/validate.hpp"
 
 namespace feedid::host {
@@ -30,5 +31,17 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
 /// Measured and predicted force over time (the decimated validation series).
 bool write_force_plot_svg(const ValidateResult& r, const std::string& path, const std::string& title,
                           std::string& error);
+
+/// One signal of a replay over time: measured, simulated and their
+/// difference (`signal`: "position", "velocity", "acceleration" or "force";
+/// at most about 4000 points, evenly thinned).
+PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std::string& title);
+
+/// Writes report.html into dir (created if missing): the four relative
+/// errors (published comparison, same processing on both sides, and the
+/// processing's own share), the gains, and the overlay and residual of each
+/// signal over time.
+bool write_replay_report(const ReplayResult& r, const std::string& dir, const std::string& source,
+                         const std::string& command, std::string& error);
 
 }  // namespace feedid::host

@@ -13,6 +13,7 @@
 #include "model/constants.hpp"
 
 #include "open_loop_plant.hpp"
+#include "plant.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -176,265 +177,6 @@ void validate(const SimConfig& c) {
            m.duration_s);
 }
 
-// ---------------------------------------------------------------------------
-// Plant (equations in drive_sim.hpp, struct Effects):
-//   m1 dv/dt  = f_in - F_fric(t, x, v) - extra(t, x, v) - F_load(t, x) - F_spring
-//   m2 dv2/dt = F_spring                                   (compliant plant only)
-//   dx/dt = v, dx2/dt = v2, f_in = u + w held over the servo period; m1 = m for
-//   a rigid plant. Karnopp stick/slip on the motor side: at rest it stays at
-//   rest while |f_in - extra - F_load - F_spring| <= the static band of the
-//   direction it pushes (Fc + Fs without friction effects).
-// With no effect on, every expression below reduces to the operations of the
-// rigid plant of earlier versions, so the traces are bit-for-bit the same.
-// ---------------------------------------------------------------------------
-struct State {
-  double x = 0.0, v = 0.0;    ///< motor side (the rigid body when not compliant)
-  double x2 = 0.0, v2 = 0.0;  ///< load behind the spring (compliant plant only)
-};
-
-class Plant {
- public:
-  Plant(const DriveParams& d, const Effects& e, const ExtraForce& extra, const ServiceChange& change)
-      : d_(d), e_(e), extra_(extra), change_(change) {
-    plain_friction_ = e.drift_fraction == 0.0 && e.position_friction_N == 0.0 && e.quadratic_c2_Ns2_m2 == 0.0 &&
-                      e.presliding_force_N == 0.0;
-    loads_ = e.offset_N != 0.0 || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
-             e.wander_force_N > 0.0;
-    two_mass_ = e.compliance_frequency_hz > 0.0;
-    m1_ = d.mass_kg;
-    if (two_mass_) {
-      // k = w^2 m1 m2 / m, c = 2 zeta w m1 m2 / m: free resonance w.
-      const double mu = e.compliance_mass_fraction;
-      m1_ = d.mass_kg * (1.0 - mu);
-      m2_ = d.mass_kg * mu;
-      const double w = 2.0 * kPi * e.compliance_frequency_hz;
-      const double reduced = m1_ * m2_ / d.mass_kg;
-      k_ = w * w * reduced;
-      c_ = 2.0 * e.compliance_damping_ratio * w * reduced;
-    }
-  }
-
-  double x() const { return s_.x; }
-  double v() const { return s_.v; }
-  double load_x() const { return s_.x2; }
-  double load_v() const { return s_.v2; }
-
-  /// Load force held over the coming servo period (the wandering disturbance), N.
-  void set_held_load(double f) { held_load_ = f; }
-
-  /// Advance by h (s) with constant input force f_in (N), starting at time t.
-  void step(double t, double h, double f_in) {
-    double remaining = h;
-    // Each pass either finishes the substep or ends at a velocity zero
-    // crossing (v clamped to 0); a few passes are enough in practice.
-    for (int pass = 0; pass < 8 && remaining > 0.0; ++pass) {
-      if (std::fabs(s_.v) <= kRestVelocity) {
-        s_.v = 0.0;
-        // Net applied force excluding friction, at rest.
-        double f_net = f_in - extra(t, s_.x, 0.0);
-        if (loads_) f_net -= load(t, s_.x);
-        if (two_mass_) f_net -= spring(s_);
-        const double s = f_net >= 0.0 ? 1.0 : -1.0;
-        if (std::fabs(f_net) <= static_band(t, s_.x, s)) {  // sticks
-          if (two_mass_) {
-            // The load keeps moving behind the spring while the motor sticks.
-            locked_ = true;
-            s_ = rk4(t, remaining, f_in, s_);
-            s_.v = 0.0;
-            locked_ = false;
-          }
-          return;
-        }
-        // Breaks away in the direction of the applied force; a break-away
-        // against the previous sliding direction is a reversal.
-        if (last_dir_ != 0.0 && s != last_dir_) since_reversal_ = 0.0;
-        dir_ = s;
-      } else {
-        dir_ = s_.v > 0.0 ? 1.0 : -1.0;
-      }
-      last_dir_ = dir_;
-      x_pass0_ = s_.x;
-
-      const State s1 = rk4(t, remaining, f_in, s_);
-      if (dir_ * s1.v > 0.0) {
-        end_pass(s1);
-        return;
-      }
-      // Velocity reached 0 within the step: locate the crossing time by
-      // bracketed secant (Illinois) search on v(tau), then clamp v = 0.
-      const double tau = find_zero_crossing(t, remaining, f_in, s1.v);
-      State sc = s_;
-      if (tau > 0.0) sc = rk4(t, tau, f_in, s_);
-      sc.v = 0.0;
-      end_pass(sc);
-      t += tau;
-      remaining -= tau;
-    }
-  }
-
- private:
-  static constexpr double kRestVelocity = 1.0e-15;  ///< |v| treated as rest (m/s)
-
-  void end_pass(const State& s) {
-    if (e_.presliding_force_N > 0.0) since_reversal_ += dir_ * (s.x - x_pass0_);
-    s_ = s;
-  }
-
-  double extra(double t, double x, double v) const { return extra_ ? extra_(t, x, v) : 0.0; }
-
-  double load(double t, double x) const { return load_force(e_, t, x) + held_load_; }
-
-  // Spring force on the load, = minus the force on the motor (N).
-  double spring(const State& s) const { return k_ * (s.x - s.x2) + c_ * (s.v - s.v2); }
-
-  double drift(double t) const {
-    return e_.drift_fraction != 0.0 ? e_.drift_fraction * std::exp(-t / e_.drift_time_constant_s) : 0.0;
-  }
-
-  double position_friction(double x) const {
-    return (e_.position_friction_N != 0.0 && x >= e_.position_friction_x_min_m && x <= e_.position_friction_x_max_m)
-               ? e_.position_friction_N
-               : 0.0;
-  }
-
-  // exp(-r/d) of the presliding term for distance r since the reversal.
-  double presliding_decay(double r) const { return std::exp(-r / e_.presliding_distance_m); }
-
-  // Friction while sliding in direction dir_ (continued through v = 0 for the
-  // RK stages, like sliding_friction).
-  double friction(double t, double x, double v) const {
-    const DirectionFriction f = side(dir_, t);
-    if (plain_friction_) return sliding_friction(f, dir_, v);
-    const double r = v / f.stribeck_velocity_m_s;
-    const double ed = drift(t);
-    double F = dir_ * (f.coulomb_N * (1.0 + 0.3 * ed) + f.breakaway_N * std::exp(-r * r)) +
-               f.viscous_Ns_m * (1.0 + ed) * v;
-    F += e_.quadratic_c2_Ns2_m2 * v * std::fabs(v);
-    F += dir_ * position_friction(x);
-    if (e_.presliding_force_N > 0.0)
-      F -= 2.0 * e_.presliding_force_N * dir_ * presliding_decay(since_reversal_ + dir_ * (x - x_pass0_));
-    return F;
-  }
-
-  // Largest net force (N) the motor side withstands at rest when pushed in
-  // direction s: the sliding friction at v -> 0 in that direction.
-  double static_band(double t, double x, double s) const {
-    const DirectionFriction f = side(s, t);
-    if (plain_friction_) return f.coulomb_N + f.breakaway_N;
-    double band = f.coulomb_N * (1.0 + 0.3 * drift(t)) + f.breakaway_N + position_friction(x);
-    if (e_.presliding_force_N > 0.0) {
-      const double r = (last_dir_ != 0.0 && s != last_dir_) ? 0.0 : since_reversal_;
-      band -= 2.0 * e_.presliding_force_N * presliding_decay(r);
-    }
-    return std::max(0.0, band);
-  }
-
-  // Friction of direction s at time t, with the change in service from its time on.
-  DirectionFriction side(double s, double t) const {
-    DirectionFriction f = s > 0.0 ? d_.pos : d_.neg;
-    if (change_.on() && t >= change_.time_s && (change_.direction == 0 || change_.direction * s > 0.0)) {
-      f.coulomb_N *= 1.0 + change_.coulomb_fraction;
-      f.viscous_Ns_m *= 1.0 + change_.viscous_fraction;
-    }
-    return f;
-  }
-
-  // Motor-side mass at time t (the change in service scales it).
-  double mass1(double t) const {
-    return change_.on() && t >= change_.time_s ? m1_ * (1.0 + change_.mass_fraction) : m1_;
-  }
-
-  // Time derivative of the state while sliding in direction dir_ (or with the
-  // motor locked at rest).
-  State deriv(double t, const State& s, double f_in) const {
-    State d;
-    if (!locked_) {
-      double f = f_in - friction(t, s.x, s.v) - extra(t, s.x, s.v);
-      if (loads_) f -= load(t, s.x);
-      if (two_mass_) f -= spring(s);
-      d.x = s.v;
-      d.v = f / mass1(t);
-    }
-    if (two_mass_) {
-      d.x2 = s.v2;
-      d.v2 = spring(s) / m2_;
-    }
-    return d;
-  }
-
-  static State axpy(const State& s0, double a, const State& k) {
-    State s;
-    s.x = s0.x + a * k.x;
-    s.v = s0.v + a * k.v;
-    s.x2 = s0.x2 + a * k.x2;
-    s.v2 = s0.v2 + a * k.v2;
-    return s;
-  }
-
-  static double rk4_sum(double y0, double h, double k1, double k2, double k3, double k4) {
-    return y0 + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-  }
-
-  // Classical RK4 over h from s0.
-  State rk4(double t, double h, double f_in, const State& s0) const {
-    const State k1 = deriv(t, s0, f_in);
-    const State k2 = deriv(t + 0.5 * h, axpy(s0, 0.5 * h, k1), f_in);
-    const State k3 = deriv(t + 0.5 * h, axpy(s0, 0.5 * h, k2), f_in);
-    const State k4 = deriv(t + h, axpy(s0, h, k3), f_in);
-    State s1;
-    s1.x = rk4_sum(s0.x, h, k1.x, k2.x, k3.x, k4.x);
-    s1.v = rk4_sum(s0.v, h, k1.v, k2.v, k3.v, k4.v);
-    if (two_mass_) {
-      s1.x2 = rk4_sum(s0.x2, h, k1.x2, k2.x2, k3.x2, k4.x2);
-      s1.v2 = rk4_sum(s0.v2, h, k1.v2, k2.v2, k3.v2, k4.v2);
-    }
-    return s1;
-  }
-
-  // Time tau in (0, h] at which dir_ * v(tau) reaches 0, given dir_*v(h) <= 0.
-  double find_zero_crossing(double t, double h, double f_in, double v_h) const {
-    double a = 0.0, fa = dir_ * s_.v;  // >= 0
-    double b = h, fb = dir_ * v_h;     // <= 0
-    if (fa <= 0.0) return 0.0;
-    int side = 0;
-    for (int it = 0; it < 60; ++it) {
-      double c = (a * fb - b * fa) / (fb - fa);
-      if (!(c > a && c < b)) c = 0.5 * (a + b);
-      const double fc = dir_ * rk4(t, c, f_in, s_).v;
-      if (fc > 0.0) {
-        a = c;
-        fa = fc;
-        if (side == 1) fb *= 0.5;
-        side = 1;
-      } else {
-        b = c;
-        fb = fc;
-        if (side == -1) fa *= 0.5;
-        side = -1;
-      }
-      if (b - a <= 1e-12 * h || std::fabs(fc) <= 1e-18) break;
-    }
-    return b;  // the end where v has (just) reached zero
-  }
-
-  const DriveParams& d_;
-  const Effects& e_;
-  const ExtraForce& extra_;
-  bool plain_friction_ = true;  ///< no friction effect: F_fric is the Stribeck model
-  bool loads_ = false;          ///< some F_load term is on
-  bool two_mass_ = false;       ///< compliant plant
-  bool locked_ = false;         ///< motor held at rest while the load moves (inside rk4 only)
-  double m1_ = 0.0, m2_ = 0.0;  ///< motor-side and load mass (kg)
-  const ServiceChange& change_;
-  double k_ = 0.0, c_ = 0.0;    ///< spring (N/m) and damper (N s/m)
-  double held_load_ = 0.0;      ///< wandering disturbance of this servo period (N)
-  State s_{};
-  double dir_ = 1.0;       ///< sliding direction of the current pass
-  double last_dir_ = 0.0;  ///< direction of the last sliding (0: never moved)
-  double since_reversal_ = std::numeric_limits<double>::infinity();  ///< distance slid since the last reversal (m)
-  double x_pass0_ = 0.0;   ///< motor position at the start of the current pass (m)
-};
-
 }  // namespace
 
 bool effect_on(const Effects& e, Effect which) {
@@ -526,7 +268,7 @@ struct ServoAxis::Impl {
   // The plant keeps references into cfg: built from the member, not the argument.
   explicit Impl(const SimConfig& c) : cfg(c), plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change), control(cfg.controller, cfg.drive.mass_kg) {}
   SimConfig cfg;
-  Plant plant;
+  DrivePlant plant;
   CascadeController control;
   double x_meas_prev = 0.0;
   bool first = true;
@@ -633,7 +375,7 @@ Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress
   std::mt19937_64 rng(cfg.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   MotionPath path(cfg.motion, cfg.seed);
-  Plant plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change);
+  DrivePlant plant(cfg.drive, cfg.effects, cfg.extra_force, cfg.change);
   DelayedForceRecord delayed(cfg.effects.delay_s, dt, n_samples);
   WanderingLoad wander(cfg.effects, dt, cfg.seed);
   HeldForceLog force_log(cfg.logging.force);

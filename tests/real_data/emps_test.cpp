@@ -14,21 +14,13 @@
 #include "io/trace_files.hpp"
 #include "identify/identify.hpp"
 #include "validate/validate.hpp"
+#include "real_data/emps_data.hpp"
 
 namespace {
 
 using namespace feedid::host;
-
-const std::string emps_dir = std::string(FEEDID_SHARED_DIR) + "/data/emps";
-
-CsvColumns emps_columns() {
-  CsvColumns c;
-  c.time = "t_s";
-  c.position = "qm_m";
-  c.velocity = "no_velocity_column";
-  c.force = "force_N";
-  return c;
-}
+using feedid::test::emps_columns;
+using feedid::test::emps_dir;
 
 Trace read_emps(const std::string& name) {
   const CsvResult r = read_trace_csv(emps_dir + "/" + name, emps_columns());

@@ -1,0 +1,74 @@
+// Reading a model file (model_file.hpp).
+#include "model_file.hpp"
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+namespace feedid::host {
+namespace {
+
+/// Whether j is the report `feedid identify --json` writes: its model keys
+/// sit among the report's own (standard errors, counts, input...).
+bool written_by_identify(const nlohmann::json& j) { return j.contains("status") && j.contains("standard_errors"); }
+
+[[noreturn]] void fail(const std::string& source, const std::string& what) {
+  throw std::runtime_error(source + ": " + what);
+}
+
+/// j[key] as a finite number; `where` is the key's path for messages.
+double number_at(const nlohmann::json& j, const char* key, const std::string& where, const std::string& source) {
+  if (!j.contains(key)) fail(source, "missing key '" + where + key + "'");
+  const nlohmann::json& v = j.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, "'" + where + key + "' must be a finite number");
+  return v.get<double>();
+}
+
+/// Keys of j outside `known`, each as a warning.
+void warn_unknown(const nlohmann::json& j, const std::set<std::string>& known, const std::string& where,
+                  ModelFile& out) {
+  for (const auto& [key, value] : j.items())
+    if (!known.count(key)) out.warnings.push_back(out.source + ": unknown key '" + where + key + "' (ignored)");
+}
+
+DirectionFriction direction_from_json(const nlohmann::json& j, const char* name, bool from_identify, ModelFile& out) {
+  if (!j.contains(name) || !j.at(name).is_object()) fail(out.source, std::string("missing object '") + name + "'");
+  const nlohmann::json& o = j.at(name);
+  const std::string w = std::string(name) + ".";
+  DirectionFriction f;
+  f.viscous_Ns_m = number_at(o, "sigma", w, out.source);
+  f.coulomb_N = number_at(o, "fc", w, out.source);
+  const bool has_fs = o.contains("fs"), has_vs = o.contains("vs");
+  f.breakaway_N = has_fs ? number_at(o, "fs", w, out.source) : 0.0;
+  f.stribeck_velocity_m_s = has_vs ? number_at(o, "vs", w, out.source) : 0.0;
+  if (has_vs && !has_fs) fail(out.source, "'" + w + "vs' given without '" + w + "fs' (the Stribeck dip needs both)");
+  // No dip: vs plays no part; 1 m/s keeps F(v) defined (to_drive_params' rule).
+  if (f.breakaway_N == 0.0 && !(f.stribeck_velocity_m_s > 0.0)) f.stribeck_velocity_m_s = 1.0;
+  if (f.breakaway_N < 0.0) fail(out.source, "'" + w + "fs' must be >= 0 (static friction is fc + fs)");
+  if (!(f.stribeck_velocity_m_s > 0.0)) fail(out.source, "'" + w + "vs' must be > 0 when '" + w + "fs' is given");
+  if (!from_identify) warn_unknown(o, {"sigma", "fc", "fs", "vs"}, w, out);
+  return f;
+}
+
+}  // namespace
+
+ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source) {
+  ModelFile out;
+  out.source = source;
+  if (!j.is_object()) fail(source, "a model file must be a JSON object");
+  const bool from_identify = written_by_identify(j);
+  if (from_identify && j.at("status") != "ok")
+    fail(source, "identify's status is " + j.at("status").dump() + ", not \"ok\": the file holds no identified model");
+  out.drive.mass_kg = number_at(j, "m", "", source);
+  out.drive.pos = direction_from_json(j, "pos", from_identify, out);
+  out.drive.neg = direction_from_json(j, "neg", from_identify, out);
+  if (j.contains("offset_N")) out.offset_N = number_at(j, "offset_N", "", source);
+  const std::string unphysical = non_physical_parameters(out.drive);
+  if (!unphysical.empty()) fail(source, "not a physical model: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
+  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", "offset_N", "units", "comment"}, "", out);
+  return out;
+}
+
+ModelFile read_model_file(const std::string& path) { return model_file_from_json(read_json_file(path), path); }
+
+}  // namespace feedid::host

@@ -1,0 +1,45 @@
+// A model file as a user brings it to replay or diagnose: the JSON that
+// `feedid identify --json` writes, or a hand-written one with at least
+//
+//     {"m": 95.1, "pos": {"sigma": 203.5, "fc": 20.4[, "fs": 0, "vs": 1e-3]},
+//                 "neg": {...}[, "offset_N": -3.16]}
+//
+// (the drive model of NOTES.md plus a constant load force). One reader for
+// every stage that takes a model; the stricter model_from_json stays for
+// files feedid wrote itself. A "comment" key (a citation, say) and
+// "units" are allowed. Host only.
+#pragma once
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "drive_model.hpp"
+
+namespace feedid::host {
+
+struct ModelFile {
+  DriveParams drive;
+  /// Constant load force F0 (N) the drive holds at rest and in motion,
+  /// u = m a + F(v) + F0 (Effects::offset_N; the EMPS reference model's
+  /// "offset"). 0 when the file has none.
+  double offset_N = 0.0;
+  /// Keys the reader did not use, as "model.json: unknown key 'foo' (ignored)":
+  /// a typo must not silently leave a parameter at its default.
+  std::vector<std::string> warnings;
+  std::string source;  ///< file name, for messages
+};
+
+/// Reads a model from parsed JSON; `source` names it in messages.
+/// Required: m (> 0), pos and neg objects with sigma and fc. fs and vs are
+/// optional together (no Stribeck dip when fs is absent or 0); a vs without
+/// fs, or fs > 0 without vs > 0, is an error. A JSON written by identify
+/// (it has "status" and "standard_errors") may carry its report keys
+/// beside the model; in any other file an unknown key is a warning.
+/// Throws std::runtime_error naming the source and the key.
+ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source);
+
+/// The same from a file (read_json_file's errors for a missing or broken file).
+ModelFile read_model_file(const std::string& path);
+
+}  // namespace feedid::host

@@ -1,0 +1,293 @@
+// Closed-loop replay (replay.hpp).
+#include "replay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "io/trace_files.hpp"
+#include "signals/filters.hpp"
+#include "sim/plant.hpp"
+
+namespace feedid::host {
+namespace {
+
+std::string at_time(double t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g s", t);
+  return buf;
+}
+
+/// One column of the file as the trace reader reads it (same rows, same
+/// rules), through its position slot; `scale` as position_scale. Empty
+/// when the file has no such column and it is `optional`.
+std::vector<double> read_column(const std::string& path, const CsvColumns& cols, const std::string& column,
+                                const std::string& role, double scale, const std::vector<double>& t, bool optional) {
+  CsvColumns c = cols;
+  c.position = column;
+  // The reader needs position or velocity: the time column stands in for
+  // velocity, so that a missing column reads as has_position false.
+  c.velocity = cols.time;
+  c.position_scale = scale;
+  const CsvResult r = read_trace_file(path, c);
+  if (r.ok && !r.trace.has_position && optional) return {};
+  if (!r.ok || !r.trace.has_position)
+    throw std::invalid_argument(path + ": the " + role + " column '" + column + "' (from the controller file) cannot be read" +
+                                (r.ok ? ": no such column" : ": " + r.error));
+  std::vector<double> y;
+  y.reserve(r.trace.samples.size());
+  for (std::size_t k = 0; k < r.trace.samples.size(); ++k) {
+    if (k >= t.size() || r.trace.samples[k].t_s != t[k])
+      throw std::invalid_argument(path + ": reading the " + role + " column '" + column +
+                                  "' kept other rows than the trace (a bad value in one column only?): first differs at row " +
+                                  std::to_string(k + 1));
+    y.push_back(r.trace.samples[k].x_m);
+  }
+  if (y.size() != t.size())
+    throw std::invalid_argument(path + ": the " + role + " column '" + column + "' has fewer usable rows than the trace");
+  return y;
+}
+
+/// Sums of squares for one relative error, 100 ||y - y_sim|| / ||y||.
+struct RelativeError {
+  double error = 0.0, norm = 0.0;
+  /// One sample: the difference and the signal it is relative to.
+  void add(double difference, double y) {
+    error += difference * difference;
+    norm += y * y;
+  }
+  /// NaN (null in JSON) when the measured signal is zero throughout: no error relative to it.
+  double pct() const { return norm > 0.0 ? 100.0 * std::sqrt(error / norm) : std::nan(""); }
+};
+
+/// The four figures of measured (x, v, a, u) against simulated series over
+/// samples first.. (the errors' norms are the measured signals').
+ReplayFigures figures(const std::vector<double>* meas, const std::vector<double>* sim, std::size_t first) {
+  RelativeError e[4];
+  for (int s = 0; s < 4; ++s)
+    for (std::size_t k = first; k < meas[s].size(); ++k) e[s].add(meas[s][k] - sim[s][k], meas[s][k]);
+  return {e[0].pct(), e[1].pct(), e[2].pct(), e[3].pct()};
+}
+
+/// The processing of the protocol on a position: zero-phase Butterworth,
+/// then central differences for velocity and acceleration.
+void process_position(const std::vector<double>& x, const std::vector<double>& t, double filter_hz, double rate_hz,
+                      std::vector<double>& xf, std::vector<double>& v, std::vector<double>& a) {
+  xf = filtfilt_butter4(x, std::min(filter_hz, 0.4 * rate_hz), rate_hz);
+  v = central_difference(xf, t);
+  a = central_difference(v, t);
+}
+
+/// The sample period of a run that must be continuous: its median step,
+/// and an error naming the first gap (a replay cannot bridge one).
+double continuous_period(const LoggedRun& run) {
+  const double dt = median_step(run.t);
+  const double limit = max_step_s(dt);
+  for (std::size_t k = 1; k < run.t.size(); ++k)
+    if (run.t[k] - run.t[k - 1] > limit)
+      throw std::invalid_argument(run.source + ": a gap of " + at_time(run.t[k] - run.t[k - 1]) + " at t = " +
+                                  at_time(run.t[k - 1]) + ": a replay needs one continuous recording");
+  return dt;
+}
+
+/// The model's constant load force as the plant's only effect.
+Effects offset_only(double offset_N) {
+  Effects e;
+  e.offset_N = offset_N;
+  return e;
+}
+
+/// The drive's loop around the model's plant, one sample at a time.
+class LoopReplay {
+ public:
+  LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps)
+      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(offset_only(m.offset_N)),
+        plant_(m.drive, fx_, no_extra_, no_change_), vel_(c.position_fir, dt),
+        commands_(static_cast<std::size_t>(c.delay_samples) + 1, 0.0) {}
+  void start_at(double x) { plant_.start_at(x); }
+
+  /// Samples the plant at t_k, runs the loop, records x, v, a and the
+  /// force into sample k of r, then integrates over the period.
+  void sample(std::size_t k, double t, double r_k, double extra_k, ReplayResult& r) {
+    const double q = plant_.x();
+    const double ev = g_.kp * (r_k - q) - vel_.next(q);
+    const double raw = g_.kv * ev + g_.ki * integral_;
+    // Conditional integration: the integral stops growing into the limit.
+    if (!(std::fabs(raw) > c_.saturation && raw * ev > 0.0)) integral_ += ev * dt_;
+    // Computation delay: the command of k - delay reaches the plant at k (0 before the first).
+    std::rotate(commands_.rbegin(), commands_.rbegin() + 1, commands_.rend());
+    commands_[0] = raw;
+    const double delayed = commands_.back();
+    if (std::fabs(delayed) >= c_.saturation) ++r.saturated_samples;
+    const double force = c_.drive_gain * (std::clamp(delayed, -c_.saturation, c_.saturation) + extra_k);
+    r.x_sim[k] = q;
+    r.v_sim[k] = plant_.v();
+    r.a_sim[k] = plant_.acceleration(t, force);
+    r.u_sim[k] = force;
+    if (plant_.v() == 0.0 && r.a_sim[k] == 0.0) ++r.stuck_samples;
+    const double h = dt_ / substeps_;
+    for (int j = 0; j < substeps_; ++j) plant_.step(t + j * h, h, force);
+  }
+
+ private:
+  const Controller& c_;
+  Gains g_;
+  double dt_;
+  int substeps_;
+  Effects fx_{};
+  ExtraForce no_extra_{};
+  ServiceChange no_change_{};
+  DrivePlant plant_;
+  VelocityEstimate vel_;
+  std::vector<double> commands_;  ///< raw commands, newest first, delay_samples + 1 long
+  double integral_ = 0.0;         ///< running integral of the velocity error (p_pi)
+};
+
+/// The model in the loop over the run: x, v, a and force at every sample
+/// into r (r.gains, r.dt_s and r.substeps set).
+void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, ReplayResult& r) {
+  const std::size_t n = run.t.size();
+  r.x_sim.resize(n);
+  r.v_sim.resize(n);
+  r.a_sim.resize(n);
+  r.u_sim.resize(n);
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps);
+  loop.start_at(run.x.front());
+  for (std::size_t k = 0; k < n; ++k)
+    loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
+  for (std::size_t k = 0; k < n; ++k)
+    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k]))
+      throw std::invalid_argument(run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
+                                  " (a model or controller value far off?)");
+}
+
+/// The three rows of figures, and the compared series (after drop_first) for plots.
+void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResult& r) {
+  const std::size_t n = run.t.size();
+  const double rate = 1.0 / r.dt_s;
+  std::vector<double> xf, v, a, xsf, vs, as;
+  process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
+  process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);
+  const std::size_t first = static_cast<std::size_t>(opt.drop_first);
+  const std::vector<double> meas[4] = {xf, v, a, run.u};
+  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
+  const std::vector<double> processed[4] = {xsf, vs, as, r.u_sim};
+  r.error_pct = figures(meas, state, first);
+  r.same_processing_pct = figures(meas, processed, first);
+  // The processing's own share: state against processed, relative to the measured norm.
+  RelativeError gap[4];
+  for (int s = 0; s < 4; ++s)
+    for (std::size_t k = first; k < n; ++k) gap[s].add(state[s][k] - processed[s][k], meas[s][k]);
+  r.processing_pct = {gap[0].pct(), gap[1].pct(), gap[2].pct(), gap[3].pct()};
+  auto tail = [&](const std::vector<double>& y) { return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(first), y.end()); };
+  r.t = tail(run.t);
+  r.x = tail(xf);
+  r.v = tail(v);
+  r.a = tail(a);
+  r.u = tail(run.u);
+  r.x_sim = tail(r.x_sim);
+  r.v_sim = tail(r.v_sim);
+  r.a_sim = tail(r.a_sim);
+  r.u_sim = tail(r.u_sim);
+}
+
+}  // namespace
+
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
+  const CsvResult main = read_trace_file(path, cols);
+  if (!main.ok) throw std::invalid_argument(main.error);
+  if (!main.trace.has_position)
+    throw std::invalid_argument(path + ": no position column '" + cols.position +
+                                "': a replay compares the simulated position with the measured one (--position)");
+  LoggedRun run;
+  run.source = path;
+  for (const TraceSample& s : main.trace.samples) {
+    run.t.push_back(s.t_s);
+    run.x.push_back(s.x_m);
+    run.u.push_back(s.u_N);
+  }
+  run.reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
+  if (c.extra_command.empty()) return run;
+  run.extra = read_column(path, cols, c.extra_command, "extra command", 1.0, run.t, true);
+  if (run.extra.empty())
+    run.notes.push_back(path + " has no extra command column '" + c.extra_command + "': none is added");
+  return run;
+}
+
+ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
+                    bool fit_always) {
+  const std::size_t n = run.t.size();
+  if (opt.substeps < 1 || opt.substeps > 10000) throw std::invalid_argument("--substeps must be 1 to 10000");
+  if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
+  if (!(opt.filter_hz > 0.0)) throw std::invalid_argument("--filter must be > 0 Hz");
+  if (n < static_cast<std::size_t>(opt.drop_first) + 20)
+    throw std::invalid_argument(run.source + ": too short to replay: " + std::to_string(n) + " samples");
+  if (run.x.size() != n || run.u.size() != n || run.reference.size() != n || (!run.extra.empty() && run.extra.size() != n))
+    throw std::invalid_argument(run.source + ": the replay's columns differ in length");
+  ReplayResult r;
+  r.dt_s = continuous_period(run);
+  r.substeps = opt.substeps;
+  r.samples = n;
+  r.notes = run.notes;
+  r.units = opt.units;
+  if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
+  r.gains = resolve_gains(c, r.gain_fit);
+
+  simulate_in_loop(model, c, run, r);
+  compare_with_run(run, opt, r);
+  r.samples_compared = r.t.size();
+  return r;
+}
+
+namespace {
+nlohmann::json figures_json(const ReplayFigures& f) {
+  auto value = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); };
+  return {{"position", value(f.position)}, {"velocity", value(f.velocity)}, {"acceleration", value(f.acceleration)},
+          {"force", value(f.force)}};
+}
+nlohmann::json gains_json(const Gains& g, ControlLaw law) {
+  nlohmann::json j = {{"kp", g.kp}, {"kv", g.kv}};
+  if (law == ControlLaw::p_pi) j["ki"] = g.ki;
+  return j;
+}
+}  // namespace
+
+nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Controller& c, const ReplayOptions& opt) {
+  nlohmann::json j;
+  j["relative_error_pct"] = figures_json(r.error_pct);
+  j["relative_error_same_processing_pct"] = figures_json(r.same_processing_pct);
+  j["processing_alone_pct"] = figures_json(r.processing_pct);
+  j["comparison"] = {
+      {"measured", "position filtered zero-phase by a 4th-order Butterworth, velocity and acceleration by central differences"},
+      {"simulated", "position, velocity and acceleration from the plant's state at each sample; force = drive_gain * "
+                    "(sat(delayed command) + extra)"},
+      {"same_processing", "the simulated position processed as the measured one"},
+      {"processing_alone", "simulated state against the same simulation processed, relative to the measured signal"},
+      {"filter_hz", opt.filter_hz},
+      {"drop_first", opt.drop_first},
+      {"relative_error", "100 ||y - y_sim|| / ||y||"}};
+  j["controller"] = {{"law", law_name(c.law)}, {"gains", gains_json(r.gains, c.law)},
+                     {"gains_from_file", {{"kp", c.kp.has_value()}, {"kv", c.kv.has_value()}, {"ki", c.ki.has_value()}}},
+                     {"drive_gain", c.drive_gain}, {"saturation", c.saturation}, {"position_fir", c.position_fir},
+                     {"delay_samples", c.delay_samples}, {"reference", c.reference},
+                     {"extra_command", c.extra_command.empty() ? nlohmann::json() : nlohmann::json(c.extra_command)}};
+  if (r.gain_fit.done)
+    j["gain_fit"] = {{"gains", gains_json(r.gain_fit.value, c.law)}, {"standard_errors", gains_json(r.gain_fit.se, c.law)},
+                     {"lag_samples", r.gain_fit.lag_samples}, {"samples", r.gain_fit.samples},
+                     {"rms_residual", r.gain_fit.rms_residual}, {"rms_command", r.gain_fit.rms_command},
+                     {"extra_gain", std::isfinite(r.gain_fit.extra_gain) ? nlohmann::json(r.gain_fit.extra_gain) : nlohmann::json()},
+                     {"extra_gain_se", std::isfinite(r.gain_fit.extra_gain_se) ? nlohmann::json(r.gain_fit.extra_gain_se) : nlohmann::json()}};
+  nlohmann::json m = model_json(model.drive, r.units);
+  m["offset_N"] = model.offset_N;
+  j["model"] = m;
+  j["notes"] = r.notes;
+  j["units"] = units_json(r.units);
+  j["simulation"] = {{"sample_period_s", r.dt_s}, {"substeps", r.substeps}, {"samples", r.samples},
+                     {"samples_compared", r.samples_compared}, {"saturated_samples", r.saturated_samples},
+                     {"stuck_samples", r.stuck_samples},
+                     {"plant", "rigid body, direction-dependent Stribeck friction, Karnopp stick/slip, RK4 with the force held"}};
+  return j;
+}
+
+}  // namespace feedid::host

@@ -1,0 +1,88 @@
+// Closed-loop replay: a model simulated inside the drive's own loop
+// (controller.hpp), sampled like the drive at the log's period, driven by
+// the logged position reference and extra command, and compared with the
+// logged run as the EMPS reference package compares its simulation
+// (EMPS_Description.pdf §3.5; ../shared/data/emps/README.md):
+//
+//   measured   position filtered zero-phase by a 4th-order Butterworth at
+//              filter_hz, velocity and acceleration by central differences;
+//   simulated  position, velocity and acceleration from the plant's state at
+//              each sample; force = drive_gain * (sat(delayed command) + extra);
+//   both       the first drop_first samples left out; for each signal y,
+//              100 ||y - y_sim|| / ||y||.
+//
+// The plant is the simulator's (sim/plant.hpp): RK4 substeps with the
+// command held, Karnopp stick/slip at rest. Host only.
+#pragma once
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "controller.hpp"
+#include "io/csv_trace.hpp"
+#include "io/units.hpp"
+#include "model/model_file.hpp"
+
+namespace feedid::host {
+
+/// One continuous logged run with the columns a replay reads (SI units,
+/// equal lengths; extra empty when the controller names none).
+struct LoggedRun {
+  std::string source;
+  std::vector<double> t, x, u, reference, extra;
+  std::vector<std::string> notes;  ///< e.g. an extra command the log does not have
+};
+
+/// Reads the run of `path` (CSV or .mat) with the trace columns of `cols`
+/// (time, measured position, force) and the controller's reference (scaled
+/// like the position) and extra command (as logged, command units)
+/// columns. An extra command the log lacks is none (a run without pulses
+/// replays with the controller of one with them), said in notes.
+/// Throws std::invalid_argument naming a missing reference column, or
+/// when the rows the reads keep differ.
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
+
+struct ReplayOptions {
+  int substeps = 10;       ///< plant integration steps per sample (the reference package: ode45, max step dt/10)
+  double filter_hz = 100;  ///< cut-off of the zero-phase Butterworth on the measured position (Hz)
+  int drop_first = 49;     ///< samples left out at the start (the filter's edge), as in the protocol
+  Units units;             ///< labels only (units.hpp)
+};
+
+/// Relative errors (%), 100 ||y - y_sim|| / ||y||, of the four signals.
+struct ReplayFigures {
+  double position = 0.0, velocity = 0.0, acceleration = 0.0, force = 0.0;
+};
+
+struct ReplayResult {
+  /// The published comparison: measured processed, simulated from the plant's state.
+  ReplayFigures error_pct;
+  /// The simulated position processed exactly as the measured one (both sides alike).
+  ReplayFigures same_processing_pct;
+  /// The gap the processing alone makes: simulated state against the same
+  /// simulation processed, relative to the measured signal's norm.
+  ReplayFigures processing_pct;
+  Gains gains;       ///< the gains replayed
+  GainFit gain_fit;  ///< done when the file lacked a gain, or always when asked
+  double dt_s = 0.0; ///< sample period of the log (median step)
+  int substeps = 0;
+  std::size_t samples = 0, samples_compared = 0;
+  std::size_t saturated_samples = 0;  ///< simulated commands at the limit
+  std::size_t stuck_samples = 0;      ///< samples at which the simulated axis was at rest
+  std::vector<std::string> notes;     ///< the run's (LoggedRun::notes)
+  Units units;                        ///< ReplayOptions::units
+  /// The compared series (every sample after drop_first), for plots.
+  std::vector<double> t, x, v, a, u, x_sim, v_sim, a_sim, u_sim;
+};
+
+/// Replays the model in the loop of `c` over `run`. `fit_always`: fit the
+/// gains from the log even when the file gives them all (a check of the
+/// file against the log). Throws std::invalid_argument for a run with a
+/// gap, too short a run, or a simulation that leaves finite numbers.
+ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
+                    bool fit_always = false);
+
+nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Controller& c, const ReplayOptions& opt);
+
+}  // namespace feedid::host

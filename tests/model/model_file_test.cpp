@@ -1,0 +1,102 @@
+// The model file reader (host_sim/model/model_file.hpp): what a user may
+// write by hand, what identify writes, and the errors and warnings.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "model/model_file.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using namespace feedid::host;
+using nlohmann::json;
+using feedid::test::error_of;
+
+json emps_reference() {
+  return json{{"m", 95.1089},
+              {"pos", {{"sigma", 203.5034}, {"fc", 20.3935}}},
+              {"neg", {{"sigma", 203.5034}, {"fc", 20.3935}}},
+              {"offset_N", -3.1648}};
+}
+
+TEST(ModelFile, HandWrittenMinimalModelHasNoStribeckDip) {
+  // GIVEN the EMPS reference model written by hand, without fs and vs
+  const ModelFile m = model_file_from_json(emps_reference(), "ref.json");
+  // THEN every value is read, the dip is absent and nothing is warned
+  EXPECT_DOUBLE_EQ(m.drive.mass_kg, 95.1089);
+  EXPECT_DOUBLE_EQ(m.drive.neg.viscous_Ns_m, 203.5034);
+  EXPECT_DOUBLE_EQ(m.drive.pos.coulomb_N, 20.3935);
+  EXPECT_EQ(m.drive.pos.breakaway_N, 0.0);
+  EXPECT_DOUBLE_EQ(m.offset_N, -3.1648);
+  EXPECT_TRUE(m.warnings.empty());
+  // AND the friction just above rest is the Coulomb force, the dip absent
+  EXPECT_NEAR(stribeck_friction(m.drive, 1e-9), 20.3935, 1e-6);
+}
+
+TEST(ModelFile, MissingKeyIsNamed) {
+  json j = emps_reference();
+  j["neg"].erase("fc");
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "ref.json"); }).find("'neg.fc'"), std::string::npos);
+  j = emps_reference();
+  j.erase("m");
+  const std::string e = error_of([&] { model_file_from_json(j, "ref.json"); });
+  EXPECT_NE(e.find("ref.json"), std::string::npos) << e;
+  EXPECT_NE(e.find("'m'"), std::string::npos) << e;
+}
+
+TEST(ModelFile, UnknownKeyIsAWarningNotAnError) {
+  // GIVEN a typo at the top and inside a direction
+  json j = emps_reference();
+  j.erase("offset_N");
+  j["ofset_N"] = -3.0;
+  j["pos"]["sigam"] = 1.0;
+  const ModelFile m = model_file_from_json(j, "ref.json");
+  // THEN both are named in warnings, and the model is still read
+  ASSERT_EQ(m.warnings.size(), 2u);
+  EXPECT_NE(m.warnings[0].find("'pos.sigam'"), std::string::npos) << m.warnings[0];
+  EXPECT_NE(m.warnings[1].find("'ofset_N'"), std::string::npos) << m.warnings[1];
+  EXPECT_EQ(m.offset_N, 0.0);
+}
+
+TEST(ModelFile, StribeckNeedsBothFsAndVs) {
+  json j = emps_reference();
+  j["pos"]["vs"] = 1e-3;
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("'pos.vs'"), std::string::npos);
+  j = emps_reference();
+  j["pos"]["fs"] = 5.0;
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("'pos.vs'"), std::string::npos);
+  j["pos"]["vs"] = 2e-3;
+  const ModelFile m = model_file_from_json(j, "x");
+  EXPECT_EQ(m.drive.pos.breakaway_N, 5.0);
+  EXPECT_EQ(m.drive.pos.stribeck_velocity_m_s, 2e-3);
+}
+
+TEST(ModelFile, NonPhysicalOrNonNumericIsAnError) {
+  json j = emps_reference();
+  j["m"] = -1.0;
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("not a physical model"), std::string::npos);
+  j = emps_reference();
+  j["pos"]["sigma"] = "203";
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("'pos.sigma' must be a finite number"), std::string::npos);
+}
+
+TEST(ModelFile, IdentifyReportKeysAreNotWarnedButAFailedStatusIsAnError) {
+  // GIVEN the shape identify writes: the model among report keys
+  json j = emps_reference();
+  j.erase("offset_N");
+  j["status"] = "ok";
+  j["standard_errors"] = json::object();
+  j["m_se"] = 0.1;
+  j["pos"]["sigma_se"] = 1.0;
+  j["pos"]["fs"] = 0.0;
+  j["pos"]["vs"] = 0.0;  // identify writes vs = 0 when there is no dip
+  const ModelFile m = model_file_from_json(j, "id.json");
+  EXPECT_TRUE(m.warnings.empty());
+  EXPECT_GT(m.drive.pos.stribeck_velocity_m_s, 0.0);  // F(v) stays defined
+  // WHEN identify failed
+  j["status"] = "insufficient_data";
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "id.json"); }).find("status"), std::string::npos);
+}
+
+}  // namespace

@@ -1,0 +1,80 @@
+// `feedid replay` on the command line: exit codes and what it prints for
+// bad controller and model files and a missing reference column.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+namespace {
+
+const std::string dir = ::testing::TempDir();
+
+struct Outcome {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string read_all(const std::string& path) {
+  std::ifstream f(path);
+  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+/// A file name of this test's own (ctest runs the tests in parallel).
+std::string own(const std::string& name) {
+  return dir + "replay_cli_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name;
+}
+
+Outcome feedid(const std::string& args) {
+  const std::string out = own("stdout"), err = own("stderr");
+  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >" + out + " 2>" + err).c_str());
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, read_all(out), read_all(err)};
+}
+
+void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+/// A logged run: the axis at rest where the reference holds it.
+std::string write_run() {
+  const std::string path = own("run.csv");
+  std::ofstream f(path);
+  f << "t,x,u,r\n";
+  for (int k = 0; k < 500; ++k) f << k * 1e-3 << "," << 0.01 + 1e-6 * k << ",1," << 0.01 + 1e-6 * k << "\n";
+  return path;
+}
+
+const char* kController = R"({"kp": 50, "kv": 100, "drive_gain": 10, "saturation": 10, "position_fir": [1],
+                              "delay_samples": 1, "reference": "r"})";
+const char* kModel = R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}})";
+
+TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  write(c, kController);
+  write(m, R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}, "ofset_N": 1})");
+  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_NE(o.err.find("warning: " + m + ": unknown key 'ofset_N'"), std::string::npos) << o.err;
+  EXPECT_NE(o.out.find("relative error"), std::string::npos) << o.out;
+}
+
+TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  write(c, R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1], "delay_samples": 1, "reference": "r"})");
+  write(m, kModel);
+  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.err.find("missing key 'drive_gain'"), std::string::npos) << o.err;
+}
+
+TEST(ReplayCli, MissingReferenceColumnIsNamed) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  std::string text = kController;
+  text.replace(text.find("\"r\""), 3, "\"qg_m\"");
+  write(c, text);
+  write(m, kModel);
+  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
+}
+
+}  // namespace

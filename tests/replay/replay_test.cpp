@@ -1,0 +1,286 @@
+// Closed-loop replay (host_sim/replay): the controller file, the gains a
+// logged command reveals, and the replay itself against a loop simulated
+// independently (the simulator's ServoAxis runs its own controller code
+// around the same plant class).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+
+#include "model/constants.hpp"
+#include "replay/replay.hpp"
+#include "report/report.hpp"
+#include "sim/drive_sim.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using namespace feedid::host;
+using nlohmann::json;
+using feedid::test::error_of;
+
+json minimal_controller() {
+  return json{{"kp", 60.0},         {"kv", 2.0 * kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
+              {"position_fir", {1.0}}, {"delay_samples", 0},          {"reference", "r"},  {"extra_command", "pulse"}};
+}
+
+TEST(ReplayController, EachMissingRequiredKeyIsNamed) {
+  for (const char* key : {"drive_gain", "saturation", "position_fir", "delay_samples", "reference"}) {
+    json j = minimal_controller();
+    j.erase(key);
+    const std::string e = error_of([&] { controller_from_json(j, "c.json"); });
+    EXPECT_NE(e.find(std::string("missing key '") + key + "'"), std::string::npos) << key << ": " << e;
+    EXPECT_NE(e.find("c.json"), std::string::npos) << e;
+  }
+}
+
+TEST(ReplayController, GainsAndExtraCommandAreOptionalUnknownKeysWarned) {
+  json j = minimal_controller();
+  j.erase("kp");
+  j.erase("kv");
+  j.erase("extra_command");
+  j["kd"] = 3.0;
+  const Controller c = controller_from_json(j, "c.json");
+  EXPECT_FALSE(c.kp.has_value());
+  EXPECT_TRUE(needs_fit(c));
+  EXPECT_TRUE(c.extra_command.empty());
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("'kd'"), std::string::npos);
+}
+
+TEST(ReplayController, BadValuesAreNamed) {
+  json j = minimal_controller();
+  j["law"] = "pid";
+  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'law'"), std::string::npos);
+  j = minimal_controller();
+  j["position_fir"] = {0.5, 0.4};
+  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("sum to 1"), std::string::npos);
+  j = minimal_controller();
+  j["delay_samples"] = 1.5;
+  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'delay_samples'"), std::string::npos);
+  j = minimal_controller();
+  j["saturation"] = 0;
+  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'saturation'"), std::string::npos);
+}
+
+TEST(ReplayController, VelocityEstimateIsTheFirDifference) {
+  // qf(k) = 0.5 q(k) + 0.5 q(k-1), dq = (qf(k) - qf(k-1)) / dt, at rest before the first sample
+  VelocityEstimate v({0.5, 0.5}, 0.001);
+  EXPECT_EQ(v.next(1.0), 0.0);
+  EXPECT_NEAR(v.next(1.002), 1.0, 1e-9);  // qf: 1 -> 1.001
+  EXPECT_NEAR(v.next(1.004), 2.0, 1e-9);  // qf: 1.001 -> 1.003
+}
+
+/// A reference that moves both ways at several speeds and dwells between
+/// moves (the axis sticks there): x0 + A sin^2 over moves of T_i, then a hold.
+double reference_at(double t) {
+  const double moves[][2] = {{1.2, 0.06}, {0.5, -0.01}, {2.0, 0.04}, {0.8, 0.02}};  // duration (s), amplitude (m)
+  double t0 = 0.0;
+  for (const auto& m : moves) {
+    const double T = m[0];
+    if (t < t0 + T) return m[1] * std::pow(std::sin(kPi * (t - t0) / T), 2);
+    t0 += T;
+    if (t < t0 + 0.4) return 0.0;
+    t0 += 0.4;
+  }
+  return 0.0;
+}
+
+DriveParams true_drive() {
+  DriveParams d;
+  d.mass_kg = 100.0;
+  d.pos = {200.0, 20.0, 6.0, 2e-3};
+  d.neg = {230.0, 22.0, 5.0, 2e-3};
+  return d;
+}
+
+/// A run logged from the simulator's own loop at 1 kHz: u = kv (kp (r - x) -
+/// dx) with dx the backward difference (FIR [1]), no delay, plus a pulse
+/// train added to the force; no encoder quantum, no noise. With
+/// integral_hz, its PI adds ki = kv 2 pi integral_hz on the velocity error.
+LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0) {
+  SimConfig cfg;
+  cfg.drive = d;
+  cfg.controller.servo_rate_hz = 1000.0;
+  cfg.controller.velocity_integral_hz = integral_hz;
+  cfg.controller.acceleration_feedforward = false;
+  cfg.sensors.encoder_resolution_m = 0.0;
+  ServoAxis axis(cfg);
+  LoggedRun run;
+  run.source = "simulated";
+  for (int k = 0; k * 1e-3 <= duration_s; ++k) {
+    const double t = k * 1e-3;
+    const double pulse = std::fmod(t, 1.0) > 0.5 && std::fmod(t, 1.0) < 0.55 ? 150.0 : 0.0;
+    const TraceSample s = axis.step(t, PathPoint{reference_at(t), 0.0, 0.0}, PathPoint{reference_at(t + 1e-3), 0.0, 0.0}, pulse);
+    run.t.push_back(t);
+    run.x.push_back(s.x_m);
+    run.u.push_back(s.u_N);
+    run.reference.push_back(reference_at(t));
+    run.extra.push_back(pulse);
+  }
+  return run;
+}
+
+ModelFile model_of(const DriveParams& d) {
+  ModelFile m;
+  m.drive = d;
+  return m;
+}
+
+TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
+  // GIVEN a run logged from the simulator's loop, pulses included
+  const LoggedRun run = simulated_run(true_drive(), 7.0);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  // WHEN the true model is replayed in that loop
+  const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  // THEN with both sides processed alike every signal agrees to 0.5 %
+  EXPECT_LT(r.same_processing_pct.position, 0.5);
+  EXPECT_LT(r.same_processing_pct.velocity, 0.5);
+  EXPECT_LT(r.same_processing_pct.acceleration, 0.5);
+  EXPECT_LT(r.same_processing_pct.force, 0.5);
+  EXPECT_LT(r.error_pct.force, 0.5);
+  // AND the published comparison differs from it only by the processing
+  EXPECT_NEAR(r.error_pct.acceleration, r.processing_pct.acceleration, 0.5);
+
+  // WHEN the mass is 20 % off
+  DriveParams heavy = true_drive();
+  heavy.mass_kg *= 1.2;
+  const ReplayResult w = replay(model_of(heavy), c, run, ReplayOptions{});
+  // THEN the force and acceleration errors grow many times over
+  EXPECT_GT(w.same_processing_pct.force, 5.0 * std::max(r.same_processing_pct.force, 0.2));
+  EXPECT_GT(w.same_processing_pct.acceleration, 5.0 * std::max(r.same_processing_pct.acceleration, 0.2));
+}
+
+TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
+  const LoggedRun run = simulated_run(true_drive(), 7.0);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  DriveParams model = true_drive();  // a model somewhat off, so every figure is well above round-off
+  model.mass_kg = 92.0;
+  model.pos.coulomb_N = 17.0;
+  ReplayOptions coarse, fine;
+  fine.substeps = 2 * coarse.substeps;
+  const ReplayResult a = replay(model_of(model), c, run, coarse), b = replay(model_of(model), c, run, fine);
+  auto close = [](double x, double y) { return std::fabs(x - y) <= 0.01 * std::fabs(y); };
+  for (const auto& [fa, fb] : {std::pair{a.error_pct, b.error_pct}, std::pair{a.same_processing_pct, b.same_processing_pct}}) {
+    EXPECT_PRED2(close, fa.position, fb.position);
+    EXPECT_PRED2(close, fa.velocity, fb.velocity);
+    EXPECT_PRED2(close, fa.acceleration, fb.acceleration);
+    EXPECT_PRED2(close, fa.force, fb.force);
+  }
+}
+
+TEST(Replay, StandingAxisDoesNotChatter) {
+  // GIVEN a reference held 10 um from where the axis rests and a model
+  // whose friction holds against the loop's push (kv kp 10 um = 15 N < 20 N)
+  LoggedRun run;
+  run.source = "standstill";
+  for (int k = 0; k < 2000; ++k) {
+    run.t.push_back(k * 1e-3);
+    run.x.push_back(0.0);
+    run.u.push_back(15.0);
+    run.reference.push_back(10e-6);
+  }
+  json j = minimal_controller();
+  j["kp"] = 60.0;
+  j["kv"] = 25000.0;
+  j.erase("extra_command");
+  const Controller c = controller_from_json(j, "c");
+  const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  // THEN the simulated axis never moves and its force is the steady push
+  for (std::size_t k = 0; k < r.v_sim.size(); ++k) {
+    ASSERT_EQ(r.v_sim[k], 0.0) << k;
+    ASSERT_EQ(r.a_sim[k], 0.0) << k;
+  }
+  EXPECT_EQ(r.stuck_samples, r.samples);
+  EXPECT_NEAR(r.u_sim.back(), 15.0, 1e-9);
+}
+
+TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
+  // GIVEN the simulated run and a controller file without kp and kv
+  const LoggedRun run = simulated_run(true_drive(), 7.0);
+  json j = minimal_controller();
+  j.erase("kp");
+  j.erase("kv");
+  const Controller c = controller_from_json(j, "c");
+  const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  // THEN the regression finds the loop's gains, with standard errors that cover them
+  ASSERT_TRUE(r.gain_fit.done);
+  const double kv = 2.0 * kPi * 40.0 * 100.0;
+  EXPECT_NEAR(r.gain_fit.value.kp, 60.0, 0.005 * 60.0);
+  EXPECT_NEAR(r.gain_fit.value.kv, kv, 0.005 * kv);
+  EXPECT_GT(r.gain_fit.se.kp, 0.0);
+  EXPECT_LT(r.gain_fit.se.kp, 0.01 * 60.0);
+  EXPECT_EQ(r.gain_fit.lag_samples, 0);
+  // AND the pulses are found to enter the command as logged (gain 1)
+  EXPECT_NEAR(r.gain_fit.extra_gain, 1.0, 0.01);
+  // AND the replay with them is as close as with the given gains
+  EXPECT_LT(r.same_processing_pct.force, 0.5);
+}
+
+TEST(Replay, ProportionalIntegralLoopIsReplayedAndItsGainsFound) {
+  // GIVEN a run of the simulator's PI velocity loop (zero at 8 Hz)
+  const double kv = 2.0 * kPi * 40.0 * 100.0, ki = kv * 2.0 * kPi * 8.0;
+  const LoggedRun run = simulated_run(true_drive(), 7.0, 8.0);
+  json j = minimal_controller();
+  j["law"] = "p_pi";
+  j["ki"] = ki;
+  // WHEN the true model is replayed in the p_pi law with the loop's gains
+  const ReplayResult r = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  // THEN it reproduces the run
+  EXPECT_LT(r.same_processing_pct.velocity, 0.5);
+  EXPECT_LT(r.same_processing_pct.force, 0.5);
+  // WHEN the file gives no gains
+  j.erase("kp");
+  j.erase("kv");
+  j.erase("ki");
+  const ReplayResult f = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  // THEN the regression finds all three
+  EXPECT_NEAR(f.gain_fit.value.kp, 60.0, 0.005 * 60.0);
+  EXPECT_NEAR(f.gain_fit.value.kv, kv, 0.005 * kv);
+  EXPECT_NEAR(f.gain_fit.value.ki, ki, 0.01 * ki);
+  EXPECT_LT(f.same_processing_pct.force, 0.5);
+}
+
+TEST(Replay, GainsFromAForceOfTheOtherSignAreRefused) {
+  // GIVEN a log whose force has the other sign than the command, and no gains in the file
+  LoggedRun run = simulated_run(true_drive(), 3.0);
+  for (double& u : run.u) u = -u;
+  json j = minimal_controller();
+  j.erase("kp");
+  j.erase("kv");
+  const Controller c = controller_from_json(j, "c.json");
+  // THEN the fit's negative gains are an error that says why, not a replay
+  const std::string e = error_of([&] { replay(model_of(true_drive()), c, run, ReplayOptions{}); });
+  EXPECT_NE(e.find("not those of a position loop"), std::string::npos) << e;
+}
+
+TEST(Replay, ReportPageShowsEverySignal) {
+  const LoggedRun run = simulated_run(true_drive(), 2.0);
+  ReplayOptions opt;
+  opt.units = units_for(Axis::linear);
+  const ReplayResult r = replay(model_of(true_drive()), controller_from_json(minimal_controller(), "c"), run, opt);
+  const std::string dir = ::testing::TempDir() + "replay_report_test";
+  std::string err;
+  ASSERT_TRUE(write_replay_report(r, dir, "simulated", "feedid replay ...", err)) << err;
+  std::ifstream f(dir + "/report.html");
+  const std::string page((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (const char* signal : {"position", "velocity", "acceleration", "force"})
+    EXPECT_NE(page.find(std::string("<h2>") + signal + "</h2>"), std::string::npos) << signal;
+  EXPECT_NE(page.find("acceleration (m/s^2)"), std::string::npos);
+  EXPECT_NE(page.find("the processing alone"), std::string::npos);
+}
+
+TEST(Replay, GapAndShortRunAreErrors) {
+  LoggedRun run = simulated_run(true_drive(), 1.0);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  for (double& t : run.t)
+    if (t > 0.5) t += 1.0;
+  EXPECT_NE(error_of([&] { replay(model_of(true_drive()), c, run, ReplayOptions{}); }).find("gap"), std::string::npos);
+  LoggedRun shortrun = simulated_run(true_drive(), 0.05);
+  EXPECT_NE(error_of([&] { replay(model_of(true_drive()), c, shortrun, ReplayOptions{}); }).find("too short"),
+            std::string::npos);
+}
+
+}  // namespace
