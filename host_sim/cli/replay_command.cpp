@@ -63,8 +63,10 @@ struct ReplayCommand : Command {
     const Controller controller = read_controller_file(controller_path);
     for (const auto& w : model.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     for (const auto& w : controller.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    const LoggedRun run = read_logged_run(in_path, cols, controller);
     opt.units = input.units();
+    if (const std::string why = model_units_mismatch({{"units", model.units}}, opt.units); !why.empty())
+      throw std::invalid_argument(model_path + ": " + why);
+    const LoggedRun run = read_logged_run(in_path, cols, controller);
     const ReplayResult r = replay(model, controller, run, opt, fit_gains_always);
     std::printf("replay of %s in the loop of %s: %zu samples at %.6g s, %d plant substeps; %zu compared (first %d left out)\n",
                 in_path.c_str(), controller_path.c_str(), r.samples, r.dt_s, r.substeps, r.samples_compared, opt.drop_first);

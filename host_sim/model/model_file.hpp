@@ -28,6 +28,9 @@ struct ModelFile {
   /// a typo must not silently leave a parameter at its default.
   std::vector<std::string> warnings;
   std::string source;  ///< file name, for messages
+  /// The file's "units" as identify writes them (null when it states none):
+  /// checked against the log's with model_units_mismatch (io/units.hpp).
+  nlohmann::json units;
 };
 
 /// Reads a model from parsed JSON; `source` names it in messages.

@@ -57,6 +57,19 @@ TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
   EXPECT_NE(o.out.find("relative error"), std::string::npos) << o.out;
 }
 
+TEST(ReplayCli, AModelInOtherUnitsThanTheLogIsRefused) {
+  // GIVEN a rotary model (rad, N m), as identify --axis rotary writes its units
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  write(c, kController);
+  write(m, R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2},
+              "units": {"position": "rad", "force": "N m"}})");
+  // THEN replaying it on a log read as linear is exit 2, naming both units; read as rotary it runs
+  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.err.find("rad"), std::string::npos) << o.err;
+  EXPECT_EQ(feedid("replay --model " + m + " --controller " + c + " --in " + run + " --axis rotary").exit_code, 0);
+}
+
 TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
   const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1], "delay_samples": 1, "reference": "r"})");
