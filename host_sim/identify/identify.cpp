@@ -814,6 +814,36 @@ std::string not_physical(const IdentifyResult& r) {
   return non_physical_parameters(to_drive_params(r.estimate), r.units);
 }
 
+SysIdGains sysid_gains(const IdentifyResult& r) {
+  const auto& e = r.estimate;
+  const auto& p = e.pos;
+  const auto& n = e.neg;
+  SysIdGains g;
+  g.kS = 0.5 * (p.coulomb_N + n.coulomb_N);
+  g.kG = 0.5 * (p.coulomb_N - n.coulomb_N);
+  g.kS_se = g.kG_se = 0.5 * std::hypot(p.coulomb_se, n.coulomb_se);
+  g.kV = 0.5 * (p.viscous_Ns_m + n.viscous_Ns_m);
+  g.kV_se = 0.5 * std::hypot(p.viscous_se, n.viscous_se);
+  g.kA = e.mass_kg;
+  g.kA_se = e.mass_se_kg;
+  return g;
+}
+
+namespace {
+/// JSON `sysid` for a force in volts (SysId's gains in its own names), else null.
+nlohmann::json sysid_json(const IdentifyResult& r) {
+  if (r.units.force != "V" || r.status != feedid::Status::ok) return nullptr;
+  const SysIdGains g = sysid_gains(r);
+  const Units& u = r.units;
+  return {{"kS", g.kS}, {"kS_se", g.kS_se}, {"kV", g.kV}, {"kV_se", g.kV_se}, {"kA", g.kA}, {"kA_se", g.kA_se},
+          {"kG", g.kG}, {"kG_se", g.kG_se},
+          {"units", {{"kS", u.force}, {"kV", u.viscous()}, {"kA", u.mass()}, {"kG", u.force}}},
+          {"rule", "V = kS sgn(v) + kV v + kA a + kG: kS and kV the means of the two directions' Coulomb and viscous "
+                   "terms, kG half the difference of the Coulomb terms (a constant load such as an elevator's gravity), "
+                   "kA the mass; the Stribeck terms have no SysId counterpart"}};
+}
+}  // namespace
+
 std::string not_physical_cause(const IdentifyResult& r) {
   if (not_physical(r).empty()) return "";
   const auto& e = r.estimate;
@@ -858,6 +888,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["pos"] = direction_json(e.pos);
   j["neg"] = direction_json(e.neg);
   j["model"] = friction_model_json(r);
+  j["sysid"] = sysid_json(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
               {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
@@ -998,6 +1029,14 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
       << u.force << (sym.coulomb_identified() ? "" : " (not identifiable: its standard error is over 25 % of it)")
       << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+  }
+  if (r.units.force == "V" && r.status == feedid::Status::ok) {
+    const SysIdGains g = sysid_gains(r);
+    const Rounded ks = round_to_se(g.kS, g.kS_se), kv = round_to_se(g.kV, g.kV_se), ka = round_to_se(g.kA, g.kA_se),
+                  kg = round_to_se(g.kG, g.kG_se);
+    o << "  SysId gains: kS " << ks.value << " +- " << ks.se << " " << u.force << ", kV " << kv.value << " +- " << kv.se
+      << " " << u.viscous() << ", kA " << ka.value << " +- " << ka.se << " " << u.mass() << ", kG " << kg.value << " +- "
+      << kg.se << " " << u.force << "\n";
   }
   std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
   o << buf;

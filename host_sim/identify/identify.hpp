@@ -343,6 +343,16 @@ std::string not_physical(const IdentifyResult& r);
 /// standard error of zero: the data do not resolve it.
 std::string not_physical_cause(const IdentifyResult& r);
 
+/// SysId's gains (V = kS sgn(v) + kV v + kA a + kG) from the two
+/// directions, for a force in volts: kS the mean Coulomb force, kV the mean
+/// viscous coefficient, kA the mass, kG the constant load (half the
+/// difference of the Coulomb forces: an elevator's gravity). Standard
+/// errors from the directions' (independent sections).
+struct SysIdGains {
+  double kS = 0.0, kS_se = 0.0, kV = 0.0, kV_se = 0.0, kA = 0.0, kA_se = 0.0, kG = 0.0, kG_se = 0.0;
+};
+SysIdGains sysid_gains(const IdentifyResult& r);
+
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
 

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "identify/identify.hpp"
+#include "test_support.hpp"
 
 namespace feedid::test {
 namespace {
@@ -26,6 +27,27 @@ TEST(ToDriveParams, NoStribeckVelocityMeansNoDip) {
   EXPECT_DOUBLE_EQ(host::stribeck_friction(p, 1e-4), 20.0 + 600.0 * 1e-4);
   EXPECT_EQ(p.neg.breakaway_N, 7.0);
   EXPECT_DOUBLE_EQ(p.neg.stribeck_velocity_m_s, 2e-3);
+}
+
+// GIVEN a drive identified with its force labelled in volts, THEN the JSON
+// and the summary give SysId's gains: kS and kV the directions' means, kG
+// half the Coulomb difference, kA the mass; in N there is no such block.
+TEST(SysIdGains, AForceInVoltsGetsKsKvKaKg) {
+  const host::Trace tr = simulate(SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 30.0});
+  host::IdentifyOptions volts;
+  volts.units = host::units_for(host::Axis::linear, "V");
+  const host::IdentifyResult r = host::identify(tr, volts);
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  const nlohmann::json j = host::to_json(r).at("sysid");
+  const auto& e = r.estimate;
+  EXPECT_DOUBLE_EQ(j.at("kS").get<double>(), 0.5 * (e.pos.coulomb_N + e.neg.coulomb_N));
+  EXPECT_DOUBLE_EQ(j.at("kG").get<double>(), 0.5 * (e.pos.coulomb_N - e.neg.coulomb_N));
+  EXPECT_DOUBLE_EQ(j.at("kV").get<double>(), 0.5 * (e.pos.viscous_Ns_m + e.neg.viscous_Ns_m));
+  EXPECT_DOUBLE_EQ(j.at("kA").get<double>(), e.mass_kg);
+  EXPECT_GT(j.at("kS_se").get<double>(), 0.0);
+  EXPECT_EQ(j.at("units").at("kV").get<std::string>(), "V s/m");
+  EXPECT_NE(host::summary(r).find("SysId gains: kS"), std::string::npos);
+  EXPECT_TRUE(host::to_json(host::identify(tr, host::IdentifyOptions{})).at("sysid").is_null());
 }
 
 }  // namespace
