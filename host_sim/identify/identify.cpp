@@ -814,6 +814,33 @@ std::string not_physical(const IdentifyResult& r) {
   return non_physical_parameters(to_drive_params(r.estimate), r.units);
 }
 
+std::vector<std::string> implausible_magnitudes(const IdentifyResult& r) {
+  std::vector<std::string> out;
+  const bool linear = r.units.linear_si(), rotary = r.units.force == "N m" && r.units.position == "rad";
+  if (r.status != feedid::Status::ok || !(linear || rotary)) return out;
+  const double m_lo = linear ? 0.01 : 1e-8, m_hi = linear ? 1e5 : 1e4, v_hi = linear ? 20.0 : 2000.0;
+  const double m = r.estimate.mass_kg, v = r.config.velocity_max_m_s;
+  const double fc = std::max(std::fabs(r.estimate.pos.coulomb_N), std::fabs(r.estimate.neg.coulomb_N));
+  char buf[320];
+  if (m > 0 && (m < m_lo || m > m_hi)) {
+    std::snprintf(buf, sizeof buf, "a %s of %.3g %s is implausible for a feed drive (%.0e to %.0e): a position in "
+                  "counts (--position-scale, m or rad per count) or a force in amps (--force-scale, N per A) left unscaled?",
+                  linear ? "mass" : "inertia", m, r.units.mass().c_str(), m_lo, m_hi);
+    out.push_back(buf);
+  }
+  if (v > v_hi) {
+    std::snprintf(buf, sizeof buf, "a top speed of %.3g %s is implausible for a feed drive: a position in counts or "
+                  "in mm or um (--position-scale) left unscaled?", v, r.units.velocity().c_str());
+    out.push_back(buf);
+  }
+  if (fc > 1e6) {
+    std::snprintf(buf, sizeof buf, "a Coulomb force of %.3g %s is implausible for a feed drive: a force in another "
+                  "unit (--force-scale, or --force-unit to label it) left unscaled?", fc, r.units.force.c_str());
+    out.push_back(buf);
+  }
+  return out;
+}
+
 SysIdGains sysid_gains(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& p = e.pos;
@@ -889,6 +916,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["neg"] = direction_json(e.neg);
   j["model"] = friction_model_json(r);
   j["sysid"] = sysid_json(r);
+  j["warnings"] = implausible_magnitudes(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
               {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
@@ -989,6 +1017,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   const std::string unphysical = not_physical(r);
   if (!unphysical.empty())
     o << "  NOT PHYSICAL: " << unphysical << " (m must be positive, Fc and sigma not negative)\n";
+  for (const std::string& w : implausible_magnitudes(r)) o << "  WARNING: " << w << "\n";
   if (r.force_outliers.saturation.found()) o << "  force " << r.force_outliers.saturation.describe(r.units.force) << "\n";
   if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)

@@ -353,6 +353,14 @@ struct SysIdGains {
 };
 SysIdGains sysid_gains(const IdentifyResult& r);
 
+/// Magnitudes no feed drive has, in SI units (a linear axis: m outside
+/// 0.01 kg to 1e5 kg, a speed beyond 20 m/s, a Coulomb force beyond 1e6 N;
+/// a rotary one: an inertia outside 1e-8 to 1e4 kg m^2, beyond 2000 rad/s):
+/// a position in counts or a force in amps left unscaled makes them with
+/// status ok (a mass of 1.4e-7 kg). One warning each, naming the likely
+/// missing scale; none for a force labelled in another unit (V, A).
+std::vector<std::string> implausible_magnitudes(const IdentifyResult& r);
+
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
 

@@ -50,5 +50,24 @@ TEST(SysIdGains, AForceInVoltsGetsKsKvKaKg) {
   EXPECT_TRUE(host::to_json(host::identify(tr, host::IdentifyOptions{})).at("sysid").is_null());
 }
 
+// GIVEN a drive whose position is left in counts of 0.1 um (scaled by 1e7),
+// THEN the implausible mass and speed are each warned of, naming the scale;
+// the same drive in m and N gets no warning.
+TEST(ImplausibleMagnitudes, AnUnscaledPositionIsNamed) {
+  host::Trace tr = simulate(SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 30.0});
+  EXPECT_TRUE(host::implausible_magnitudes(host::identify(tr, host::IdentifyOptions{})).empty());
+  for (auto& smp : tr.samples) {
+    smp.x_m *= 1e7;
+    smp.v_m_s *= 1e7;
+  }
+  const host::IdentifyResult r = host::identify(tr, host::IdentifyOptions{});
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  const auto w = host::implausible_magnitudes(r);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_NE(w[0].find("mass"), std::string::npos) << w[0];
+  EXPECT_NE(w[1].find("--position-scale"), std::string::npos) << w[1];
+  EXPECT_EQ(host::to_json(r).at("warnings").size(), 2u);
+}
+
 }  // namespace
 }  // namespace feedid::test
