@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "csv_trace.hpp"
+#include "message_text.hpp"
 #include "trace.hpp"
 
 namespace feedid::host {
@@ -60,8 +61,8 @@ class RowRules {
   /// `time_text` is the time as written, for the message.
   bool take(const TraceSample& s, std::string_view time_text, std::size_t row) {
     if (have_prev_ && !(s.t_s > prev_time_)) {
-      return bad(at(row) + "column '" + columns_.time + "': time '" + std::string(time_text) +
-                 "' is not greater than previous '" + prev_time_text_ + "' on " + row_word_ + " " +
+      return bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
+                 " is not greater than previous " + quoted_text(prev_time_text_) + " on " + row_word_ + " " +
                  std::to_string(prev_row_) + " (time must increase)");
     }
     prev_time_ = s.t_s;
