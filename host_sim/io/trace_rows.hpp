@@ -17,14 +17,16 @@
 namespace feedid::host {
 
 /// "" or why the scales cannot be applied (zero or not finite; a negative
-/// time scale would reverse time).
-inline std::string scale_error(const CsvColumns& c) {
+/// time scale would reverse time). `prefix` starts each scale's name: "--"
+/// for the options, "" for the keys of an --in-list line.
+inline std::string scale_error(const CsvColumns& c, const char* prefix = "--") {
   if (!std::isfinite(c.time_scale) || c.time_scale < 0.0)
-    return "--time-scale " + std::to_string(c.time_scale) + ": must be positive (0: from the time column's name)";
-  for (const auto& [name, scale] : {std::pair<const char*, double>{"--position-scale", c.position_scale},
-                                    {"--force-scale", c.force_scale}})
+    return prefix + std::string("time-scale ") + std::to_string(c.time_scale) +
+           ": must be positive (0: from the time column's name)";
+  for (const auto& [name, scale] : {std::pair<const char*, double>{"position-scale", c.position_scale},
+                                    {"force-scale", c.force_scale}})
     if (!std::isfinite(scale) || scale == 0.0)
-      return std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
+      return prefix + std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
   return "";
 }
 
