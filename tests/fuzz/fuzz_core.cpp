@@ -41,12 +41,7 @@ template <typename T> void run(FuzzedDataProvider& in) {
   }
   T x = T(0);
   while (in.remaining_bytes() > 0) {
-    feedid::Sample<T> smp;
-    smp.dt_s = near<T>(in, 5e-4);
-    smp.velocity_m_s = near<T>(in, 0.05);
-    x += smp.velocity_m_s * smp.dt_s;
-    smp.position_m = in.ConsumeBool() ? x : any<T>(in);
-    smp.force_N = near<T>(in, 50.0);
+    const feedid::Sample<T> smp = sample(in, x);
     const std::vector<unsigned char> before = bytes_of(est->statistics());
     const feedid::Status s = est->push(smp);
     require(named(s));

@@ -72,12 +72,7 @@ template <typename T> void run(FuzzedDataProvider& in) {
   double pushed_s = 0.0, total_s = 0.0;  // the epoch's time and all of it, by the rule, in double
   T x = T(0);
   while (in.remaining_bytes() > 0) {
-    feedid::Sample<T> smp;
-    smp.dt_s = near<T>(in, 5e-4);
-    smp.velocity_m_s = near<T>(in, 0.05);
-    x += smp.velocity_m_s * smp.dt_s;
-    smp.position_m = in.ConsumeBool() ? x : any<T>(in);
-    smp.force_N = near<T>(in, 50.0);
+    const feedid::Sample<T> smp = sample(in, x);
     require(named(health->push(smp)));
     if (std::isfinite(smp.dt_s) && smp.dt_s > T(0)) {
       const double step = std::fmin(double(smp.dt_s), std::fmin(double(axis.max_gap_s), double(mon.epoch_s)));

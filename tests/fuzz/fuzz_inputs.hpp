@@ -38,4 +38,16 @@ template <typename T> feedid::Config<T> config(FuzzedDataProvider& in) {
   return c;
 }
 
+/// The next servo sample: steps, speeds and forces near a drive's, and a
+/// position that integrates the velocity (`x`) or is anything at all.
+template <typename T> feedid::Sample<T> sample(FuzzedDataProvider& in, T& x) {
+  feedid::Sample<T> smp;
+  smp.dt_s = near<T>(in, 5e-4);
+  smp.velocity_m_s = near<T>(in, 0.05);
+  x += smp.velocity_m_s * smp.dt_s;
+  smp.position_m = in.ConsumeBool() ? x : any<T>(in);
+  smp.force_N = near<T>(in, 50.0);
+  return smp;
+}
+
 }  // namespace
