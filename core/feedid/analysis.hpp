@@ -21,13 +21,18 @@ using detail::friction_points;
 using detail::fit_friction_at;
 /// Coulomb + viscous law fitted on band points: theta = (sigma, Fc, 0).
 using detail::fit_coulomb_viscous_at;
+/// The physical bound on that fit: a falling curve's slope is held at 0 and
+/// flagged (flag_friction_still_falling); returns the flags it sets.
+using detail::hold_falling_friction;
 
 /// The flags that turn a standard error into "not identifiable"
 /// (thresholds::kFrictionRelativeSe, kMassRelativeSe); apply them again
 /// after widening a standard error.
 using detail::coulomb_uncertainty_flags;
+using detail::friction_term_uncertain;
 using detail::mass_uncertainty_flags;
 using detail::stribeck_uncertainty_flags;
+using detail::viscous_uncertainty_flags;
 
 /// Bands with less time than this (s) are not points of the friction curve.
 using detail::min_band_time_s;

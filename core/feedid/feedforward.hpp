@@ -85,7 +85,11 @@ template <typename T> Status check_feedforward(const FeedforwardConfig<T>& c) {
 /// (m/s^2). Outside the zero band: sign(v) F_dir(|v|) + m a. Inside it, the
 /// straight line from -F_neg(band) at -band to +F_pos(band) at +band, so
 /// the force is continuous through v = 0. Friction: EstimateFriction or a
-/// FrictionTable. Constant time, no state: callable from the servo ISR.
+/// FrictionTable. Always finite: where the force would not be (a NaN or
+/// infinite reference, a model or table that is not finite, an unchecked
+/// config), it is 0, the command without feed-forward, so that one corrupt
+/// reference never reaches the current loop. Constant time, no state:
+/// callable from the servo ISR.
 template <typename T, class Friction>
 T feedforward(const Friction& friction, const FeedforwardConfig<T>& c, T v_ref, T a_ref) {
   const T band = c.zero_band_m_s;
@@ -98,7 +102,8 @@ T feedforward(const Friction& friction, const FeedforwardConfig<T>& c, T v_ref, 
     const T up = friction.magnitude(0, band), down = friction.magnitude(1, band);
     f = -down + (v_ref + band) * (up + down) / (T(2) * band);
   }
-  return f + c.mass_kg * a_ref;
+  const T out = f + c.mass_kg * a_ref;
+  return port::is_finite(out) ? out : T(0);
 }
 
 }  // namespace feedid

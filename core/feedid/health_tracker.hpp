@@ -75,11 +75,13 @@ template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> c
   /// but by no more than the estimator's max_gap_s: a longer step is a gap
   /// to the estimator, its length says nothing about friction, and a
   /// corrupt one (1e30 s) would end the epoch at once and leave the clock
-  /// where no later step moves it. An epoch is epoch_s of data.
-  /// Context: servo task.
+  /// where no later step moves it. Nor by more than epoch_s: one step can
+  /// at most complete an epoch, so that however large a max_gap_s the
+  /// configuration allows, the clock stays finite. An epoch is epoch_s of
+  /// data. Context: servo task.
   [[nodiscard]] Status push(const Sample<T>& s) {
     if (!initialized_) return Status::not_initialized;
-    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_.add(port::min(s.dt_s, axis_cfg_.max_gap_s));
+    if (port::is_finite(s.dt_s) && s.dt_s > T(0)) elapsed_s_.add(port::min(s.dt_s, port::min(axis_cfg_.max_gap_s, epoch_s_)));
     return axis_.push(s);
   }
 

@@ -65,13 +65,13 @@ template <typename T> bool tracked_value(const Estimate<T>& e, int i, T& value, 
   const int k = (i - 1) % 4;
   // A negative magnitude is a fit the epoch's motion could not pin down.
   const bool physical = (d.flags & flag_not_physical) == 0;
-  const bool friction = physical && d.friction_identified(), stribeck = physical && d.stribeck_identified();
-  const bool coulomb = physical && d.coulomb_identified();
+  const bool stribeck = physical && d.stribeck_identified();
+  const bool coulomb = physical && d.coulomb_identified(), viscous = physical && d.viscous_identified();
   const T v[4] = {d.viscous_Ns_m, d.coulomb_N, d.breakaway_N, d.stribeck_velocity_m_s};
   const T s[4] = {d.viscous_se, d.coulomb_se, d.breakaway_se, d.stribeck_velocity_se};
   value = v[k];
   se = s[k];
-  const bool carried = k == 0 ? friction : k == 1 ? coulomb : stribeck;
+  const bool carried = k == 0 ? viscous : k == 1 ? coulomb : stribeck;
   return carried && se > T(0) && port::is_finite(value) && port::is_finite(se);
 }
 

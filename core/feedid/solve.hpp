@@ -27,8 +27,16 @@ template <typename T> uint32_t stribeck_uncertainty_flags(const DirectionEstimat
                          e.stribeck_velocity_se > q * e.stribeck_velocity_m_s;
   return uncertain ? static_cast<uint32_t>(flag_stribeck_uncertain) : 0u;
 }
+/// A friction term is resolved when its standard error is within a quarter
+/// of it (thresholds::kFrictionRelativeSe); a NaN is not.
+template <typename T> bool friction_term_uncertain(T value, T se) {
+  return !(se <= T(thresholds::kFrictionRelativeSe) * port::abs(value));
+}
 template <typename T> uint32_t coulomb_uncertainty_flags(const DirectionEstimate<T>& e) {
-  return e.coulomb_se > T(thresholds::kFrictionRelativeSe) * port::abs(e.coulomb_N) ? static_cast<uint32_t>(flag_coulomb_uncertain) : 0u;
+  return friction_term_uncertain(e.coulomb_N, e.coulomb_se) ? static_cast<uint32_t>(flag_coulomb_uncertain) : 0u;
+}
+template <typename T> uint32_t viscous_uncertainty_flags(const DirectionEstimate<T>& e) {
+  return friction_term_uncertain(e.viscous_Ns_m, e.viscous_se) ? static_cast<uint32_t>(flag_viscous_uncertain) : 0u;
 }
 template <typename T> uint32_t mass_uncertainty_flags(T mass, T mass_se) {
   return mass_se > T(thresholds::kMassRelativeSe) * port::abs(mass) ? static_cast<uint32_t>(flag_no_acceleration) : 0u;
@@ -143,6 +151,29 @@ bool fit_coulomb_viscous_at(const FrictionPoints<T, Bands>& p, Vector<T, 3>& the
   return port::is_finite(ssr);
 }
 
+/// Coulomb + viscous with sigma kept to its physical range. A fit with a
+/// positive level and a negative slope says friction falls across every
+/// speed logged: the data end inside a Stribeck fall, and the slope is that
+/// fall, not a viscous rise. sigma is then held at its bound 0 (the bounded
+/// least-squares optimum: Fc the time-weighted mean friction) and the
+/// direction flagged flag_friction_still_falling: neither sigma nor the
+/// level the fall settles to is in the data. A negative level (a force of
+/// the wrong sign) is left as fitted, for the not-physical rule to name.
+/// Returns the flag bits it sets; theta and ssr become the bounded fit's.
+template <typename T, int Bands>
+uint32_t hold_falling_friction(const FrictionPoints<T, Bands>& p, Vector<T, 3>& theta, T& ssr) {
+  if (!(theta.v[0] > T(0) && theta.v[1] < T(0)) || !(p.total_time > T(0))) return 0u;
+  T force = T(0);
+  for (int k = 0; k < p.count; ++k) force += p.target[k];
+  theta.v[0] = force / p.total_time;
+  theta.v[1] = T(0);
+  theta.v[2] = T(0);
+  T e[Bands];
+  for (int k = 0; k < p.count; ++k) e[k] = T(0);
+  ssr = friction_ssr(p, theta, e);
+  return static_cast<uint32_t>(flag_friction_still_falling);
+}
+
 constexpr int kStribeckGridPoints = thresholds::kStribeckGridPoints;
 
 /// Stribeck velocity search on log(vs): a coarse grid (robust to the local
@@ -223,6 +254,7 @@ uint32_t friction_evidence_flags(const Statistics<T, Bands, C>& s, const Config<
   if (vs < floor_v) f |= flag_stribeck_below_resolution;
   f |= stribeck_uncertainty_flags(e);
   f |= coulomb_uncertainty_flags(e);
+  f |= viscous_uncertainty_flags(e);
   f |= stribeck_coverage_flags(s, d, vs);
   if (e.coulomb_N < T(0) || e.viscous_Ns_m < T(0)) f |= flag_not_physical;
   return f;

@@ -7,9 +7,10 @@
 
 namespace feedid::thresholds {
 
-/// A Coulomb force, break-away excess or Stribeck velocity whose standard
-/// error exceeds this fraction of its value is flagged not identifiable
-/// (flag_coulomb_uncertain, flag_stribeck_uncertain): a quarter leaves the
+/// A Coulomb force, viscous coefficient, break-away excess or Stribeck
+/// velocity whose standard error exceeds this fraction of its value is
+/// flagged not identifiable (flag_coulomb_uncertain, flag_viscous_uncertain,
+/// flag_stribeck_uncertain): a quarter leaves the
 /// sign and the order of magnitude certain at about 4 standard errors.
 constexpr double kFrictionRelativeSe = 0.25;
 

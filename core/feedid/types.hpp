@@ -123,6 +123,12 @@ enum Flag : uint32_t {
   flag_not_physical = 1u << 6,         ///< a magnitude came out negative
   flag_fit_failed = 1u << 7,           ///< normal equations singular
   flag_coulomb_uncertain = 1u << 8,    ///< rel. std error of Fc > 25 %: the data do not fix the force at zero speed
+  flag_viscous_uncertain = 1u << 9,    ///< rel. std error of sigma > 25 %: the speeds logged do not fix the slope
+  /// Friction falls across every speed logged (Coulomb + viscous gave a
+  /// positive level and a negative slope): the data end inside a Stribeck
+  /// fall they do not place, so neither the viscous rise nor the level the
+  /// fall settles to (Fc) is in them; sigma is held at its bound 0.
+  flag_friction_still_falling = 1u << 10,
 };
 
 /// Flags that make Fs and vs of a direction unusable (the rest may be fine).
@@ -144,7 +150,13 @@ template <typename T> struct DirectionEstimate {
   bool friction_identified() const { return (flags & (flag_no_data | flag_fit_failed)) == 0; }
   bool stribeck_identified() const { return friction_identified() && (flags & stribeck_flags) == 0; }
   /// Fc itself, beyond the fit: known to better than a quarter of its value.
-  bool coulomb_identified() const { return friction_identified() && (flags & flag_coulomb_uncertain) == 0; }
+  bool coulomb_identified() const {
+    return friction_identified() && (flags & (flag_coulomb_uncertain | flag_friction_still_falling)) == 0;
+  }
+  /// sigma itself, beyond the fit: known to better than a quarter of its value.
+  bool viscous_identified() const {
+    return friction_identified() && (flags & (flag_viscous_uncertain | flag_friction_still_falling)) == 0;
+  }
 };
 
 template <typename T> struct Estimate {

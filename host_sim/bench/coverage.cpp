@@ -83,7 +83,8 @@ std::array<bool, 9> identified_of(const feedid::Estimate<double>& e) {
   id[0] = e.mass_identified();
   for (int d = 0; d < 2; ++d) {
     const auto& de = d == 0 ? e.pos : e.neg;
-    id[1 + 4 * d] = id[2 + 4 * d] = de.friction_identified();
+    id[1 + 4 * d] = de.viscous_identified();
+    id[2 + 4 * d] = de.friction_identified();
     id[3 + 4 * d] = id[4 + 4 * d] = de.stribeck_identified();
   }
   return id;

@@ -109,13 +109,21 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
   }
   const Trace& t = out.trace;
   note_time_unit(inputs);
-  if (t.rows_skipped > 0)
-    std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); first: %s\n", path.c_str(),
-                 t.rows_skipped, t.rows_skipped == 1 ? "" : "s", t.skipped_rows.front().c_str());
-  if (t.rows_repeated > 0)
-    std::fprintf(stderr, "note: %s: %zu row%s repeated the row before exactly and %s left out\n", path.c_str(),
-                 t.rows_repeated, t.rows_repeated == 1 ? "" : "s", t.rows_repeated == 1 ? "was" : "were");
+  note_skipped_rows(path, t.rows_skipped, t.rows_repeated, t.skipped_rows);
   return true;
+}
+
+void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t repeated,
+                       const std::vector<std::string>& first_skipped) {
+  if (skipped > 0) {
+    std::string named;
+    for (const std::string& why : first_skipped) named += (named.empty() ? "" : "; ") + why;
+    std::fprintf(stderr, "note: %s: skipped %zu bad row%s (--bad-rows error to stop instead); %s: %s\n", path.c_str(),
+                 skipped, skipped == 1 ? "" : "s", first_skipped.size() == 1 ? "it" : "the first", named.c_str());
+  }
+  if (repeated > 0)
+    std::fprintf(stderr, "note: %s: %zu row%s repeated the row before exactly and %s left out\n", path.c_str(),
+                 repeated, repeated == 1 ? "" : "s", repeated == 1 ? "was" : "were");
 }
 
 namespace {
@@ -277,6 +285,7 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
   opt.progress = [&progress](double t) { progress(t); };
   const MonitorResult r = monitor(stream, opt);
   progress.done();
+  note_skipped_rows(path, r.rows_skipped, r.rows_repeated, r.skipped_rows);
   std::cout << trend_table(r);
   if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
   std::string err;

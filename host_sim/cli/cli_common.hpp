@@ -57,6 +57,11 @@ Trace run_simulation(const SimConfig& cfg);
 
 /// Prints the identify summary, writes its JSON if asked; the exit code.
 int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth);
+/// A note on stderr of the rows a reader left out: the bad ones counted and
+/// the first few named (file:line and why), the repeated ones counted. Every
+/// reader's, whole-file or streamed, is said this way (nothing if none).
+void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t repeated,
+                       const std::vector<std::string>& first_skipped);
 /// A note on stderr of the force rows left out as outliers, naming the first (nothing if none).
 void note_force_outliers(const ForceOutliers& out, const Units& units);
 

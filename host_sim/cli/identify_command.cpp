@@ -57,6 +57,7 @@ struct IdentifyCommand : Command {
     opt.progress = [&progress](double t) { progress(t); };
     const IdentifyResult r = identify_stream(in, in_path.front(), opt);
     progress.done();
+    note_skipped_rows(in_path.front(), r.rows_skipped, r.rows_repeated, r.skipped_rows);
     return report_identify(r, json_path, nullptr);
   }
 };

@@ -74,12 +74,11 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
 
 
 nlohmann::json direction_json(const feedid::DirectionEstimate<double>& d) {
-  const bool fr = d.friction_identified();
   const bool st = d.stribeck_identified();
   return {
       {"sigma", d.viscous_Ns_m}, {"fc", d.coulomb_N}, {"fs", d.breakaway_N}, {"vs", d.stribeck_velocity_m_s},
       {"sigma_se", d.viscous_se}, {"fc_se", d.coulomb_se}, {"fs_se", d.breakaway_se}, {"vs_se", d.stribeck_velocity_se},
-      {"identifiable", {{"sigma", fr}, {"fc", d.coulomb_identified()}, {"fs", st}, {"vs", st}}},
+      {"identifiable", {{"sigma", d.viscous_identified()}, {"fc", d.coulomb_identified()}, {"fs", st}, {"vs", st}}},
       {"flags", flag_names(d.flags)},
       {"sections", d.sections}, {"bands_used", d.bands_used}, {"time_in_bands_s", d.time_in_bands_s},
       {"friction_r2", d.friction_r2}, {"friction_rms_N", d.friction_rms_N},
@@ -736,6 +735,8 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
              : !placed   ? "Coulomb + viscous: the Stribeck velocity came out at the end of its search range (the data do not place the dip)"
                          : "Coulomb + viscous: the dip does not lower the band residual enough to pay for Fs and vs (BIC)";
   m.refitted = refit_coulomb_viscous(core.statistics(), d, mass, de);
+  if (m.refitted && (de.flags & feedid::flag_friction_still_falling))
+    m.reason += "; friction falls across every speed logged, so its slope is held at 0 and sigma and Fc are not identifiable";
   return m;
 }
 }  // namespace
@@ -745,16 +746,19 @@ bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::Di
   feedid::Vector<double, 3> th2, inv2;
   double ssr2 = 0.0;
   if (!feedid::analysis::fit_coulomb_viscous_at(p, th2, ssr2, &inv2)) return false;
+  // Standard errors of the unbounded fit: what the data resolve.
   const double s2 = ssr2 / std::max(static_cast<double>(p.count) - 2.0, 1.0);
+  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical | feedid::flag_coulomb_uncertain |
+                                     feedid::flag_viscous_uncertain | feedid::flag_friction_still_falling);
+  de.flags |= feedid::analysis::hold_falling_friction(p, th2, ssr2);
   de.coulomb_N = th2.v[0];
   de.viscous_Ns_m = th2.v[1];
   de.coulomb_se = std::sqrt(s2 * inv2.v[0]);
   de.viscous_se = std::sqrt(s2 * inv2.v[1]);
   de.breakaway_N = 0.0;
   de.stribeck_velocity_m_s = 0.0;
-  de.flags &= ~static_cast<uint32_t>(feedid::flag_not_physical | feedid::flag_coulomb_uncertain);
   if (de.coulomb_N < 0 || de.viscous_Ns_m < 0) de.flags |= feedid::flag_not_physical;
-  de.flags |= feedid::analysis::coulomb_uncertainty_flags(de);
+  de.flags |= feedid::analysis::coulomb_uncertainty_flags(de) | feedid::analysis::viscous_uncertainty_flags(de);
   if (!(de.flags & feedid::stribeck_flags)) de.flags |= feedid::flag_stribeck_uncertain;
   return true;
 }
@@ -771,8 +775,9 @@ SymmetricFriction symmetric_friction(const IdentifyResult& r) {
   SymmetricFriction out;
   const auto& p = r.estimate.pos;
   const auto& n = r.estimate.neg;
+  // A falling curve's held slope is no figure to pool.
   if (r.friction_model[0].stribeck || r.friction_model[1].stribeck || !p.friction_identified() ||
-      !n.friction_identified())
+      !n.friction_identified() || ((p.flags | n.flags) & feedid::flag_friction_still_falling))
     return out;
   // Inverse-variance means; the directions agree when each difference is
   // within 2 of its standard errors.
@@ -1040,7 +1045,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     const DirectionFriction* td = truth ? (d == 0 ? &truth->pos : &truth->neg) : nullptr;
     const char* s = d == 0 ? "+" : "-";
     std::string n;
-    n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.friction_identified());
+    n = std::string("viscous sigma") + s; line(n.c_str(), u.viscous(), de.viscous_Ns_m, de.viscous_se, td ? td->viscous_Ns_m : 0, de.viscous_identified());
     n = std::string("Coulomb Fc") + s; line(n.c_str(), u.force, de.coulomb_N, de.coulomb_se, td ? td->coulomb_N : 0, de.coulomb_identified());
     n = std::string("break-away Fs") + s; line(n.c_str(), u.force, de.breakaway_N, de.breakaway_se, td ? td->breakaway_N : 0, de.stribeck_identified());
     n = std::string("Stribeck vel. vs") + s; line(n.c_str(), u.velocity(), de.stribeck_velocity_m_s, de.stribeck_velocity_se, td ? td->stribeck_velocity_m_s : 0, de.stribeck_identified());
@@ -1057,7 +1062,8 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     const Rounded fc = round_to_se(sym.coulomb_N, sym.coulomb_se), sg = round_to_se(sym.viscous_Ns_m, sym.viscous_se);
     o << "  the directions agree within 2 standard errors: symmetric Coulomb " << fc.value << " +- " << fc.se << " "
       << u.force << (sym.coulomb_identified() ? "" : " (not identifiable: its standard error is over 25 % of it)")
-      << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous() << "\n";
+      << ", viscous " << sg.value << " +- " << sg.se << " " << u.viscous()
+      << (sym.viscous_identified() ? "" : " (not identifiable: its standard error is over 25 % of it)") << "\n";
   }
   if (r.units.force == "V" && r.status == feedid::Status::ok) {
     const SysIdGains g = sysid_gains(r);

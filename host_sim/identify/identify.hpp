@@ -103,10 +103,9 @@ struct FrictionModel {
 struct SymmetricFriction {
   bool agree = false;
   double coulomb_N = 0.0, coulomb_se = 0.0, viscous_Ns_m = 0.0, viscous_se = 0.0;
-  /// The pooled Fc by the core's rule (coulomb_uncertainty_flags): known to a quarter of its value.
-  bool coulomb_identified() const {
-    return agree && !(coulomb_se > feedid::thresholds::kFrictionRelativeSe * std::fabs(coulomb_N));
-  }
+  /// The pooled Fc and sigma by the core's rule (friction_term_uncertain): known to a quarter of their value.
+  bool coulomb_identified() const { return agree && !feedid::analysis::friction_term_uncertain(coulomb_N, coulomb_se); }
+  bool viscous_identified() const { return agree && !feedid::analysis::friction_term_uncertain(viscous_Ns_m, viscous_se); }
 };
 
 /// One velocity band of the measured friction curve (inertia removed).

@@ -158,9 +158,9 @@ std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Con
 void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
   const auto f = se_fields(e);
   const std::array<bool, 9> resolved = {e.mass_identified(),
-                                        e.pos.friction_identified(), e.pos.friction_identified(),
+                                        e.pos.viscous_identified(), e.pos.friction_identified(),
                                         e.pos.stribeck_identified(), e.pos.stribeck_identified(),
-                                        e.neg.friction_identified(), e.neg.friction_identified(),
+                                        e.neg.viscous_identified(), e.neg.friction_identified(),
                                         e.neg.stribeck_identified(), e.neg.stribeck_identified()};
   for (int i = 0; i < 9; ++i) {
     const double widened = std::hypot(u.chunks_used > 0 ? u.jackknife_se[i] : u.model_se[i], u.timing_se[i], u.cutoff_se[i]);
@@ -168,9 +168,10 @@ void apply_standard_errors(feedid::Estimate<double>& e, const Uncertainty& u) {
     *f[i] = resolved[i] ? widened : std::max(widened, u.model_se[i]);
   }
   for (auto* d : {&e.pos, &e.neg}) {
-    // Fc's rule on its widened standard error, whatever the core's said.
+    // Fc's and sigma's rule on their widened standard errors, whatever the core's said.
     if (d->friction_identified())
-      d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain)) | feedid::analysis::coulomb_uncertainty_flags(*d);
+      d->flags = (d->flags & ~static_cast<uint32_t>(feedid::flag_coulomb_uncertain | feedid::flag_viscous_uncertain)) |
+                 feedid::analysis::coulomb_uncertainty_flags(*d) | feedid::analysis::viscous_uncertainty_flags(*d);
     if (d->flags & feedid::flag_stribeck_uncertain) continue;
     d->flags |= feedid::analysis::stribeck_uncertainty_flags(*d);
   }

@@ -11,10 +11,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string_view>
 #include <vector>
 
+#include "message_text.hpp"
 #include "trace_rows.hpp"
 
 namespace feedid::host {
@@ -29,6 +31,11 @@ enum Role : unsigned {
 };
 
 std::string errno_text(int err) { return std::strerror(err); }
+
+std::string too_long_line(const std::string& path, std::size_t line) {
+  return path + ":" + std::to_string(line) + ": line longer than " + std::to_string(kMaxLineBytes) +
+         " bytes: not a trace CSV (a row is a few dozen bytes)";
+}
 
 /// Reads the whole file into `out`. On failure returns false with `error` set.
 bool read_file(const std::string& path, std::string& out, std::string& error) {
@@ -47,6 +54,7 @@ bool read_file(const std::string& path, std::string& out, std::string& error) {
   }
   char chunk[1 << 16];
   bool first = true;
+  std::size_t line_bytes = 0, lines = 1;  // of the line being read
   for (;;) {
     const std::size_t n = std::fread(chunk, 1, sizeof chunk, f);
     if (first && n > 0 && size > 0 &&
@@ -55,6 +63,17 @@ bool read_file(const std::string& path, std::string& out, std::string& error) {
     }
     first = false;
     if (n > 0) out.append(chunk, n);
+    const char* begin = chunk;
+    const char* end = chunk + n;
+    const auto last_newline = std::find(std::make_reverse_iterator(end), std::make_reverse_iterator(begin), '\n');
+    lines += static_cast<std::size_t>(std::count(begin, end, '\n'));
+    line_bytes = last_newline.base() == begin ? line_bytes + n : static_cast<std::size_t>(end - last_newline.base());
+    // Checked as it is read: /dev/zero or a 1 GiB line never fills memory.
+    if (line_bytes > kMaxLineBytes) {
+      std::fclose(f);
+      error = too_long_line(path, lines);
+      return false;
+    }
     if (n < sizeof chunk) break;
   }
   if (std::ferror(f)) {
@@ -106,26 +125,6 @@ void split(const char* b, const char* e, char sep,
   }
 }
 
-/// 'text' with bytes outside printable ASCII as \xNN: a message never
-/// echoes raw binary to the terminal.
-std::string quoted(std::string_view s) {
-  std::string r;
-  r.reserve(s.size() + 2);
-  r += '\'';
-  for (const char c : s) {
-    const auto b = static_cast<unsigned char>(c);
-    if (b >= 0x20 && b < 0x7f) {
-      r += c;
-    } else {
-      char hex[5];
-      std::snprintf(hex, sizeof hex, "\\x%02X", b);
-      r += hex;
-    }
-  }
-  r += '\'';
-  return r;
-}
-
 /// Parsed line cursor over an in-memory buffer; counts lines 1-based.
 struct LineCursor {
   const char* p;
@@ -165,12 +164,6 @@ struct CsvLayout {
   double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
 };
 
-std::string header_list(const std::vector<std::string>& names) {
-  std::string s;
-  for (std::size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
-  return s;
-}
-
 /// Index of `name` in the header, -1 if absent, -2 if it appears twice.
 long find_column(const std::vector<std::string>& names, const std::string& name) {
   if (name.empty()) return -1;
@@ -206,19 +199,19 @@ bool parse_header(const char* hb, const char* he, const std::string& at_header, 
   for (Wanted& w : wanted) {
     w.index = find_column(out.names, *w.name);
     if (w.index == -2) {
-      error = at_header + "column " + quoted(*w.name) + " (" + w.role_name + ") appears more than once; header has: " +
-              header_list(out.names);
+      error = at_header + "column " + quoted_text(*w.name) + " (" + w.role_name + ") appears more than once; header has: " +
+              name_list(out.names);
       return false;
     }
   }
   for (const Wanted& w : {wanted[0], wanted[3]})
     if (w.index < 0) {
-      error = at_header + "missing column " + quoted(*w.name) + " (" + w.role_name + "); header has: " + header_list(out.names);
+      error = at_header + "missing column " + quoted_text(*w.name) + " (" + w.role_name + "); header has: " + name_list(out.names);
       return false;
     }
   if (wanted[1].index < 0 && wanted[2].index < 0) {
-    error = at_header + "missing column " + quoted(columns.position) + " (position) and " + quoted(columns.velocity) +
-            " (velocity); need at least one; header has: " + header_list(out.names);
+    error = at_header + "missing column " + quoted_text(columns.position) + " (position) and " + quoted_text(columns.velocity) +
+            " (velocity); need at least one; header has: " + name_list(out.names);
     return false;
   }
   out.time_scale = time_scale(columns);
@@ -266,11 +259,11 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
     if (text.empty())
       why = ": empty value";
     else if (endp != text.data() + text.size())
-      why = ": " + quoted(text) + " is not a number";
+      why = ": " + quoted_text(text) + " is not a number";
     else if (!std::isfinite(value))
-      why = errno == ERANGE ? ": " + quoted(text) + " is out of range for a double" : ": value is NaN/Inf";
+      why = errno == ERANGE ? ": " + quoted_text(text) + " is out of range for a double" : ": value is NaN/Inf";
     if (!why.empty())
-      return rules.bad(rules.at(line) + "column " + quoted(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
+      return rules.bad(rules.at(line) + "column " + quoted_text(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
     if (r & kTime) {
       s.t_s = value * lay.time_scale;
       time_text = text;
@@ -334,7 +327,13 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   const char* b = nullptr;
   const char* e = nullptr;
   bool have_header = false;
-  while (!have_header && cursor.next(b, e)) have_header = !is_blank(b, e, '\0');
+  while (!have_header && cursor.next(b, e)) {
+    if (static_cast<std::size_t>(e - b) > kMaxLineBytes) {
+      result.error = too_long_line(path, cursor.line);
+      return result;
+    }
+    have_header = !is_blank(b, e, '\0');
+  }
   if (!have_header) {
     result.error = path + ": empty file (no header row)";
     return result;
@@ -351,6 +350,11 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   std::string_view prev_row;
   TraceSample s;
   while (cursor.next(b, e)) {
+    if (static_cast<std::size_t>(e - b) > kMaxLineBytes) {
+      result.error = too_long_line(path, cursor.line);
+      result.trace.samples.clear();
+      return result;
+    }
     if (is_blank(b, e, lay.sep)) continue;
     const RowRead r = read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
     if (r == RowRead::stop) {
@@ -373,11 +377,28 @@ struct CsvStream::Impl {
   Trace counts;  ///< no samples kept: RowRules' counters and skipped rows
   RowRules rules;
   CsvLayout layout;
-  std::string line, prev_row;
+  std::vector<char> buf = std::vector<char>(kMaxLineBytes + 2);  ///< one line, NUL-terminated: the stream's bound
+  std::string_view line;
+  std::string prev_row;
   std::size_t line_no = 0, kept = 0;
   std::vector<std::pair<const char*, const char*>> fields;
   Impl(const std::string& path, const CsvColumns& c)
       : file(path, std::ios::binary), columns(c), rules(columns, counts, path + ":", "line") {}
+
+  enum class Line { read, end, too_long };
+  /// The next line into `line` (without its newline), never more than
+  /// kMaxLineBytes of it held: a longer one is too_long, whatever its size.
+  Line next_line() {
+    file.getline(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto n = static_cast<std::size_t>(file.gcount());
+    if (file.bad() || (file.fail() && file.eof() && n == 0)) return Line::end;
+    if (file.fail() && !file.eof()) return Line::too_long;  // buf filled before a newline
+    ++line_no;
+    const std::size_t size = file.eof() ? n : n - 1;  // gcount counts the newline it took
+    if (size > kMaxLineBytes) return Line::too_long;
+    line = std::string_view(buf.data(), size);
+    return Line::read;
+  }
 };
 
 CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_(std::make_unique<Impl>(path, columns)) {
@@ -389,8 +410,11 @@ CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_
     error_ = path + ": cannot open: " + errno_text(errno);
     return;
   }
-  while (std::getline(m.file, m.line)) {
-    ++m.line_no;
+  for (Impl::Line got; (got = m.next_line()) != Impl::Line::end;) {
+    if (got == Impl::Line::too_long) {
+      error_ = too_long_line(path, m.line_no + 1);
+      return;
+    }
     const char* b = m.line.data();
     if (m.line_no == 1) b = after_bom(b, b + m.line.size());
     if (is_blank(b, m.line.data() + m.line.size(), '\0')) continue;
@@ -411,8 +435,12 @@ bool CsvStream::time_unit_stated() const { return feedid::host::time_unit_stated
 bool CsvStream::next(TraceSample& s) {
   if (!ok_) return false;
   Impl& m = *impl_;
-  while (std::getline(m.file, m.line)) {
-    ++m.line_no;
+  for (Impl::Line got; (got = m.next_line()) != Impl::Line::end;) {
+    if (got == Impl::Line::too_long) {
+      error_ = too_long_line(source_, m.line_no + 1);
+      ok_ = false;
+      return false;
+    }
     const char* b = m.line.data();
     const char* e = b + m.line.size();
     if (is_blank(b, e, m.layout.sep)) continue;

@@ -5,11 +5,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <vector>
 
 #include <matio.h>
 
+#include "message_text.hpp"
 #include "trace_rows.hpp"
 
 namespace feedid::host {
@@ -24,13 +27,88 @@ struct VarFree {
 using MatFile = std::unique_ptr<mat_t, MatClose>;
 using MatVar = std::unique_ptr<matvar_t, VarFree>;
 
-/// Names of the variables in the file, for an error message.
+/// Names of the variables in the file, for an error message (quoted and
+/// bounded: a corrupt file's names can be any bytes).
 std::string variable_list(const std::string& path) {
   MatFile mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY));
-  std::string names;
-  if (!mat) return names;
-  while (MatVar v{Mat_VarReadNextInfo(mat.get())}) names += (names.empty() ? "" : ", ") + std::string(v->name ? v->name : "?");
-  return names;
+  std::vector<std::string> names;
+  if (!mat) return "";
+  while (names.size() <= kListedNames) {
+    MatVar v{Mat_VarReadNextInfo(mat.get())};
+    if (!v) break;
+    names.emplace_back(v->name ? v->name : "?");
+  }
+  return names.empty() ? "no readable variable" : name_list(names);
+}
+
+/// "2x3", the dimensions of a variable.
+std::string dims_text(const matvar_t& v) {
+  std::string s;
+  for (int d = 0; d < v.rank; ++d) s += (d ? "x" : "") + std::to_string(v.dims[d]);
+  return s;
+}
+
+/// The message for variable `name` cut short by the end of the file.
+std::string cut_short(const std::string& path, const std::string& name, std::uintmax_t need, std::uintmax_t have) {
+  return path + ": variable " + quoted_text(name) + " runs past the end of the file (it ends at byte " +
+         std::to_string(need) + ", the file has " + std::to_string(have) + "): the file is truncated";
+}
+
+/// Where the k-th element of a v5 file ends, walking its 8-byte tags (type
+/// 14 matrix or 15 compressed, then the byte count) from byte 128, in the
+/// byte order that reads a valid first type; 0 when the walk stops short of
+/// element k or the tags are not v5's (then libmatio judges the file).
+std::vector<std::uintmax_t> v5_element_ends(const std::string& path, std::uintmax_t file_bytes) {
+  std::vector<std::uintmax_t> ends;
+  std::ifstream f(path, std::ios::binary);
+  std::uintmax_t pos = 128;
+  int swap = -1;
+  unsigned char tag[8];
+  while (pos + 8 <= file_bytes && f.seekg(static_cast<std::streamoff>(pos)) && f.read(reinterpret_cast<char*>(tag), 8)) {
+    auto u32 = [&](const unsigned char* b, bool big) {
+      return big ? (std::uint32_t{b[0]} << 24 | std::uint32_t{b[1]} << 16 | std::uint32_t{b[2]} << 8 | b[3])
+                 : (std::uint32_t{b[3]} << 24 | std::uint32_t{b[2]} << 16 | std::uint32_t{b[1]} << 8 | b[0]);
+    };
+    if (swap < 0) swap = (u32(tag, false) == 14 || u32(tag, false) == 15) ? 0 : 1;
+    const std::uint32_t type = u32(tag, swap == 1);
+    if (type != 14 && type != 15) break;
+    pos += 8 + std::uintmax_t{u32(tag + 4, swap == 1)};
+    ends.push_back(pos);
+  }
+  return ends;
+}
+
+/// "" or which variable a truncated v4/v5 file cuts short. libmatio reads a
+/// variable past the end of the file without a word, compressed or not
+/// (the rest of its buffer is whatever memory held), so each variable's
+/// extent is checked against the file's size: v5 by its element tag, v4
+/// (never compressed) by the data sizes its headers declare. HDF5 (v7.3)
+/// checks its own.
+std::string truncated_variable(const std::string& path) {
+  std::error_code ec;
+  const std::uintmax_t file_bytes = std::filesystem::file_size(path, ec);
+  MatFile mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY));
+  if (ec || !mat || Mat_GetVersion(mat.get()) == MAT_FT_MAT73) return "";
+  std::vector<std::string> names;
+  std::uintmax_t declared = 0;
+  const bool v4 = Mat_GetVersion(mat.get()) == MAT_FT_MAT4;
+  while (MatVar v{Mat_VarReadNextInfo(mat.get())}) {
+    names.emplace_back(v->name ? v->name : "?");
+    declared += Mat_VarGetSize(v.get());
+    if (v4 && declared > file_bytes) return cut_short(path, names.back(), declared, file_bytes);
+  }
+  if (v4) return "";
+  const std::vector<std::uintmax_t> ends = v5_element_ends(path, file_bytes);
+  for (std::size_t k = 0; k < ends.size(); ++k)
+    if (ends[k] > file_bytes)
+      return cut_short(path, k < names.size() ? names[k] : "number " + std::to_string(k + 1), ends[k], file_bytes);
+  return "";
+}
+
+bool has_variable(mat_t* mat, const std::string& name) {
+  if (name.empty()) return false;
+  MatVar v(Mat_VarReadInfo(mat, name.c_str()));
+  return v != nullptr;
 }
 
 template <typename T> void copy_as_double(const void* data, std::size_t n, std::vector<double>& out) {
@@ -42,8 +120,12 @@ template <typename T> void copy_as_double(const void* data, std::size_t n, std::
 bool read_vector(mat_t* mat, const std::string& path, const std::string& name, const char* role, std::vector<double>& out,
                  std::string& error) {
   MatVar v(Mat_VarRead(mat, name.c_str()));
+  const std::string var = "variable " + quoted_text(name) + " (" + role + ")";
   if (!v) {
-    error = path + ": no variable '" + name + "' (" + role + "); the file has: " + variable_list(path);
+    // Listed but unreadable is a damaged file, not a missing name.
+    error = has_variable(mat, name) ? path + ": " + var + " is in the file but its data cannot be read (the file is "
+                                                           "truncated or corrupt)"
+                                    : path + ": no " + var + "; the file has: " + variable_list(path);
     return false;
   }
   std::size_t n = 1, longest = 0;
@@ -52,8 +134,11 @@ bool read_vector(mat_t* mat, const std::string& path, const std::string& name, c
     longest = std::max(longest, v->dims[d]);
   }
   if (v->isComplex || v->data == nullptr || n != longest) {
-    error = path + ": variable '" + name + "' (" + role + ") is not a real vector" +
-            (v->isComplex ? " (complex)" : n != longest ? " (a matrix: one row or one column expected)" : " (empty)");
+    error = path + ": " + var + " is not a real vector" +
+            (v->isComplex          ? " (complex)"
+             : n != longest        ? " (a " + dims_text(*v) + " matrix: one row or one column expected)"
+             : v->data == nullptr  ? " (" + dims_text(*v) + ", no data: empty, or its data cannot be read)"
+                                   : std::string(" (empty)"));
     return false;
   }
   switch (v->class_type) {
@@ -68,16 +153,10 @@ bool read_vector(mat_t* mat, const std::string& path, const std::string& name, c
     case MAT_C_INT64: copy_as_double<std::int64_t>(v->data, n, out); return true;
     case MAT_C_UINT64: copy_as_double<std::uint64_t>(v->data, n, out); return true;
     default:
-      error = path + ": variable '" + name + "' (" + role + ") is not numeric (MATLAB class " +
+      error = path + ": " + var + " is not numeric (MATLAB class " +
               std::to_string(static_cast<int>(v->class_type)) + ")";
       return false;
   }
-}
-
-bool has_variable(mat_t* mat, const std::string& name) {
-  if (name.empty()) return false;
-  MatVar v(Mat_VarReadInfo(mat, name.c_str()));
-  return v != nullptr;
 }
 
 }  // namespace
@@ -92,13 +171,15 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
     result.error = path + ": cannot open as a MATLAB file (missing, unreadable, or not a v4/v5/v7.3 .mat)";
     return result;
   }
+  result.error = truncated_variable(path);
+  if (!result.error.empty()) return result;
   Trace& tr = result.trace;
   tr.has_position = has_variable(mat.get(), columns.position);
   tr.has_velocity = has_variable(mat.get(), columns.velocity);
   tr.time_unit_stated = time_unit_stated(columns);
   if (!tr.has_position && !tr.has_velocity) {
-    result.error = path + ": no variable '" + columns.position + "' (position) and no '" + columns.velocity +
-                   "' (velocity); need at least one; the file has: " + variable_list(path);
+    result.error = path + ": no variable " + quoted_text(columns.position) + " (position) and no " +
+                   quoted_text(columns.velocity) + " (velocity); need at least one; the file has: " + variable_list(path);
     return result;
   }
   std::vector<double> t, x, v, u;
@@ -109,7 +190,7 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
     return result;
   for (const auto* other : {&u, &x, &v})
     if (!other->empty() && other->size() != t.size()) {
-      result.error = path + ": the variables differ in length ('" + columns.time + "' has " + std::to_string(t.size()) +
+      result.error = path + ": the variables differ in length (" + quoted_text(columns.time) + " has " + std::to_string(t.size()) +
                      " elements, another " + std::to_string(other->size()) + ")";
       return result;
     }

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "mat_trace.hpp"
+#include "message_text.hpp"
+#include "trace_rows.hpp"
 
 namespace feedid::host {
 
@@ -42,12 +44,12 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
     std::string path, kv;
     if (!(words >> path) || path[0] == '#') continue;
     TraceInput in{std::filesystem::path(path).is_absolute() ? path : (folder / path).string(), defaults};
+    const auto where = list_path + ":" + std::to_string(n) + ": ";
     while (words >> kv) {
       const auto eq = kv.find('=');
       const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
-      const auto where = list_path + ":" + std::to_string(n) + ": ";
       if (eq == std::string::npos || value.empty()) {
-        error = where + "'" + kv + "' is not key=value";
+        error = where + quoted_text(kv) + " is not key=value";
         return false;
       }
       if (key == "time") in.columns.time = value;
@@ -58,14 +60,20 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
         char* end = nullptr;
         const double x = std::strtod(value.c_str(), &end);
         if (end != value.c_str() + value.size()) {
-          error = where + key + " '" + value + "' is not a number";
+          error = where + key + " " + quoted_text(value) + " is not a number";
           return false;
         }
         (key == "force-scale" ? in.columns.force_scale : key == "time-scale" ? in.columns.time_scale : in.columns.position_scale) = x;
       } else {
-        error = where + "unknown key '" + key + "' (time, position, velocity, force, position-scale, force-scale, time-scale)";
+        error = where + "unknown key " + quoted_text(key) + " (time, position, velocity, force, position-scale, force-scale, time-scale)";
         return false;
       }
+    }
+    // The options' rule for scales, said at the line that broke it.
+    const std::string bad_scale = scale_error(in.columns, "");
+    if (!bad_scale.empty()) {
+      error = where + bad_scale;
+      return false;
     }
     out.push_back(in);
   }

@@ -11,19 +11,22 @@
 #include <utility>
 
 #include "csv_trace.hpp"
+#include "message_text.hpp"
 #include "trace.hpp"
 
 namespace feedid::host {
 
 /// "" or why the scales cannot be applied (zero or not finite; a negative
-/// time scale would reverse time).
-inline std::string scale_error(const CsvColumns& c) {
+/// time scale would reverse time). `prefix` starts each scale's name: "--"
+/// for the options, "" for the keys of an --in-list line.
+inline std::string scale_error(const CsvColumns& c, const char* prefix = "--") {
   if (!std::isfinite(c.time_scale) || c.time_scale < 0.0)
-    return "--time-scale " + std::to_string(c.time_scale) + ": must be positive (0: from the time column's name)";
-  for (const auto& [name, scale] : {std::pair<const char*, double>{"--position-scale", c.position_scale},
-                                    {"--force-scale", c.force_scale}})
+    return prefix + std::string("time-scale ") + std::to_string(c.time_scale) +
+           ": must be positive (0: from the time column's name)";
+  for (const auto& [name, scale] : {std::pair<const char*, double>{"position-scale", c.position_scale},
+                                    {"force-scale", c.force_scale}})
     if (!std::isfinite(scale) || scale == 0.0)
-      return std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
+      return prefix + std::string(name) + " " + std::to_string(scale) + ": a scale must be finite and non-zero";
   return "";
 }
 
@@ -60,8 +63,8 @@ class RowRules {
   /// `time_text` is the time as written, for the message.
   bool take(const TraceSample& s, std::string_view time_text, std::size_t row) {
     if (have_prev_ && !(s.t_s > prev_time_)) {
-      return bad(at(row) + "column '" + columns_.time + "': time '" + std::string(time_text) +
-                 "' is not greater than previous '" + prev_time_text_ + "' on " + row_word_ + " " +
+      return bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
+                 " is not greater than previous " + quoted_text(prev_time_text_) + " on " + row_word_ + " " +
                  std::to_string(prev_row_) + " (time must increase)");
     }
     prev_time_ = s.t_s;

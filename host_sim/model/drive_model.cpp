@@ -84,6 +84,8 @@ std::vector<std::string> flag_names(uint32_t flags) {
       {feedid::flag_not_physical, "not_physical"},
       {feedid::flag_fit_failed, "fit_failed"},
       {feedid::flag_coulomb_uncertain, "coulomb_uncertain"},
+      {feedid::flag_viscous_uncertain, "viscous_uncertain"},
+      {feedid::flag_friction_still_falling, "friction_still_falling"},
   };
   std::vector<std::string> out;
   for (const auto& [bit, name] : names)

@@ -140,6 +140,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   }
   out.rows_skipped = in.rows_skipped();
   out.rows_repeated = in.rows_repeated();
+  out.skipped_rows = in.skipped_rows();
   return out;
 }
 
@@ -196,7 +197,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                    {"rule", "each epoch identified alone; the first reference_epochs epochs a parameter can carry are "
                             "its reference; two-sided CUSUM of (epoch - reference) / (c sqrt(se^2 + se_ref^2)), c the "
                             "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference"}};
-  j["input"] = {{"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}};
+  j["input"] = {{"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
   if (!r.error.empty()) j["error"] = r.error;
   return j;
 }

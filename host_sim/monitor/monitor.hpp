@@ -52,6 +52,7 @@ struct MonitorResult {
   /// carried enough identified epochs to watch anything; error says so).
   bool referenced = false;
   std::size_t rows_skipped = 0, rows_repeated = 0;
+  std::vector<std::string> skipped_rows;  ///< the first few, with file:line and why
   Units units;
 };
 

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include "compensate/circle.hpp"
 #include "compensate/compensate.hpp"
@@ -198,6 +200,25 @@ TEST(Feedforward, FromATableEqualsTheTable) {
   EXPECT_EQ(check_table(t), Status::invalid_config);
   EXPECT_EQ(check_feedforward(FeedforwardConfig<float>{0.0f, 0.0f}), Status::invalid_config);
   EXPECT_EQ(check_feedforward(FeedforwardConfig<float>{0.001f, -1.0f}), Status::invalid_config);
+}
+
+// GIVEN a NaN or infinite reference, a reference so fast the viscous force
+// overflows a float, an estimate with a NaN term, and an unchecked NaN band,
+// THEN feedforward() gives 0 (no feed-forward), never a NaN or Inf into the
+// current loop (it passed them through); a finite input still gives the model.
+TEST(Feedforward, ANonFiniteInputGivesZeroNeverNaN) {
+  const Estimate<float> e = default_estimate<float>();
+  const EstimateFriction<float> model{e};
+  const FeedforwardConfig<float> c{0.0005f, 100.0f};
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  for (const auto& [v, a] : {std::pair<float, float>{nan, 0.0f}, {0.01f, nan}, {inf, 0.0f}, {-inf, 0.0f}, {0.01f, inf},
+                             {3e36f, 0.0f}})
+    EXPECT_EQ(feedforward(model, c, v, a), 0.0f) << v << " " << a;
+  Estimate<float> broken = e;
+  broken.neg.viscous_Ns_m = nan;
+  EXPECT_EQ(feedforward(EstimateFriction<float>{broken}, c, -0.01f, 0.0f), 0.0f);
+  EXPECT_EQ(feedforward(model, FeedforwardConfig<float>{nan, 0.0f}, 0.001f, 0.0f), 0.0f);
+  EXPECT_NEAR(feedforward(model, c, 0.01f, 0.0f), friction_magnitude(e.pos, 0.01f), 1e-3f);
 }
 
 }  // namespace

@@ -61,6 +61,13 @@ TEST(Thresholds, TheCoresRulesUseThem) {
   EXPECT_EQ(feedid::analysis::coulomb_uncertainty_flags(e), 0u);
   e.coulomb_se = 20.0 * feedid::thresholds::kFrictionRelativeSe * 1.01;
   EXPECT_NE(feedid::analysis::coulomb_uncertainty_flags(e), 0u);
+  e.viscous_Ns_m = -700.0;  // the rule reads the size, whatever the sign
+  e.viscous_se = 700.0 * feedid::thresholds::kFrictionRelativeSe * 0.99;
+  EXPECT_EQ(feedid::analysis::viscous_uncertainty_flags(e), 0u);
+  e.viscous_se = 700.0 * feedid::thresholds::kFrictionRelativeSe * 1.01;
+  EXPECT_EQ(feedid::analysis::viscous_uncertainty_flags(e), static_cast<uint32_t>(feedid::flag_viscous_uncertain));
+  e.viscous_se = std::nan("");
+  EXPECT_NE(feedid::analysis::viscous_uncertainty_flags(e), 0u);
   EXPECT_EQ(feedid::analysis::mass_uncertainty_flags(100.0, 100.0 * feedid::thresholds::kMassRelativeSe * 0.99), 0u);
   EXPECT_NE(feedid::analysis::mass_uncertainty_flags(100.0, 100.0 * feedid::thresholds::kMassRelativeSe * 1.01), 0u);
   feedid::Config<double> c;
@@ -68,6 +75,43 @@ TEST(Thresholds, TheCoresRulesUseThem) {
   c.velocity_max_m_s = 0.2;
   EXPECT_DOUBLE_EQ(feedid::analysis::stribeck_lo(c), feedid::thresholds::kStribeckLowOfVelocityMin * 1e-4);
   EXPECT_DOUBLE_EQ(feedid::analysis::stribeck_hi(c), feedid::thresholds::kStribeckHighOfVelocityMax * 0.2);
+}
+
+// GIVEN band points of a friction curve that falls across every speed
+// (30 N at rest to 27 N), THEN the Coulomb + viscous slope is held at 0
+// with Fc the time-weighted mean and the direction flagged; a rising
+// curve, and one of negative level (a reversed force), are left as fitted.
+TEST(Thresholds, AFallingCurvesSlopeIsHeldAtItsBound) {
+  auto points = [](double level, double slope) {
+    feedid::analysis::FrictionPoints<double, 8> p;
+    for (int k = 0; k < 6; ++k) {
+      const double t = 0.1 * (k + 1), v = 1e-3 * (k + 1);
+      p.time[k] = t;
+      p.speed[k] = v * t;
+      p.speed2[k] = v * v * t;
+      p.target[k] = (level + slope * v) * t;
+      p.total_time += t;
+      p.count = k + 1;
+    }
+    return p;
+  };
+  auto held = [&](double level, double slope, feedid::Vector<double, 3>& th) {
+    const auto p = points(level, slope);
+    double ssr = 0.0;
+    EXPECT_TRUE(feedid::analysis::fit_coulomb_viscous_at(p, th, ssr));
+    return feedid::analysis::hold_falling_friction(p, th, ssr);
+  };
+  feedid::Vector<double, 3> th;
+  EXPECT_EQ(held(30.0, -500.0, th), static_cast<uint32_t>(feedid::flag_friction_still_falling));
+  EXPECT_EQ(th.v[1], 0.0);
+  const auto p = points(30.0, -500.0);
+  double mean = 0.0;
+  for (int k = 0; k < p.count; ++k) mean += p.target[k];
+  EXPECT_NEAR(th.v[0], mean / p.total_time, 1e-9);
+  EXPECT_EQ(held(30.0, 500.0, th), 0u);
+  EXPECT_NEAR(th.v[1], 500.0, 1e-6);
+  EXPECT_EQ(held(-30.0, -500.0, th), 0u);
+  EXPECT_NEAR(th.v[1], -500.0, 1e-6);
 }
 
 }  // namespace

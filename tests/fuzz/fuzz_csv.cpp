@@ -1,7 +1,9 @@
 // libFuzzer target: arbitrary bytes as a trace CSV (host_sim/io/csv_trace.hpp).
 // Invariants, besides ASan/UBSan: a parse either fails with a message that
 // names the source, or gives a trace whose every value is finite, whose time
-// increases strictly, and which has force and position or velocity.
+// increases strictly, and which has force and position or velocity. Every
+// message (the error, each skipped row) is printable ASCII and bounded
+// (is_bounded_printable), whatever bytes the input holds.
 // Build: cmake -DFEEDID_FUZZ=ON with clang (docs/reference.md, "Fuzzing").
 #include <cmath>
 #include <cstdint>
@@ -9,6 +11,7 @@
 #include <string>
 
 #include "io/csv_trace.hpp"
+#include "io/message_text.hpp"
 
 namespace {
 void require(bool ok) {
@@ -19,6 +22,8 @@ void require(bool ok) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   const feedid::host::CsvResult r = feedid::host::parse_trace_csv(text, "fuzz.csv", feedid::host::CsvColumns{});
+  require(feedid::host::is_bounded_printable(r.error));
+  for (const auto& why : r.trace.skipped_rows) require(feedid::host::is_bounded_printable(why));
   if (!r.ok) {
     require(r.error.rfind("fuzz.csv", 0) == 0);
     return 0;

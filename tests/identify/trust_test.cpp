@@ -152,6 +152,36 @@ TEST(Trust, ANegativeCoulombForceFromALoadNamesTheLoad) {
   EXPECT_NE(to_json(r).at("not_physical_cause").get<std::string>().find("gravity"), std::string::npos);
 }
 
+// GIVEN 10 s of the default ladder, whose strokes reach 5 mm/s, 2.5 times
+// the Stribeck velocity: the data end inside the Stribeck fall. THEN the
+// viscous term and the level the fall settles to are flagged not
+// identifiable, sigma is held at its bound 0, and the model is physical
+// (it came out sigma = -1400 +- 590 N s/m, "NOT PHYSICAL", exit 2). The
+// 30 s log, whose speeds pass the fall, keeps sigma identified.
+TEST(Trust, ALogInsideTheStribeckFallFlagsViscousInsteadOfCallingItUnphysical) {
+  test::SimSpec spec;
+  spec.duration_s = 10.0;
+  const IdentifyResult r = identify(test::simulate(spec), IdentifyOptions{});
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  EXPECT_TRUE(not_physical(r).empty()) << not_physical(r);
+  const nlohmann::json j = to_json(r);
+  EXPECT_TRUE(j.at("physical").get<bool>());
+  for (const char* d : {"pos", "neg"}) {
+    const auto& de = std::string(d) == "pos" ? r.estimate.pos : r.estimate.neg;
+    EXPECT_NE(de.flags & feedid::flag_friction_still_falling, 0u) << d;
+    EXPECT_FALSE(de.viscous_identified()) << d;
+    EXPECT_FALSE(de.coulomb_identified()) << d;
+    EXPECT_GE(de.viscous_Ns_m, 0.0) << d;
+    EXPECT_GT(de.viscous_se, 0.0) << d;
+    EXPECT_FALSE(j.at(d).at("identifiable").at("sigma").get<bool>()) << d;
+  }
+  EXPECT_EQ(summary(r).find("NOT PHYSICAL"), std::string::npos) << summary(r);
+  for (const auto* de : {&clean().estimate.pos, &clean().estimate.neg}) {
+    EXPECT_TRUE(de->viscous_identified()) << de->viscous_Ns_m << " +- " << de->viscous_se;
+    EXPECT_EQ(de->flags & feedid::flag_friction_still_falling, 0u);
+  }
+}
+
 // GIVEN a model JSON whose identification failed, THEN compensate names
 // the status instead of tabulating zeros.
 TEST(Trust, CompensateRefusesAFailedIdentification) {

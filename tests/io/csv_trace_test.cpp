@@ -8,6 +8,7 @@
 #include <string>
 
 #include "io/csv_trace.hpp"
+#include "io/message_text.hpp"
 #include "io/trace.hpp"
 
 namespace {
@@ -370,6 +371,47 @@ TEST(CsvStream, ErrorsAsTheReaderGivesThem) {
 
   CsvStream absent(dir + "feedid_no_such_file.csv", CsvColumns{});
   EXPECT_FALSE(absent.ok());
+}
+
+/// The streamed reader's error after reading to the end, with each skipped row's message checked.
+std::string stream_error(const std::string& path) {
+  CsvStream stream(path, CsvColumns{});
+  TraceSample s;
+  while (stream.next(s)) {
+  }
+  for (const auto& why : stream.skipped_rows()) EXPECT_TRUE(is_bounded_printable(why)) << path;
+  return stream.error();
+}
+
+// GIVEN a header of escape sequences, NULs and a 5 kB name among 200
+// columns, a data cell of 100 kB of digits, a time of 100 kB that does not
+// increase, a line of 3 MiB, and /dev/zero, THEN every message, from the
+// whole-file and the streamed reader alike, is printable ASCII and within
+// kMaxMessageBytes, and the too-long line and /dev/zero are refused by line
+// (the header list was echoed raw, a 1 GiB line gave a 1 GiB message, and
+// /dev/zero ran out of memory).
+TEST(CsvTrace, MessagesArePrintableAndBoundedWhateverTheInput) {
+  std::string header = "\x1b[31mt\x00,\xff\xfe" + std::string(5000, 'A');
+  for (int i = 0; i < 200; ++i) header += ",c" + std::to_string(i);
+  const std::string digits(100000, '7');
+  const std::string long_line = "t,x,v,u\n0,0,0,0\n" + std::string(3u << 20, '1') + ",0,0,0\n";
+  const std::vector<std::string> paths = {
+      write_text("junk_header", header + "\n1,2,3\n"),
+      write_text("long_cell", "t,x,v,u\n0,0,0,0\n1,0,0," + digits + "x\n2,0,0,0\n"),
+      write_text("long_time", "t,x,v,u\n" + digits + ",0,0,0\n1,0,0,0\n"),
+      write_text("long_line", long_line), "/dev/zero"};
+  for (const std::string& path : paths) {
+    const CsvResult whole = read_trace_csv(path, CsvColumns{});
+    EXPECT_TRUE(is_bounded_printable(whole.error)) << path << ": " << whole.error.size() << " bytes";
+    for (const auto& why : whole.trace.skipped_rows) EXPECT_TRUE(is_bounded_printable(why)) << path;
+    const std::string streamed = stream_error(path);
+    EXPECT_TRUE(is_bounded_printable(streamed)) << path << ": " << streamed.size() << " bytes";
+  }
+  for (const std::string& path : {paths[3], paths[4]}) {
+    const std::string line = path == paths[3] ? ":3: " : ":1: ";
+    EXPECT_TRUE(contains(read_trace_csv(path, CsvColumns{}).error, line + "line longer than")) << path;
+    EXPECT_TRUE(contains(stream_error(path), line + "line longer than")) << path;
+  }
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <vector>
@@ -25,7 +26,8 @@ struct Var {
 };
 
 /// Writes the variables as doubles to a .mat file of the given version.
-std::string write_mat(const std::string& stem, const std::vector<Var>& vars, mat_ft version = MAT_FT_MAT5) {
+std::string write_mat(const std::string& stem, const std::vector<Var>& vars, mat_ft version = MAT_FT_MAT5,
+                      matio_compression compression = MAT_COMPRESSION_NONE) {
   const std::string path = ::testing::TempDir() + "feedid_" + stem + ".mat";
   std::remove(path.c_str());
   mat_t* mat = Mat_CreateVer(path.c_str(), nullptr, version);
@@ -34,7 +36,7 @@ std::string write_mat(const std::string& stem, const std::vector<Var>& vars, mat
     std::vector<double> data = v.values;
     size_t dims[2] = {v.row ? 1 : data.size(), v.row ? data.size() : 1};
     matvar_t* mv = Mat_VarCreate(v.name.c_str(), MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, data.data(), 0);
-    EXPECT_EQ(Mat_VarWrite(mat, mv, MAT_COMPRESSION_NONE), 0);
+    EXPECT_EQ(Mat_VarWrite(mat, mv, compression), 0);
     Mat_VarFree(mv);
   }
   Mat_Close(mat);
@@ -104,7 +106,7 @@ TEST(MatTrace, ErrorsNameTheVariableAndListTheFile) {
   const CsvResult missing = read_trace_file(path, named("t", "x", "force"));
   EXPECT_FALSE(missing.ok);
   EXPECT_TRUE(contains(missing.error, "'force'")) << missing.error;
-  EXPECT_TRUE(contains(missing.error, "the file has: t, x, u")) << missing.error;
+  EXPECT_TRUE(contains(missing.error, "the file has: 't', 'x', 'u'")) << missing.error;
 
   const CsvResult lengths = read_trace_file(path, named("t", "x", "u"));
   EXPECT_FALSE(lengths.ok);
@@ -115,6 +117,36 @@ TEST(MatTrace, ErrorsNameTheVariableAndListTheFile) {
   const CsvResult bad = read_trace_file(not_mat, named("t", "x", "u"));
   EXPECT_FALSE(bad.ok);
   EXPECT_TRUE(contains(bad.error, "cannot open as a MATLAB file")) << bad.error;
+}
+
+// GIVEN a .mat whose last variable is cut short (the file truncated in its
+// data), THEN the error names that variable and the truncation (libmatio
+// read it silently, the missing quarter whatever memory held).
+TEST(MatTrace, ATruncatedFileNamesTheDamageNotAMissingVariable) {
+  std::vector<double> ramp(4000);
+  for (std::size_t k = 0; k < ramp.size(); ++k) ramp[k] = 1e-3 * static_cast<double>(k);
+  const std::string path = write_mat("truncated", {{"t", ramp}, {"x", ramp}, {"u", ramp}});
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  bytes.resize(bytes.size() - 8 * 1000);  // a quarter of u's data gone
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  const CsvResult r = read_trace_file(path, named("t", "x", "u"));
+  ASSERT_FALSE(r.ok) << "read " << r.trace.samples.size() << " samples of a truncated file";
+  EXPECT_TRUE(contains(r.error, "variable 'u' runs past the end of the file")) << r.error;
+  EXPECT_TRUE(contains(r.error, "truncated")) << r.error;
+
+  // Compressed, likewise (libmatio inflated what there was and said nothing).
+  std::vector<double> noise(4000);
+  for (std::size_t k = 0; k < noise.size(); ++k) noise[k] = std::sin(0.37 * static_cast<double>(k * k));
+  const std::string zipped = write_mat("truncated_zlib", {{"t", ramp}, {"x", ramp}, {"u", noise}}, MAT_FT_MAT5,
+                                       MAT_COMPRESSION_ZLIB);
+  std::ifstream zin(zipped, std::ios::binary);
+  std::string zbytes((std::istreambuf_iterator<char>(zin)), std::istreambuf_iterator<char>());
+  zbytes.resize(zbytes.size() - 4000);
+  std::ofstream(zipped, std::ios::binary | std::ios::trunc) << zbytes;
+  const CsvResult z = read_trace_file(zipped, named("t", "x", "u"));
+  ASSERT_FALSE(z.ok);
+  EXPECT_TRUE(contains(z.error, "variable 'u' runs past the end of the file")) << z.error;
 }
 
 TEST(MatTrace, MatrixIsRefused) {
@@ -130,6 +162,7 @@ TEST(MatTrace, MatrixIsRefused) {
   const CsvResult r = read_trace_file(path, named("t", "t", "t"));
   EXPECT_FALSE(r.ok);
   EXPECT_TRUE(contains(r.error, "one row or one column")) << r.error;
+  EXPECT_TRUE(contains(r.error, "a 2x3 matrix")) << r.error;
 }
 
 TEST(MatTrace, EmpsFromMatEqualsEmpsFromCsv) {

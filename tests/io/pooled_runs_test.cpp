@@ -119,6 +119,18 @@ TEST(InputList, ErrorsNameTheLine) {
   const std::string bad_number = write_file("feedid_runs_num.txt", "a.csv force-scale=two\n");
   EXPECT_FALSE(read_input_list(bad_number, CsvColumns{}, inputs, error));
   EXPECT_NE(error.find(":1: force-scale 'two' is not a number"), std::string::npos) << error;
+  // A scale is checked as the options' are (finite, non-zero; time not
+  // negative), at its line: a zero force scale was taken, and its error
+  // blamed --force-scale, an option nobody gave.
+  for (const char* bad : {"force-scale=0", "position-scale=nan", "force-scale=1e999", "time-scale=-1e-3"}) {
+    inputs.clear();
+    error.clear();
+    const std::string list = write_file("feedid_runs_scale.txt", std::string("a.csv\nb.csv ") + bad + "\n");
+    EXPECT_FALSE(read_input_list(list, CsvColumns{}, inputs, error)) << bad;
+    const std::string key = std::string(bad).substr(0, std::string(bad).find('='));
+    EXPECT_NE(error.find(":2: " + key + " "), std::string::npos) << bad << ": " << error;
+    EXPECT_EQ(error.find("--"), std::string::npos) << error;
+  }
   inputs.clear();
   EXPECT_FALSE(read_input_list(write_file("feedid_runs_empty.txt", "# nothing\n"), CsvColumns{}, inputs, error));
   EXPECT_NE(error.find("no recordings"), std::string::npos) << error;

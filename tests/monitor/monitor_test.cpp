@@ -312,6 +312,29 @@ TEST(HealthTracker, TwoCorruptTimeStepsNeitherEndTheEpochsNorThrowTheClock) {
   EXPECT_LE(t.alarms[0].raised_t_s, c.change.time_s + 60.0);
 }
 
+// GIVEN a float tracker whose axis configuration allows any gap (max_gap_s
+// the largest float, which init accepts) and steps of the largest float,
+// THEN each step closes at most one epoch of epoch_s and the clock stays
+// finite (fuzz_health found it overflowing to inf, then NaN, after two).
+TEST(HealthTracker, AnyAllowedGapStillLeavesAFiniteClock) {
+  feedid::Config<float> cfg;
+  cfg.max_gap_s = std::numeric_limits<float>::max();
+  auto h = std::make_unique<HealthTracker<float>>();
+  MonitorConfig<float> mc;
+  mc.epoch_s = 1.0f;
+  ASSERT_EQ(h->init(cfg, mc), Status::ok);
+  for (int k = 0; k < 5; ++k) {
+    Sample<float> s;
+    s.dt_s = std::numeric_limits<float>::max();
+    (void)h->push(s);
+    ASSERT_TRUE(h->epoch_complete());
+    int fresh = 0;
+    (void)h->close_epoch(fresh);
+  }
+  EXPECT_EQ(h->epochs(), 5);
+  EXPECT_FLOAT_EQ(h->time_s(), 5.0f);
+}
+
 TEST(HealthTracker, ARejectedSampleLeavesTheEpochAsItWas) {
   feedid::Config<double> cfg;
   auto a = std::make_unique<HealthTracker<double>>(), b = std::make_unique<HealthTracker<double>>();
