@@ -6,6 +6,8 @@
 // reports the damping it found.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "diagnose/diagnose.hpp"
 #include "test_support.hpp"
 
@@ -43,6 +45,36 @@ TEST(DiagnoseFamilies, ComplianceAtTheFixedDampingKeepsIt) {
   ASSERT_EQ(r.effect, "compliance") << host::summary(r);
   // Either form is allowed; if the mix is kept it must still say about 0.05.
   EXPECT_GT(r.effect_parameters.value("damping_ratio", 0.05), 0.035) << r.effect_parameters.dump();
+}
+
+}  // namespace
+}  // namespace feedid::test
+
+namespace feedid::test {
+namespace {
+
+// A warm-up that only one direction feels (a seal that drags one way, a
+// nut preloaded against one flank): added to an effect-free trace's force
+// as friction against positive motion, 6 N decaying over 12 s. The motion
+// is the simulated one, as an open-loop plant that follows its reference
+// would have it. One change shared by both directions is half the truth in
+// each; the per-direction size must be chosen, and name the positive side.
+TEST(DiagnoseFamilies, DriftFeltInOneDirectionIsNamedWithItsDirection) {
+  SimSpec spec;
+  spec.encoder_m = 5e-8;
+  spec.seed = 4;
+  spec.duration_s = 60.0;
+  host::Trace trace = host::simulate(logged_config(spec, host::ForceLog::held, host::VelocityLog::backward_difference));
+  for (auto& s : trace.samples)
+    if (s.v_m_s > 0) s.u_N += 6.0 * std::exp(-s.t_s / 12.0);
+  const host::DiagnoseResult r = host::diagnose(trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "thermal_drift") << host::summary(r);
+  const nlohmann::json& p = r.effect_parameters;
+  const double pos = p["positive"].value("coulomb_change_N", 0.0), neg = p["negative"].value("coulomb_change_N", 0.0);
+  EXPECT_NEAR(pos, 6.0, 1.5) << p.dump();
+  EXPECT_LT(std::fabs(neg), 1.5) << p.dump();
+  EXPECT_NEAR(p.value("time_constant_s", 0.0), 12.0, 3.0) << p.dump();
 }
 
 }  // namespace
