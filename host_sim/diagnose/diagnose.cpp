@@ -599,7 +599,20 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
     out.steps.emplace_back();
     for (const auto& e : evals) out.steps.back().push_back(e.c);
     if (step == 0) out.candidates = out.steps.back();
-    if (gap.ratio() < opt.unexplained_ratio || evals.empty()) break;
+    if (evals.empty()) break;
+    if (gap.ratio() < opt.unexplained_ratio) {
+      // No gap to explain: a candidate passing the held-out test here is
+      // not named, and says why (DATA_EMPS printed `effect: none` beside a
+      // candidate it called significant). Naming it was tried: on pooled
+      // effect-free runs a 380 Hz "compliance" (a timing residual) was named
+      // at a gap ratio of 1.12.
+      for (auto& c : out.steps.back())
+        if (c.significant)
+          c.note = "significant, but not named: the held-out gap is within " + fmt(opt.unexplained_ratio, "times") +
+                   " of the noise floor";
+      if (step == 0) out.candidates = out.steps.back();
+      break;
+    }
     if (!evals.front().eligible) {
       if (step + 2 > opt.max_effects) break;
       const PairStep pair = best_pair(st, evals, gap, opt);
@@ -836,7 +849,7 @@ void verdict(const Stage& st, const Model& base, const Model& final_model, const
   const double white_base = noise_floor(base.residual, st.obs), white_left = noise_floor(final_model.residual, st.obs);
   out.noise_floor_N = std::min(white_base, white_left > 0 ? white_left : white_base);
   out.sampling_floor_N = st.sampling_floor_N;
-  const double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
+  double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
   out.rms_base_N = heldout_rms(base.residual, st.obs);
   out.rms_augmented_N = heldout_rms(final_model.residual, st.obs);
   const double excess = std::max(out.rms_base_N - floor, 0.0);
@@ -852,6 +865,11 @@ void verdict(const Stage& st, const Model& base, const Model& final_model, const
     out.effects.clear();
     out.rms_augmented_N = out.rms_base_N;
     out.closed_fraction = 0.0;
+    // The floor of a model with no effect is the base's own: one taken from
+    // the residual of effects just dropped made an effect-free trace
+    // `unexplained` (ratio 1.11 to the base's floor, 1.47 to theirs).
+    out.noise_floor_N = white_base;
+    floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
   }
   out.gap_remains = floor > 0 && out.rms_augmented_N / floor >= opt.unexplained_ratio;
   if (!out.effects.empty()) {
@@ -1083,7 +1101,10 @@ std::string summary(const DiagnoseResult& r) {
   for (const auto& e : r.effects) {
     std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f)\n",
                   e.kind.c_str(), e.heldout_rms_N, n, 100.0 * e.closed_fraction, e.z_statistic);
-    o << buf << "    " << e.parameters.dump() << "\n";
+    // A position-friction profile is 120 numbers: the JSON has it, the summary says so.
+    nlohmann::json shown = e.parameters;
+    if (shown.is_object() && shown.contains("profile")) shown["profile"] = "in the JSON";
+    o << buf << "    " << shown.dump() << "\n";
   }
   if (r.gap_remains && !r.effects.empty()) {
     o << "  + unexplained: a gap of " << fmt(r.rms_augmented_N, N) << " RMS remains";
@@ -1103,6 +1124,7 @@ std::string summary(const DiagnoseResult& r) {
                   c.z_statistic, 100 * c.closed_fraction, c.significant ? "  significant" : "",
                   c.indistinguishable ? "  indistinguishable from the model's terms" : "");
     o << buf;
+    if (c.significant && r.effects.empty() && !c.note.empty()) o << "      (" << c.note << ")\n";
   }
   return o.str();
 }
