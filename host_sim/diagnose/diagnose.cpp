@@ -121,6 +121,7 @@ struct Model {
   struct Term {
     std::size_t effect = 0;  ///< catalogue index
     double p = 0.0;          ///< its nonlinear parameter
+    int size = 1;            ///< its family size (EffectModel::sizes)
     std::vector<int> cols;
   };
   int g[2] = {0, 0};
@@ -381,11 +382,11 @@ struct Stage {
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
 /// discrete refinement or golden section in log on fine ones.
-double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em) {
+double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
   auto cost = [&](double p, Res r) {
-    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, r), with);
+    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, size, r), with);
     const LinearFit f = st.bank.fit(with, &ex);
     return f.ok ? f.ssr_id : kInf;
   };
@@ -424,10 +425,34 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   return best_p;
 }
 
+/// The family size at parameter p: each size fitted on the identification
+/// observations, scored on the held-out ones by n ln(SSR) + k ln(n)
+/// (Schwarz's penalty: a column must lower the held-out error by more than
+/// ln(n)/n of it), where n counts independent held-out observations (each
+/// block serves two observations: half of them) and k the effect's
+/// columns. The held-out test then judges the chosen size.
+int choose_size(const Stage& st, const std::vector<int>& with, const EffectModel& em, double p) {
+  if (em.sizes.size() == 1) return em.sizes.front();
+  double n = 0.0;
+  for (const Observation& o : st.obs.obs()) n += o.heldout ? 0.5 : 0.0;
+  double best_cost = kInf;
+  int best = em.sizes.front();
+  for (int size : em.sizes) {
+    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, size, Observations::Resolution::fine), with);
+    const LinearFit f = st.bank.fit(with, &ex);
+    if (!f.ok) continue;
+    const double ssr = 2.0 * n * std::pow(heldout_rms(st.bank.residual(with, &ex, f.theta), st.obs), 2);
+    const double cost = n * std::log(ssr) + static_cast<double>(ex.cols.cols()) * std::log(n);
+    if (cost < best_cost) best_cost = cost, best = size;
+  }
+  return best;
+}
+
 struct Evaluation {
   Candidate c;
   std::size_t effect = 0;
   double p = 0.0;
+  int size = 1;  ///< family size (choose_size)
   Model model;  ///< current + this effect, vs free (its columns not yet in the bank)
   bool plausible = false;  ///< fitted, physical, and not a combination of the model's terms
   bool eligible = false;
@@ -439,8 +464,13 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   e.effect = effect;
   e.c.kind = em.kind;
   const std::vector<int> with = model_columns(st.base, current);
-  e.p = search_parameter(st, with, em);
-  const ColumnBank::Extra ex = st.bank.extra(em.columns(e.p, Observations::Resolution::fine), all_columns(st.base, current));
+  e.p = search_parameter(st, with, em, em.sizes.front());
+  e.size = choose_size(st, with, em, e.p);
+  // A larger size can move the parameter (a compliance's frequency with
+  // its damping): searched again at the size chosen.
+  if (e.size != em.sizes.front() && em.continuous) e.p = search_parameter(st, with, em, e.size);
+  const ColumnBank::Extra ex =
+      st.bank.extra(em.columns(e.p, e.size, Observations::Resolution::fine), all_columns(st.base, current));
   e.model = current;
   const LinearFit f = fit_vs_free(st.bank, st.base, e.model, &ex);
   if (!f.ok) {
@@ -449,7 +479,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   }
   e.model.fit = f;
   e.model.residual = st.bank.residual(model_columns(st.base, e.model), &ex, f.theta);
-  e.c.parameters = em.parameters(e.p, f.theta.tail(ex.cols.cols()), f.theta(0));
+  e.c.parameters = em.parameters(e.p, e.size, f.theta.tail(ex.cols.cols()), f.theta(0));
   e.c.heldout_rms_N = heldout_rms(e.model.residual, st.obs);
   e.c.z_statistic = improvement_z(current.residual, e.model.residual, st.obs);
   // Exactly a combination of the model's terms (an offset is Fc+ - Fc-
@@ -483,11 +513,12 @@ void judge(Evaluation& e, const Gap& gap, const DiagnoseOptions& opt) {
 // ---------------------------------------------------------------------------
 
 /// Bank columns of an effect's term at parameter p.
-Model::Term make_term(const Stage& st, std::size_t effect, double p) {
+Model::Term make_term(const Stage& st, std::size_t effect, double p, int size) {
   Model::Term term;
   term.effect = effect;
   term.p = p;
-  const Mat cols = st.catalogue[effect].columns(p, Observations::Resolution::fine);
+  term.size = size;
+  const Mat cols = st.catalogue[effect].columns(p, size, Observations::Resolution::fine);
   for (Eigen::Index c = 0; c < cols.cols(); ++c) term.cols.push_back(st.bank.add(cols.col(c)));
   return term;
 }
@@ -495,7 +526,7 @@ Model::Term make_term(const Stage& st, std::size_t effect, double p) {
 /// Adds the chosen effect's columns to the bank and refits the model with it.
 Model adopt(const Stage& st, const Evaluation& e) {
   Model m = e.model;
-  m.terms.push_back(make_term(st, e.effect, e.p));
+  m.terms.push_back(make_term(st, e.effect, e.p, e.size));
   refit(st.bank, st.base, m);
   return m;
 }
@@ -568,7 +599,20 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
     out.steps.emplace_back();
     for (const auto& e : evals) out.steps.back().push_back(e.c);
     if (step == 0) out.candidates = out.steps.back();
-    if (gap.ratio() < opt.unexplained_ratio || evals.empty()) break;
+    if (evals.empty()) break;
+    if (gap.ratio() < opt.unexplained_ratio) {
+      // No gap to explain: a candidate passing the held-out test here is
+      // not named, and says why (DATA_EMPS printed `effect: none` beside a
+      // candidate it called significant). Naming it was tried: on pooled
+      // effect-free runs a 380 Hz "compliance" (a timing residual) was named
+      // at a gap ratio of 1.12.
+      for (auto& c : out.steps.back())
+        if (c.significant)
+          c.note = "significant, but not named: the held-out gap is within " + fmt(opt.unexplained_ratio, "times") +
+                   " of the noise floor";
+      if (step == 0) out.candidates = out.steps.back();
+      break;
+    }
     if (!evals.front().eligible) {
       if (step + 2 > opt.max_effects) break;
       const PairStep pair = best_pair(st, evals, gap, opt);
@@ -599,7 +643,7 @@ void name_parameters(const Stage& st, const Model& m, DiagnoseResult& out) {
   for (std::size_t k = 0; k < m.terms.size(); ++k) {
     const auto& t = m.terms[k];
     const auto q = static_cast<Eigen::Index>(t.cols.size());
-    out.effects[k].parameters = st.catalogue[t.effect].parameters(t.p, m.fit.theta.segment(c, q), m.fit.theta(0));
+    out.effects[k].parameters = st.catalogue[t.effect].parameters(t.p, t.size, m.fit.theta.segment(c, q), m.fit.theta(0));
     c += q;
   }
 }
@@ -805,7 +849,7 @@ void verdict(const Stage& st, const Model& base, const Model& final_model, const
   const double white_base = noise_floor(base.residual, st.obs), white_left = noise_floor(final_model.residual, st.obs);
   out.noise_floor_N = std::min(white_base, white_left > 0 ? white_left : white_base);
   out.sampling_floor_N = st.sampling_floor_N;
-  const double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
+  double floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
   out.rms_base_N = heldout_rms(base.residual, st.obs);
   out.rms_augmented_N = heldout_rms(final_model.residual, st.obs);
   const double excess = std::max(out.rms_base_N - floor, 0.0);
@@ -821,6 +865,11 @@ void verdict(const Stage& st, const Model& base, const Model& final_model, const
     out.effects.clear();
     out.rms_augmented_N = out.rms_base_N;
     out.closed_fraction = 0.0;
+    // The floor of a model with no effect is the base's own: one taken from
+    // the residual of effects just dropped made an effect-free trace
+    // `unexplained` (ratio 1.11 to the base's floor, 1.47 to theirs).
+    out.noise_floor_N = white_base;
+    floor = std::hypot(out.noise_floor_N, out.sampling_floor_N);
   }
   out.gap_remains = floor > 0 && out.rms_augmented_N / floor >= opt.unexplained_ratio;
   if (!out.effects.empty()) {
@@ -1052,7 +1101,10 @@ std::string summary(const DiagnoseResult& r) {
   for (const auto& e : r.effects) {
     std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f)\n",
                   e.kind.c_str(), e.heldout_rms_N, n, 100.0 * e.closed_fraction, e.z_statistic);
-    o << buf << "    " << e.parameters.dump() << "\n";
+    // A position-friction profile is 120 numbers: the JSON has it, the summary says so.
+    nlohmann::json shown = e.parameters;
+    if (shown.is_object() && shown.contains("profile")) shown["profile"] = "in the JSON";
+    o << buf << "    " << shown.dump() << "\n";
   }
   if (r.gap_remains && !r.effects.empty()) {
     o << "  + unexplained: a gap of " << fmt(r.rms_augmented_N, N) << " RMS remains";
@@ -1072,6 +1124,7 @@ std::string summary(const DiagnoseResult& r) {
                   c.z_statistic, 100 * c.closed_fraction, c.significant ? "  significant" : "",
                   c.indistinguishable ? "  indistinguishable from the model's terms" : "");
     o << buf;
+    if (c.significant && r.effects.empty() && !c.note.empty()) o << "      (" << c.note << ")\n";
   }
   return o.str();
 }

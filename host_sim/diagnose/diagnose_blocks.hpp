@@ -7,6 +7,7 @@
 #pragma once
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <vector>
@@ -126,11 +127,13 @@ class Observations {
   /// segment in time order; otherwise segments between blocks are skipped.
   template <typename G> Mat segment_columns(int q, bool stateful, Resolution r, G&& g) const {
     std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
-    double value[4] = {0, 0, 0, 0};
+    std::vector<double> buffer(static_cast<std::size_t>(q), 0.0);
+    double* value = buffer.data();
     const std::vector<Segment>& segs = segments(r);
     for (std::size_t i = 0; i < segs.size(); ++i) {
       const Segment& sg = segs[i];
       if (sg.block == Segment::kNoBlock && !stateful) continue;
+      std::fill(buffer.begin(), buffer.end(), 0.0);
       g(i, sg, value);
       if (sg.block == Segment::kNoBlock) continue;
       for (int c = 0; c < q; ++c)

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 
 namespace feedid::host::diag {
@@ -26,52 +27,139 @@ double sign_of(const Segment& sg) { return sg.v > 0 ? 1.0 : -1.0; }
 EffectModel offset_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::offset);
-  m.columns = [&obs](double, Observations::Resolution r) {
+  m.columns = [&obs](double, int, Observations::Resolution r) {
     return obs.segment_columns(1, false, r, [](std::size_t, const Segment&, double* out) { out[0] = 1.0; });
   };
-  m.parameters = [](double, const Vec& c, double) { return nlohmann::json{{"force_N", c(0)}}; };
+  m.parameters = [](double, int, const Vec& c, double) { return nlohmann::json{{"force_N", c(0)}}; };
   return m;
 }
 
-/// Load force A sin(2 pi x / P + phi): sin and cos columns, their exact
-/// means while x runs linearly across a segment, mean e^{i phi} =
-/// (e^{i phi1} - e^{i phi0}) / (i (phi1 - phi0)). Segments join, so each
-/// end's e^{i phi} serves twice: one sincos per segment.
+/// Means of sin(h k x) and cos(h k x), h = 1 .. harmonics, while x runs
+/// linearly across a segment: mean e^{i h phi} = (e^{i h phi1} - e^{i h
+/// phi0}) / (i h (phi1 - phi0)), the harmonics' phasors as powers of the
+/// fundamental's. Segments join, so each end's phasor serves twice: one
+/// sincos per segment.
+class HarmonicMeans {
+ public:
+  HarmonicMeans(double k, int harmonics) : k_(k), harmonics_(harmonics) {}
+  void operator()(const Segment& sg, double* out) {
+    std::complex<double> z0 = z_prev_;
+    if (sg.x0 != x_prev_) z0 = std::polar(1.0, k_ * sg.x0);
+    const std::complex<double> z1 = std::polar(1.0, k_ * sg.x1);
+    const double dphi = k_ * (sg.x1 - sg.x0);
+    std::complex<double> p0 = z0, p1 = z1;
+    for (int h = 1; h <= harmonics_; ++h, p0 *= z0, p1 *= z1) {
+      const std::complex<double> mean =
+          std::fabs(h * dphi) > 1e-4 ? (p1 - p0) / std::complex<double>(0.0, h * dphi) : 0.5 * (p0 + p1);
+      out[2 * (h - 1)] = mean.imag();
+      out[2 * (h - 1) + 1] = mean.real();
+    }
+    x_prev_ = sg.x1, z_prev_ = z1;
+  }
+
+ private:
+  double k_;
+  int harmonics_;
+  double x_prev_ = std::numeric_limits<double>::quiet_NaN();
+  std::complex<double> z_prev_;
+};
+
+/// Load force periodic in position, sum over h of A_h sin(2 pi h x / P +
+/// phi_h): sin and cos columns per harmonic (size: harmonics). A cogging or
+/// screw ripple is rarely one pure sine; the period is searched on the
+/// fundamental alone (with harmonics, P and 2P would fit alike), then the
+/// harmonics are chosen by their size-penalised error.
 EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
   m.kind = effect_name(Effect::position_ripple);
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
   m.continuous = true;
-  m.columns = [&obs](double p, Observations::Resolution r) {
+  m.sizes = {1, 2, 3};
+  m.columns = [&obs](double p, int harmonics, Observations::Resolution r) {
     const double k = 2.0 * M_PI / p;
-    double x_prev = std::numeric_limits<double>::quiet_NaN(), s_prev = 0.0, c_prev = 0.0;
-    return obs.segment_columns(2, false, r, [=](std::size_t, const Segment& sg, double* out) mutable {
-      double s0 = s_prev, c0 = c_prev, s1, c1;
-      if (sg.x0 != x_prev) sincos(k * sg.x0, &s0, &c0);
-      sincos(k * sg.x1, &s1, &c1);
-      const double dphi = k * (sg.x1 - sg.x0);
-      if (std::fabs(dphi) > 1e-4) {
-        out[0] = (c0 - c1) / dphi;  // mean sin
-        out[1] = (s1 - s0) / dphi;  // mean cos
-      } else {
-        out[0] = 0.5 * (s0 + s1);
-        out[1] = 0.5 * (c0 + c1);
-      }
-      x_prev = sg.x1, s_prev = s1, c_prev = c1;
-    });
+    HarmonicMeans means(k, harmonics);
+    return obs.segment_columns(2 * harmonics, false, r,
+                               [&means](std::size_t, const Segment& sg, double* out) { means(sg, out); });
   };
-  m.parameters = [](double p, const Vec& c, double) {
-    return nlohmann::json{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
+  m.parameters = [](double p, int harmonics, const Vec& c, double) {
+    nlohmann::json j{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
+    if (harmonics > 1) {
+      nlohmann::json amp = nlohmann::json::array();
+      for (int h = 0; h < harmonics; ++h) amp.push_back(std::hypot(c(2 * h), c(2 * h + 1)));
+      j["harmonics"] = harmonics;
+      j["harmonic_amplitudes_N"] = amp;
+    }
+    return j;
   };
   return m;
 }
 
-/// Extra friction on a contiguous range of the travel: 200 cells, coarse
-/// ranges of 10 cells, then each edge moved cell by cell.
+/// Uniform cubic B-splines over [x_lo, x_lo + travel] in `spans` spans:
+/// spans + 3 functions, of which the four from `first` are non-zero at x.
+struct SplineBasis {
+  int first = 0;
+  double w[4] = {0, 0, 0, 0};
+  SplineBasis(double x, double x_lo, double travel, int spans) {
+    const double u = std::clamp((x - x_lo) / travel * spans, 0.0, spans - 1e-9);
+    first = static_cast<int>(u);
+    const double t = u - first, t2 = t * t, t3 = t2 * t;
+    w[0] = (1 - t) * (1 - t) * (1 - t) / 6.0;
+    w[1] = (3 * t3 - 6 * t2 + 4) / 6.0;
+    w[2] = (-3 * t3 + 3 * t2 + 3 * t + 1) / 6.0;
+    w[3] = t3 / 6.0;
+  }
+};
+
+/// Friction against the motion as a smooth function of position, one
+/// profile per direction (a worn stretch of a guide, a tight nut, a wiper
+/// that drags one way more than the other): each direction's B-spline
+/// coefficients are its profile. Their sum is the direction's Coulomb
+/// column, so the profile's level is the base model's; reported are the
+/// profiles less their median, and the range where their mean departs by
+/// more than half its extreme (x_min_m, x_max_m, delta_N).
+nlohmann::json friction_profile(const Vec& c, int spans, double x_lo, double travel) {
+  constexpr int points = 41;
+  std::vector<double> x, f[2];
+  for (int i = 0; i < points; ++i) {
+    x.push_back(x_lo + travel * i / (points - 1));
+    const SplineBasis b(x.back(), x_lo, travel, spans);
+    for (int d = 0; d < 2; ++d) {
+      double v = 0.0;
+      for (int k = 0; k < 4; ++k) v += b.w[k] * c(d * (spans + 3) + b.first + k);
+      f[d].push_back(v);
+    }
+  }
+  auto less_median = [](std::vector<double>& v) {
+    std::vector<double> sorted = v;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    const double med = sorted[sorted.size() / 2];
+    for (double& q : v) q -= med;
+  };
+  less_median(f[0]);
+  less_median(f[1]);
+  std::vector<double> mean(points);
+  std::size_t peak = 0;
+  for (int i = 0; i < points; ++i) {
+    mean[static_cast<std::size_t>(i)] = 0.5 * (f[0][static_cast<std::size_t>(i)] + f[1][static_cast<std::size_t>(i)]);
+    if (std::fabs(mean[static_cast<std::size_t>(i)]) > std::fabs(mean[peak])) peak = static_cast<std::size_t>(i);
+  }
+  std::size_t a = peak, b = peak;
+  while (a > 0 && std::fabs(mean[a - 1]) > 0.5 * std::fabs(mean[peak])) --a;
+  while (b + 1 < mean.size() && std::fabs(mean[b + 1]) > 0.5 * std::fabs(mean[peak])) ++b;
+  return {{"x_min_m", x[a]}, {"x_max_m", x[b]}, {"delta_N", mean[peak]}, {"shape", "spline"}, {"spans", spans},
+          {"profile", {{"x_m", x}, {"positive_N", f[0]}, {"negative_N", f[1]}}}};
+}
+
+/// Extra friction against the motion that depends on position. Size 0: one
+/// step on a contiguous range of the travel (200 cells, coarse ranges of 10
+/// cells, then each edge moved cell by cell), the sharpest shape; sizes
+/// above 0: a smooth profile per direction in that many spline spans
+/// (friction_profile), for shapes a range cannot draw.
 EffectModel position_friction_model(const Observations& obs, const TraceExtent& e) {
   constexpr int cells = 200, coarse = 10;
   EffectModel m;
   m.kind = effect_name(Effect::position_friction);
+  m.sizes = {0, 4, 8, 16};
   for (int a = 0; a < cells; a += coarse)
     for (int b = a + coarse; b <= cells; b += coarse)
       if (!(a == 0 && b == cells)) m.grid.push_back(a * 1000 + b);
@@ -79,7 +167,13 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
     return std::pair<double, double>{e.x_lo + e.travel * a / cells, e.x_lo + e.travel * b / cells};
   };
-  m.columns = [&obs, range](double code, Observations::Resolution r) {
+  m.columns = [&obs, range, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Resolution r) {
+    if (spans > 0)
+      return obs.segment_columns(2 * (spans + 3), false, r, [=](std::size_t, const Segment& sg, double* out) {
+        const SplineBasis b(0.5 * (sg.x0 + sg.x1), x_lo, travel, spans);
+        const int at = (sg.v > 0 ? 0 : spans + 3) + b.first;
+        for (int k = 0; k < 4; ++k) out[at + k] = b.w[k] * sign_of(sg);
+      });
     const auto [xa, xb] = range(code);
     return obs.segment_columns(1, false, r, [xa = xa, xb = xb](std::size_t, const Segment& sg, double* out) {
       const double lo = std::min(sg.x0, sg.x1), hi = std::max(sg.x0, sg.x1);
@@ -88,9 +182,10 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
       out[0] = inside * sign_of(sg);
     });
   };
-  m.parameters = [range](double code, const Vec& c, double) {
+  m.parameters = [range, x_lo = e.x_lo, travel = e.travel](double code, int spans, const Vec& c, double) {
+    if (spans > 0) return friction_profile(c, spans, x_lo, travel);
     const auto [xa, xb] = range(code);
-    return nlohmann::json{{"x_min_m", xa}, {"x_max_m", xb}, {"delta_N", c(0)}};
+    return nlohmann::json{{"x_min_m", xa}, {"x_max_m", xb}, {"delta_N", c(0)}, {"shape", "range"}};
   };
   m.refine = [](double code) {
     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
@@ -149,15 +244,22 @@ std::vector<DecayStats> decay_stats(const Observations& obs, Observations::Resol
 /// change (-38 V "drift" against a 0.09 V Coulomb force on pooled SysId
 /// files). A change larger than the friction itself fails this test; a
 /// warm-up of the friction that is there never does.
+/// Changes per direction (index 0 positive motion, 1 negative).
+struct DriftChange {
+  double viscous[2] = {0, 0}, coulomb[2] = {0, 0};
+};
+
 std::string drift_turns_friction_negative(const Observations& obs, const std::vector<double>& run_starts, double tc,
-                                          const MeasuredFriction& f, double viscous_change, double coulomb_change) {
+                                          const MeasuredFriction& f, const DriftChange& change) {
   const std::vector<DecayStats> st = decay_stats(obs, Observations::Resolution::fine, run_starts, tc);
   for (const Segment& sg : obs.segments(Observations::Resolution::fine)) {
     if (sg.block == Segment::kNoBlock) continue;
     const std::size_t k = run_direction(sg, run_starts);
     const double d = drift_decay(sg, run_starts, tc), speed = std::fabs(sg.v);
     const double measured = f.coulomb_N[k] + f.viscous_Ns_m[k] * speed;
-    const double with_drift = measured + coulomb_change * (d - st[k].mean()) + viscous_change * (d - st[k].mean_vv()) * speed;
+    const std::size_t dir = k % 2;
+    const double with_drift =
+        measured + change.coulomb[dir] * (d - st[k].mean()) + change.viscous[dir] * (d - st[k].mean_vv()) * speed;
     if (with_drift < std::min(0.0, measured))
       return std::string("the friction change exceeds the friction the trace measures: friction against ") +
              (sg.v > 0 ? "positive" : "negative") + " motion would turn negative in run " + std::to_string(k / 2 + 1) +
@@ -173,27 +275,41 @@ std::string drift_turns_friction_negative(const Observations& obs, const std::ve
 /// amplitude for all (the same warm-up each time the machine is started).
 /// Each run's own friction level is in the base model (add_run_levels in
 /// diagnose.cpp), so only the change within a run is read as drift.
+/// Size 1: one change for both directions; size 2: a change per direction
+/// (a seal or a preloaded nut warms differently each way).
 EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, const MeasuredFriction& friction) {
   EffectModel m;
   m.kind = effect_name(Effect::thermal_drift);
   m.grid = log_grid(std::max(1.0, 0.02 * e.longest_run_s), 5.0 * e.longest_run_s, 40);
   m.continuous = true;
+  m.sizes = {1, 2};
   const bool pooled = e.run_starts.size() > 1;
-  m.columns = [&obs, starts = e.run_starts](double tc, Observations::Resolution r) {
-    return obs.segment_columns(2, false, r, [&](std::size_t, const Segment& sg, double* out) {
+  m.columns = [&obs, starts = e.run_starts](double tc, int per_direction, Observations::Resolution r) {
+    return obs.segment_columns(2 * per_direction, false, r, [&](std::size_t, const Segment& sg, double* out) {
       const double decay = drift_decay(sg, starts, tc);
-      out[0] = sg.v * decay;
-      out[1] = sign_of(sg) * decay;
+      const int at = per_direction == 2 && sg.v < 0 ? 2 : 0;
+      out[at] = sg.v * decay;
+      out[at + 1] = sign_of(sg) * decay;
     });
   };
-  m.parameters = [pooled](double tc, const Vec& c, double) {
-    nlohmann::json p{{"time_constant_s", tc}, {"viscous_change_Ns_m", c(0)}, {"coulomb_change_N", c(1)}};
+  m.parameters = [pooled](double tc, int per_direction, const Vec& c, double) {
+    const int n = per_direction == 2 ? 2 : 0;  // offset of the negative direction's pair
+    nlohmann::json p{{"time_constant_s", tc},
+                     {"viscous_change_Ns_m", 0.5 * (c(0) + c(n))},
+                     {"coulomb_change_N", 0.5 * (c(1) + c(n + 1))},
+                     {"positive", {{"viscous_change_Ns_m", c(0)}, {"coulomb_change_N", c(1)}}},
+                     {"negative", {{"viscous_change_Ns_m", c(n)}, {"coulomb_change_N", c(n + 1)}}}};
     if (pooled) p["time_origin"] = "the start of each run";
     return p;
   };
   m.implausible = [&obs, starts = e.run_starts, friction](const nlohmann::json& p, double) {
-    return drift_turns_friction_negative(obs, starts, p.value("time_constant_s", 1.0), friction,
-                                         p.value("viscous_change_Ns_m", 0.0), p.value("coulomb_change_N", 0.0));
+    DriftChange change;
+    for (int d = 0; d < 2; ++d) {
+      const nlohmann::json& side = p.at(d == 0 ? "positive" : "negative");
+      change.viscous[d] = side.value("viscous_change_Ns_m", 0.0);
+      change.coulomb[d] = side.value("coulomb_change_N", 0.0);
+    }
+    return drift_turns_friction_negative(obs, starts, p.value("time_constant_s", 1.0), friction, change);
   };
   return m;
 }
@@ -202,7 +318,7 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
 EffectModel quadratic_viscous_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::quadratic_viscous);
-  m.columns = [&obs](double, Observations::Resolution) {
+  m.columns = [&obs](double, int, Observations::Resolution) {
     Mat c(static_cast<Eigen::Index>(obs.size()), 1);
     c.col(0) = obs.sample_column([&obs](std::size_t j) {
       const double v = obs.interval_v(j);
@@ -210,33 +326,54 @@ EffectModel quadratic_viscous_model(const Observations& obs) {
     });
     return c;
   };
-  m.parameters = [](double, const Vec& c, double) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; };
+  m.parameters = [](double, int, const Vec& c, double) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; };
   return m;
 }
+
+/// Distances of presliding's elements, in units of the searched distance d
+/// (size: how many): a Maxwell-slip ladder whose elements span a decade
+/// and a half around d, as the asperities of a real contact do.
+constexpr double kPreslidingElements[3] = {1.0, 4.0, 0.25};
 
 /// Bristle friction that builds up over a distance d after a reversal.
 /// Whether a stop also resets it depends on how the drive settles (a slip
 /// back below one encoder quantum is a reversal no measurement shows), so
 /// both readings are tried: p > 0 counts from the last reversal, p < 0 from
-/// the last reversal or start from rest.
+/// the last reversal or start from rest. Size: elements (kPreslidingElements),
+/// each its own force; d is searched with one.
 EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
   m.kind = effect_name(Effect::presliding_hysteresis);
   m.fine_grid = true;  // it builds up within a few ms of a reversal: a whole block is too coarse
   m.grid = log_grid(1e-6, std::min(2e-3, e.travel / 4), 40);
+  m.sizes = {1, 2, 3};
   const std::size_t n = m.grid.size();
   for (std::size_t i = 0; i < n; ++i) m.grid.push_back(-m.grid[i]);
-  m.columns = [&obs](double p, Observations::Resolution r) {
+  m.columns = [&obs](double p, int elements, Observations::Resolution r) {
     const double d = std::fabs(p);
     const bool from_reversal = p > 0;
-    return obs.segment_columns(1, false, r, [d, from_reversal](std::size_t, const Segment& sg, double* out) {
-      const double decay = from_reversal ? mean_decay(sg.rev0, sg.rev1, d) : mean_decay(sg.start0, sg.start1, d);
-      out[0] = -sign_of(sg) * decay;
+    return obs.segment_columns(elements, false, r, [=](std::size_t, const Segment& sg, double* out) {
+      for (int k = 0; k < elements; ++k) {
+        const double dk = d * kPreslidingElements[k];
+        const double decay = from_reversal ? mean_decay(sg.rev0, sg.rev1, dk) : mean_decay(sg.start0, sg.start1, dk);
+        out[k] = -sign_of(sg) * decay;
+      }
     });
   };
-  m.parameters = [](double p, const Vec& c, double) {
-    return nlohmann::json{{"distance_m", std::fabs(p)}, {"force_N", 0.5 * c(0)},
-                          {"resets", p > 0 ? "at reversals" : "at reversals and starts from rest"}};
+  m.parameters = [](double p, int elements, const Vec& c, double) {
+    nlohmann::json j{{"distance_m", std::fabs(p)}, {"force_N", 0.5 * c(0)},
+                     {"resets", p > 0 ? "at reversals" : "at reversals and starts from rest"}};
+    if (elements > 1) {
+      nlohmann::json list = nlohmann::json::array();
+      double total = 0.0;
+      for (int k = 0; k < elements; ++k) {
+        list.push_back({{"distance_m", std::fabs(p) * kPreslidingElements[k]}, {"force_N", 0.5 * c(k)}});
+        total += 0.5 * c(k);
+      }
+      j["elements"] = list;
+      j["force_total_N"] = total;
+    }
+    return j;
   };
   m.refine = [](double p) {  // finer steps in d around the best, same reading
     std::vector<double> out;
@@ -244,7 +381,8 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
     return out;
   };
   m.implausible = [](const nlohmann::json& p, double) {
-    return p.value("force_N", 0.0) > 0.0 ? std::string() : std::string("friction would rise after a reversal");
+    return p.value("force_total_N", p.value("force_N", 0.0)) > 0.0 ? std::string()
+                                                                     : std::string("friction would rise after a reversal");
   };
   return m;
 }
@@ -276,7 +414,20 @@ std::vector<double> load_acceleration(const Observations& obs, Observations::Res
   return out;
 }
 
-/// Compliance: the base model misses m2 (a2 - a1).
+/// Damping ratios of the compliance's columns (size: how many). A mix of
+/// responses at one frequency with a lighter and a heavier damping draws
+/// the responses between them, so the damping is free while the fit stays
+/// linear: 0.05 alone, then a lighter one (a bare steel structure rings at
+/// 0.01 - 0.03). Not heavier: a heavily damped resonance above the motion's
+/// frequencies is H(a) - a = -(2 zeta / w) da/dt, the jerk term of a delay,
+/// with a plausible load mass (m2 = m d w / (2 zeta)); with a column at
+/// zeta 0.5 a 2.5-period force delay was named as delay plus a 368 Hz
+/// "compliance" that took half the delay.
+constexpr double kComplianceDamping[2] = {0.05, 0.015};
+
+/// Compliance: the base model misses m2 (a2 - a1). Size 1: damping ratio
+/// 0.05; sizes 2, 3: a mix of kComplianceDamping (free damping). The
+/// stiffness is free: the frequency is searched.
 EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
   m.kind = effect_name(Effect::compliance);
@@ -284,15 +435,25 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(3.0, f_top, 50);
   m.continuous = true;
   m.fine_grid = true;
-  m.columns = [&obs](double f, Observations::Resolution r) {
-    const std::vector<double> a2 = load_acceleration(obs, r, 2 * M_PI * f, 0.05);
-    return obs.segment_columns(1, true, r, [&a2](std::size_t i, const Segment& sg, double* out) { out[0] = a2[i] - sg.accel; });
+  m.sizes = {1, 2};
+  m.columns = [&obs](double f, int dampings, Observations::Resolution r) {
+    std::vector<std::vector<double>> a2;
+    for (int k = 0; k < dampings; ++k) a2.push_back(load_acceleration(obs, r, 2 * M_PI * f, kComplianceDamping[k]));
+    return obs.segment_columns(dampings, true, r, [&a2](std::size_t i, const Segment& sg, double* out) {
+      for (std::size_t k = 0; k < a2.size(); ++k) out[k] = a2[k][i] - sg.accel;
+    });
   };
-  // c = load mass m2; free resonance sqrt(k (m1 + m2) / (m1 m2)) with k = m2 w^2.
-  m.parameters = [](double f, const Vec& c, double mass_kg) {
-    const double m2 = c(0), m1 = mass_kg - m2;
+  // c = load mass m2 (summed over the dampings); free resonance
+  // sqrt(k (m1 + m2) / (m1 m2)) with k = m2 w^2; the damping the mix
+  // draws, as its coefficient-weighted ratio.
+  m.parameters = [](double f, int dampings, const Vec& c, double mass_kg) {
+    double m2 = 0.0, weighted = 0.0;
+    for (int k = 0; k < dampings; ++k) m2 += c(k), weighted += c(k) * kComplianceDamping[k];
+    const double m1 = mass_kg - m2;
     const double free = m1 > 0 && m2 > 0 ? f * std::sqrt(1.0 + m2 / m1) : f;
-    return nlohmann::json{{"frequency_hz", free}, {"load_frequency_hz", f}, {"load_mass_kg", m2}};
+    nlohmann::json j{{"frequency_hz", free}, {"load_frequency_hz", f}, {"load_mass_kg", m2}};
+    if (dampings > 1 && m2 != 0.0) j["damping_ratio"] = std::clamp(weighted / m2, kComplianceDamping[1], kComplianceDamping[0]);
+    return j;
   };
   // A "compliance" with a negative load mass at the top of its frequency
   // grid is a delay in disguise: both look like jerk there.
@@ -313,7 +474,7 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
   m.kind = effect_name(Effect::delay);
   m.grid = log_grid(0.2 / e.sample_rate_hz, 25.0 / e.sample_rate_hz, 40);
   m.continuous = true;
-  m.columns = [&obs, h = 0.5 / e.sample_rate_hz](double d, Observations::Resolution r) {
+  m.columns = [&obs, h = 0.5 / e.sample_rate_hz](double d, int, Observations::Resolution r) {
     // Mean over the segment's interval ends (a half period after their middles).
     return obs.segment_columns(1, false, r, [&obs, d, h](std::size_t, const Segment& sg, double* out) {
       const double a = sg.t_start + h, b = sg.t_start + sg.dt + h;
@@ -321,7 +482,7 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
     });
   };
   // For a force smooth on the scale of d only c*d is identified (c d du/dt): -c*d is the delay.
-  m.parameters = [](double d, const Vec& c, double) {
+  m.parameters = [](double d, int, const Vec& c, double) {
     return nlohmann::json{{"delay_s", -c(0) * d}, {"shift_s", d}, {"coefficient", c(0)}};
   };
   // The timing search keeps the base model's lag within what logging

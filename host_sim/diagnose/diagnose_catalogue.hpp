@@ -17,11 +17,17 @@ struct EffectModel {
   std::string kind;
   std::vector<double> grid;  ///< values of the nonlinear parameter (empty: none)
   bool continuous = false;   ///< refine between grid points by golden-section search in log
-  /// Columns for a parameter value; coarse segments serve the grid search.
-  std::function<Mat(double, Observations::Resolution)> columns;
+  /// Family sizes (docs/diagnosis.md, "Families"): the nonlinear parameter
+  /// is searched at the first; then every size is fitted at that parameter
+  /// and the one with the least size-penalised error (choose_size in
+  /// diagnose.cpp) is kept. A size is the effect's own: harmonics of a
+  /// ripple, elements of presliding, spline spans of position friction.
+  std::vector<int> sizes = {1};
+  /// Columns for a parameter value and size; coarse segments serve the grid search.
+  std::function<Mat(double, int, Observations::Resolution)> columns;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
-  std::function<nlohmann::json(double, const Vec& coef, double mass_kg)> parameters;
+  std::function<nlohmann::json(double, int, const Vec& coef, double mass_kg)> parameters;
   /// More values to try around the best grid value (discrete parameters).
   std::function<std::vector<double>(double)> refine = {};
   /// "" if the fitted parameters are physical for a drive of mass_kg, else why not.
