@@ -158,6 +158,8 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
                 "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. position-scale=.. "
                 "force-scale=..] to override the options for that file");
   c->add_option("--time", cols.time, "CSV column or .mat variable of time (s)")->capture_default_str();
+  c->add_option("--rate", cols.rate_hz, "sample rate (Hz) of a CSV without a time column: data row k is at k / rate")
+      ->check(CLI::PositiveNumber);
   c->add_option("--position", cols.position, "CSV column or .mat variable of position (m; rad with --axis rotary)")->capture_default_str();
   c->add_option("--velocity", cols.velocity,
                 "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();

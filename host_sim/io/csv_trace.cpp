@@ -162,6 +162,7 @@ struct CsvLayout {
   std::vector<unsigned> roles;
   bool has_position = false, has_velocity = false;
   double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
+  double rate_hz = 0.0;     ///< > 0: no time column, data row k is at k / rate_hz (CsvColumns::rate_hz)
 };
 
 /// Index of `name` in the header, -1 if absent, -2 if it appears twice.
@@ -204,9 +205,16 @@ bool parse_header(const char* hb, const char* he, const std::string& at_header, 
       return false;
     }
   }
+  if (columns.rate_hz > 0 && wanted[0].index >= 0) {
+    error = at_header + "--rate is for a log without a time column, and this one has " + quoted_text(columns.time) +
+            ": give one or the other";
+    return false;
+  }
+  out.rate_hz = columns.rate_hz;
   for (const Wanted& w : {wanted[0], wanted[3]})
-    if (w.index < 0) {
-      error = at_header + "missing column " + quoted_text(*w.name) + " (" + w.role_name + "); header has: " + name_list(out.names);
+    if (w.index < 0 && !(w.role == kTime && out.rate_hz > 0)) {
+      error = at_header + "missing column " + quoted_text(*w.name) + " (" + w.role_name + "); header has: " + name_list(out.names) +
+              (w.role == kTime ? " (a log without a time column: give its sample rate, --rate)" : "");
       return false;
     }
   if (wanted[1].index < 0 && wanted[2].index < 0) {
@@ -233,7 +241,8 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
                  TraceSample& s) {
   rules.count_row();
   const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
-  if (!prev_row.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
+  // Without a time column a row like the one before is the axis at rest, not a repeat.
+  if (lay.rate_hz == 0 && !prev_row.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
     rules.repeated();
     return RowRead::skipped;
   }
@@ -245,6 +254,12 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
                : RowRead::stop;
   s = TraceSample{};
   std::string_view time_text;
+  std::string row_time;  // the time a --rate log's row is at, for messages
+  if (lay.rate_hz > 0) {
+    s.t_s = static_cast<double>(rules.rows() - 1) / lay.rate_hz;
+    row_time = std::to_string(s.t_s);
+    time_text = row_time;
+  }
   for (std::size_t i = 0; i < ncols; ++i) {
     const unsigned r = lay.roles[i];
     if (r == 0u) continue;
@@ -312,7 +327,9 @@ double time_unit_from_name(std::string_view name) {
   return u ? u->seconds : 1.0;
 }
 
-bool time_unit_stated(const CsvColumns& c) { return c.time_scale > 0 || (unit_ending(c.time) && c.time != "s"); }
+bool time_unit_stated(const CsvColumns& c) {
+  return c.rate_hz > 0 || c.time_scale > 0 || (unit_ending(c.time) && c.time != "s");
+}
 
 CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;

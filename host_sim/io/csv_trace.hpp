@@ -29,6 +29,10 @@ struct CsvColumns {
   /// that ends the column's name (t_ms, "time [us]": time_unit_from_name),
   /// else seconds. A time in ms taken as s made the mass 10^6 too large.
   double time_scale = 0.0;
+  /// Sample rate (Hz) of a CSV with no time column (--rate): data row k,
+  /// counting the rows left out too, is at k / rate_hz. 0: the time column
+  /// is required. A log with a time column and a rate is an error (which?).
+  double rate_hz = 0.0;
 };
 
 /// Seconds per unit of a time column from the unit that ends its name,

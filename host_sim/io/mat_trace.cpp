@@ -165,6 +165,8 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
   CsvResult result;
   result.trace.source = path;
   result.error = scale_error(columns);
+  if (result.error.empty() && columns.rate_hz > 0)
+    result.error = path + ": --rate serves CSV logs without a time column; a .mat log names its time variable (--time)";
   if (!result.error.empty()) return result;
   MatFile mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY));
   if (!mat) {

@@ -20,6 +20,8 @@ namespace feedid::host {
 /// time scale would reverse time). `prefix` starts each scale's name: "--"
 /// for the options, "" for the keys of an --in-list line.
 inline std::string scale_error(const CsvColumns& c, const char* prefix = "--") {
+  if (!std::isfinite(c.rate_hz) || c.rate_hz < 0.0)
+    return prefix + std::string("rate ") + std::to_string(c.rate_hz) + ": must be a positive sample rate in Hz";
   if (!std::isfinite(c.time_scale) || c.time_scale < 0.0)
     return prefix + std::string("time-scale ") + std::to_string(c.time_scale) +
            ": must be positive (0: from the time column's name)";
@@ -42,6 +44,7 @@ class RowRules {
 
   /// Every row offered, read or not (the share of bad rows is of these).
   void count_row() { ++rows_; }
+  std::size_t rows() const { return rows_; }
 
   /// A row that could not be read; `why` names file, row and column.
   /// False: stop reading, error() says why (--bad-rows error).

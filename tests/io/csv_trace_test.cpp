@@ -114,6 +114,33 @@ TEST(CsvTrace, MissingRenamedTimeColumnIsNamed) {
 // GIVEN time columns named with and without a unit, THEN the reader says
 // whether the unit was stated (condition() refuses a log too slow for a
 // drive only when it was not).
+// GIVEN a CSV with no time column, THEN --rate places data row k at
+// k / rate: a row like the one before is the axis at rest (kept), a bad
+// row leaves its slot empty; without --rate the missing column's error
+// names it, and a log with a time column and a rate is refused.
+TEST(CsvTrace, RateGivesTheTimeOfALogWithoutATimeColumn) {
+  const std::string path = write_text("no_time", "x,u\n0,1\n0,1\n0.001,2\nbad,2\n0.002,3\n");
+  CsvColumns cols;
+  const CsvResult none = read_trace_csv(path, cols);
+  EXPECT_FALSE(none.ok);
+  EXPECT_TRUE(contains(none.error, "--rate")) << none.error;
+  cols.rate_hz = 100.0;
+  cols.max_bad_row_share = 0.5;  // one bad row of five, on purpose
+  const CsvResult r = read_trace_csv(path, cols);
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.trace.samples.size(), 4u);
+  EXPECT_DOUBLE_EQ(r.trace.samples[1].t_s, 0.01);  // the repeated rest row is kept
+  EXPECT_DOUBLE_EQ(r.trace.samples[3].t_s, 0.04);  // the bad row's slot stays empty
+  EXPECT_EQ(r.trace.rows_skipped, 1u);
+  EXPECT_TRUE(r.trace.time_unit_stated);
+  const std::string timed = write_text("timed", "t,x,u\n0,0,1\n0.01,0.001,2\n");
+  const CsvResult both = read_trace_csv(timed, cols);
+  EXPECT_FALSE(both.ok);
+  EXPECT_TRUE(contains(both.error, "--rate")) << both.error;
+  cols.rate_hz = -5.0;
+  EXPECT_FALSE(read_trace_csv(path, cols).ok);
+}
+
 TEST(CsvTrace, TimeUnitIsStatedByNameOrOption) {
   CsvColumns c;
   for (const char* stated : {"t_s", "t_ms", "time [us]", "Time (s)"}) {
