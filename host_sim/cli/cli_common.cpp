@@ -150,9 +150,18 @@ CLI::Validator nonzero_scale() {
 }  // namespace
 
 
+namespace {
+/// The options added to `c` since it had `from` of them go under `group` in --help.
+void group_since(CLI::App* c, std::size_t from, const std::string& group) {
+  const std::vector<CLI::Option*> all = c->get_options();
+  for (std::size_t i = from; i < all.size(); ++i) all[i]->group(group);
+}
+}  // namespace
+
 /// Columns, scales, units and bad rows: the input options of every command
-/// that reads a trace CSV.
+/// that reads a trace CSV, in two help groups.
 void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
+  const std::size_t before_input = c->get_options().size();
   add_bad_row_option(c, cols);
   c->add_option("--in-list", u.in_list,
                 "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. position-scale=.. "
@@ -164,6 +173,8 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   c->add_option("--velocity", cols.velocity,
                 "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
   c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
+  group_since(c, before_input, "Input: files and columns");
+  const std::size_t before_units = c->get_options().size();
   c->add_option("--position-scale", cols.position_scale,
                 "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")
       ->check(nonzero_scale())->capture_default_str();
@@ -178,10 +189,12 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
       ->check(CLI::IsMember({"linear", "rotary"}));
   c->add_option("--force-unit", u.force_label,
                 "unit label of a force input left unscaled, e.g. V or A; mass and viscous units follow (V s^2/rad, V s/rad)");
+  group_since(c, before_units, "Units and scales");
 }
 
 void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method) {
   add_input_options(c, cols, units);
+  const std::size_t before_advanced = c->get_options().size();
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
   c->add_option("--alignment", o.alignment,
@@ -199,6 +212,7 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
       ->check(zero_or_positive())->capture_default_str();
   c->add_option("--velocity-resolution", o.velocity_resolution_m_s, "velocity resolution (m/s, or rad/s); 0 = from the data")
       ->check(zero_or_positive())->capture_default_str();
+  group_since(c, before_advanced, "Advanced: method and signal timing (default: from the data)");
 }
 
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {
