@@ -541,7 +541,7 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
     o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
       << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
       << " s moving negative above " << r.config.velocity_min_m_s << " " << r.units.velocity()
-      << "; each direction needs data in at least 5 velocity bands";
+      << "; each direction needs data in at least 5 velocity bands (what to record: docs/recording.md)";
     r.error = o.str();
     return r;
   }
@@ -1084,6 +1084,10 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   }
   std::snprintf(buf, sizeof buf, "force noise %.3g %s\n", e.force_noise_N, u.force.c_str());
   o << buf;
+  const bool unresolved = !e.mass_identified() || !e.pos.friction_identified() || !e.neg.friction_identified() ||
+                          !e.pos.stribeck_identified() || !e.neg.stribeck_identified();
+  if (unresolved && r.status == feedid::Status::ok)
+    o << "  what each parameter needs from the recording: docs/recording.md\n";
   const auto& g = r.diagnostics;
   o << "  sections: " << g.sections_complete[0] << " positive, " << g.sections_complete[1] << " negative; "
     << g.mass_windows << " mass windows; " << g.samples_rejected << " samples rejected\n";
