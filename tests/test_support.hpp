@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/core_trace.hpp"
 #include "sim/drive_sim.hpp"
 #include "feedid/feedid.hpp"
 #include "io/trace.hpp"
@@ -51,16 +52,11 @@ inline host::SimConfig logged_config(const SimSpec& s, host::ForceLog force, hos
 
 inline host::Trace simulate(const SimSpec& s) { return host::simulate(sim_config(s)); }
 
-/// The core configuration used throughout the tests for an encoder of
-/// quantum q (m) sampled at rate (Hz): the velocity quantum is q*rate.
-template <typename T> Config<T> default_config(double encoder_m, double rate_hz) {
-  const double res = encoder_m * rate_hz;
-  Config<T> c;
-  c.velocity_min_m_s = T(std::fmax(2.0 * res, 1e-5));
-  c.velocity_max_m_s = T(0.2);
-  c.velocity_resolution_m_s = T(res);
-  return c;
-}
+/// The core configuration for an encoder of quantum q (m) sampled at rate
+/// (Hz), and the relative error: the core tests' own (core_trace.hpp).
+using core_test::default_config;
+using core_test::rel_err;
+
 template <typename T> Config<T> default_config(const host::SimConfig& sc) {
   return default_config<T>(sc.sensors.encoder_resolution_m, sc.controller.servo_rate_hz);
 }
@@ -117,8 +113,6 @@ inline host::Trace rest_jitter_trace(double rate_hz, double quantum_m_s, int max
   return tr;
 }
 
-/// Relative error of an estimate against the truth.
-inline double rel_err(double estimate, double truth) { return std::fabs(estimate / truth - 1.0); }
 
 /// The message of the exception (std::exception) that f throws; "" when it throws none.
 template <class F>
