@@ -1,0 +1,159 @@
+// feedid._feedid: the host's reader and identify() for Python (pybind11).
+// The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
+// results cross as the JSON text of identify's to_json, the CLI's --json.
+// Nothing here prints: errors go to Python as exceptions with the host's
+// message (std::invalid_argument as ValueError, std::runtime_error as
+// RuntimeError, pybind11's translation), and the GIL is released while
+// the host reads and identifies, so that threads of one process overlap.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "identify/identify.hpp"
+#include "io/column_trace.hpp"
+#include "io/trace_files.hpp"
+#include "io/units.hpp"
+
+namespace py = pybind11;
+using namespace feedid::host;
+
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// The options of one call, named as the CLI's long options with '_' for '-'
+/// (velocity_filter is --velocity-filter), read into the host's structures.
+struct CallOptions {
+  CsvColumns columns;
+  IdentifyOptions identify;
+};
+
+double number(const py::handle& value, const std::string& key) {
+  const double x = py::cast<double>(value);
+  if (!std::isfinite(x)) throw py::value_error(key + ": " + std::to_string(x) + " is not a finite number");
+  return x;
+}
+
+/// A cut-off, band edge or resolution: 0 means "from the data"; negative is an error, not another 0.
+double zero_or_positive(const py::handle& value, const std::string& key) {
+  const double x = number(value, key);
+  if (x < 0) throw py::value_error(key + ": " + std::to_string(x) + " is negative (0: from the data)");
+  return x;
+}
+
+std::string one_of(const py::handle& value, const std::string& key, const std::set<std::string>& allowed) {
+  const auto s = py::cast<std::string>(value);
+  if (allowed.count(s)) return s;
+  std::string names;
+  for (const auto& a : allowed) names += (names.empty() ? "" : ", ") + a;
+  throw py::value_error(key + ": '" + s + "' is not one of " + names);
+}
+
+/// Options as keyword arguments; an unknown name is a TypeError naming it
+/// (a misspelt option silently ignored would give another model).
+CallOptions call_options(const py::dict& kw) {
+  CallOptions o;
+  IdentifyOptions& id = o.identify;
+  CsvColumns& c = o.columns;
+  Axis axis = Axis::linear;
+  std::string force_unit;
+  for (const auto& [k, value] : kw) {
+    const auto key = py::cast<std::string>(k);
+    if (value.is_none()) continue;  // None: the default, as an option not given
+    if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
+    else if (key == "alignment") id.alignment = py::cast<std::string>(value);
+    else if (key == "force_lag_s") id.force_lag_s = number(value, key);
+    else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
+    else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
+    else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);
+    else if (key == "velocity_resolution") id.velocity_resolution_m_s = zero_or_positive(value, key);
+    else if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
+    else if (key == "force_unit") force_unit = py::cast<std::string>(value);
+    else if (key == "position_scale") c.position_scale = number(value, key);
+    else if (key == "force_scale") c.force_scale = number(value, key);
+    else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
+    else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
+    else if (key == "time") c.time = py::cast<std::string>(value);
+    else if (key == "position") c.position = py::cast<std::string>(value);
+    else if (key == "velocity") c.velocity = py::cast<std::string>(value);
+    else if (key == "force") c.force = py::cast<std::string>(value);
+    else throw py::type_error("unknown option '" + key + "'");
+  }
+  id.units = units_for(axis, force_unit);
+  return o;
+}
+
+std::vector<double> to_vector(const py::object& a) {
+  if (a.is_none()) return {};
+  const Array arr = Array::ensure(a);
+  if (!arr || arr.ndim() != 1) throw py::value_error("a signal must be a one-dimensional array of numbers");
+  return std::vector<double>(arr.data(), arr.data() + arr.size());
+}
+
+/// identify() on a trace read without the GIL; the JSON text.
+std::string identify_json(const CsvResult& read, const IdentifyOptions& opt) {
+  if (!read.ok) throw std::invalid_argument(read.error);
+  return to_json(identify(read.trace, opt)).dump();
+}
+
+std::string identify_arrays(const py::object& t, const py::object& x, const py::object& v, const py::object& u,
+                            const py::dict& kw) {
+  const CallOptions o = call_options(kw);
+  TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
+  if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
+  py::gil_scoped_release release;
+  return identify_json(trace_from_columns(c, o.columns, "arrays", 0), o.identify);
+}
+
+std::string identify_files(const std::vector<std::string>& paths, const py::dict& kw) {
+  const CallOptions o = call_options(kw);
+  if (paths.empty()) throw py::value_error("no recording: give one path or several to pool");
+  py::gil_scoped_release release;
+  return identify_json(read_trace_files(paths, o.columns), o.identify);
+}
+
+Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
+  Array out(static_cast<py::ssize_t>(s.size()));
+  double* p = out.mutable_data();
+  for (const TraceSample& x : s) *p++ = x.*field;
+  return out;
+}
+
+/// A trace file through the host reader: its signals in SI units (after the
+/// scales) as arrays, None for a signal not logged, and what was left out.
+py::dict read_signals(const std::string& path, const py::dict& kw) {
+  const CallOptions o = call_options(kw);
+  CsvResult r;
+  {
+    py::gil_scoped_release release;
+    r = read_trace_file(path, o.columns);
+  }
+  if (!r.ok) throw std::invalid_argument(r.error);
+  const auto& s = r.trace.samples;
+  py::dict d;
+  d["t"] = column(s, &TraceSample::t_s);
+  d["x"] = r.trace.has_position ? py::object(column(s, &TraceSample::x_m)) : py::object(py::none());
+  d["v"] = r.trace.has_velocity ? py::object(column(s, &TraceSample::v_m_s)) : py::object(py::none());
+  d["u"] = column(s, &TraceSample::u_N);
+  d["rows_skipped"] = r.trace.rows_skipped;
+  d["rows_repeated"] = r.trace.rows_repeated;
+  d["skipped_rows"] = r.trace.skipped_rows;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_feedid, m) {
+  m.doc() = "feedid's host reader and identification (the package feedid wraps it)";
+  m.def("identify_arrays", &identify_arrays, py::arg("t"), py::arg("x"), py::arg("v"), py::arg("u"), py::arg("options"),
+        "identify() on signals in memory; the JSON text of the CLI's --json");
+  m.def("identify_files", &identify_files, py::arg("paths"), py::arg("options"),
+        "identify() on one trace file, or several pooled as runs; the JSON text");
+  m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
+}

@@ -1,0 +1,127 @@
+"""The Python module against the CLI (ctest: python.feedid; docs/python.md).
+
+feedid.identify on the EMPS arrays must give the CLI's estimates on the same
+file, and feedid.fleet.identify_many on SysId logs, on a 2-worker dask
+LocalCluster, one row per log with the CLI's viscous terms. Exit 77 (ctest:
+skipped) where the module was not built or numpy is missing.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+try:
+    import numpy as np
+    import feedid
+except ImportError as e:
+    print("skipped: %s (the module is built where python3-dev and pybind11-dev are found)" % e)
+    sys.exit(77)
+
+BIN = os.environ.get("FEEDID_BIN_DIR", "build/bin")
+SHARED = os.environ.get("FEEDID_SHARED_DIR", "../shared")
+EMPS = os.path.join(SHARED, "data", "emps", "DATA_EMPS.csv")
+SYSID = os.path.join(SHARED, "data", "sysid_team581")
+PARAMS = [("m",)] + [(d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs", "vs")]
+
+
+def cli_identify(paths, *options):
+    """`feedid identify --json` on the files: its JSON dict."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r.json")
+        args = [os.path.join(BIN, "feedid"), "identify", "--json", out, *options]
+        for p in paths:
+            args += ["--in", p]
+        subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(out) as f:
+            return json.load(f)
+
+
+def value(result, key):
+    return result[key[0]] if len(key) == 1 else result[key[0]][key[1]]
+
+
+def sysid_log(mechanism):
+    return [os.path.join(SYSID, "%s_%s.csv" % (mechanism, run)) for run in ("slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd")]
+
+
+@unittest.skipUnless(os.path.exists(EMPS), "no EMPS data at " + EMPS)
+class EmpsArrays(unittest.TestCase):
+    def test_arrays_give_the_cli_estimates(self):
+        # GIVEN the EMPS columns as numpy arrays, parsed by numpy, not by the host
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        # WHEN identified from Python and by the CLI on the file
+        py = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        cli = cli_identify([EMPS], "--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        # THEN every parameter agrees (m to 1e-9 relative) and so do the units
+        self.assertEqual(py["status"], "ok")
+        self.assertAlmostEqual(py["m"] / cli["m"], 1.0, delta=1e-9)
+        for key in PARAMS:
+            self.assertAlmostEqual(value(py, key), value(cli, key), delta=1e-9 * abs(value(cli, key)), msg=str(key))
+        self.assertEqual(py["units"], cli["units"])
+        self.assertEqual(set(py), set(cli))
+
+    def test_read_gives_the_arrays_the_file_holds(self):
+        r = feedid.read(EMPS, time="t_s", position="qm_m", force="force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        self.assertIsNone(r["v"])
+        np.testing.assert_array_equal(r["u"], d["force_N"])
+        np.testing.assert_array_equal(r["x"], d["qm_m"])
+
+
+class Errors(unittest.TestCase):
+    def test_a_nan_row_is_refused_with_where_when_asked(self):
+        t = np.arange(100) * 1e-3
+        u = np.ones(100)
+        u[7] = np.nan
+        with self.assertRaisesRegex(ValueError, "arrays: element 7: a value is NaN/Inf"):
+            feedid.identify(t, np.sin(t), u, bad_rows="error")
+
+    def test_unknown_option_and_bad_values_are_named(self):
+        t = np.arange(100) * 1e-3
+        with self.assertRaisesRegex(TypeError, "unknown option 'velocity_fliter'"):
+            feedid.identify(t, t, t, velocity_fliter=10)
+        with self.assertRaisesRegex(ValueError, "velocity_filter: .* is negative"):
+            feedid.identify(t, t, t, velocity_filter=-1)
+        with self.assertRaisesRegex(ValueError, "differ in length"):
+            feedid.identify(t, t[:50], t)
+
+    def test_a_missing_file_is_the_readers_message(self):
+        with self.assertRaises(ValueError) as e:
+            feedid.identify_files("/nonexistent/log.csv")
+        self.assertIn("/nonexistent/log.csv", str(e.exception))
+
+
+@unittest.skipUnless(os.path.isdir(SYSID), "no SysId data at " + SYSID)
+class Fleet(unittest.TestCase):
+    def test_two_logs_on_two_workers_give_the_cli_viscous_terms(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+            import feedid.fleet
+        except ImportError as e:
+            self.skipTest("no dask.distributed or pandas: %s" % e)
+        # GIVEN two mechanisms' pooled runs and one log that cannot be read
+        logs = [sysid_log("compbot_drive_left"), sysid_log("compbot_spu"), [os.path.join(SYSID, "missing.csv")]]
+        # WHEN identified as dask tasks on a 2-worker LocalCluster (threads: no process start-up in CI)
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            self.assertEqual(len(client.scheduler_info()["workers"]), 2)
+            frame = feedid.fleet.identify_many(logs, client=client, axis="rotary", force_unit="V")
+        # THEN one row per log, in order; the bad one carries its error and stopped nothing
+        self.assertEqual(len(frame), 3)
+        self.assertIn("missing.csv", frame["error"][2])
+        self.assertEqual(frame["status"][2], "error")
+        for i, paths in enumerate(logs[:2]):
+            cli = cli_identify(paths, "--axis", "rotary", "--force-unit", "V")
+            self.assertEqual(frame["error"][i], "")
+            self.assertEqual(frame["path"][i], " + ".join(paths))
+            for d in ("pos", "neg"):
+                self.assertEqual(frame[d + "_sigma"][i], cli[d]["sigma"])
+                self.assertEqual(frame[d + "_sigma_se"][i], cli[d]["sigma_se"])
+            self.assertEqual(frame["m"][i], cli["m"])
+            self.assertEqual(frame["units"][i]["sigma"], "V s/rad")
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
