@@ -47,8 +47,8 @@ def identify_log(paths, options):
     worker that runs it; its row, with the error where it failed."""
     try:
         return row(paths, feedid.identify_files(paths, **options))
-    except feedid.Error as e:
-        return row(paths, e.result, str(e))
+    except ValueError as e:  # feedid.Error (with its result) or the reader's message
+        return row(paths, getattr(e, "result", None), str(e))
     except Exception as e:  # a bad log is a row, never the end of the fleet
         return row(paths, None, "%s: %s" % (type(e).__name__, e))
 
