@@ -1,6 +1,7 @@
-// feedid._feedid: the host's reader and identify() for Python (pybind11).
+// feedid._feedid: the host's reader, identify(), diagnose() and validate() for
+// Python (pybind11).
 // The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
-// results cross as the JSON text of identify's to_json, the CLI's --json.
+// results cross as the JSON text of each command's to_json, the CLI's --json.
 // Nothing here prints: errors go to Python as exceptions with the host's
 // message (std::invalid_argument as ValueError, std::runtime_error as
 // RuntimeError, pybind11's translation), and the GIL is released while
@@ -15,10 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "diagnose/diagnose.hpp"
 #include "identify/identify.hpp"
 #include "io/column_trace.hpp"
 #include "io/trace_files.hpp"
 #include "io/units.hpp"
+#include "model/drive_model.hpp"
+#include "validate/validate.hpp"
 
 namespace py = pybind11;
 using namespace feedid::host;
@@ -31,7 +35,9 @@ using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 /// (velocity_filter is --velocity-filter), read into the host's structures.
 struct CallOptions {
   CsvColumns columns;
-  IdentifyOptions identify;
+  Units units;
+  DiagnoseOptions diagnose;  ///< its .identify: identify's options
+  ValidateOptions validate;
 };
 
 double number(const py::handle& value, const std::string& key) {
@@ -47,6 +53,12 @@ double zero_or_positive(const py::handle& value, const std::string& key) {
   return x;
 }
 
+int whole_at_least(const py::handle& value, const std::string& key, int least) {
+  const int n = py::cast<int>(value);
+  if (n < least) throw py::value_error(key + ": " + std::to_string(n) + " is below " + std::to_string(least));
+  return n;
+}
+
 std::string one_of(const py::handle& value, const std::string& key, const std::set<std::string>& allowed) {
   const auto s = py::cast<std::string>(value);
   if (allowed.count(s)) return s;
@@ -55,38 +67,78 @@ std::string one_of(const py::handle& value, const std::string& key, const std::s
   throw py::value_error(key + ": '" + s + "' is not one of " + names);
 }
 
-/// Options as keyword arguments; an unknown name is a TypeError naming it
-/// (a misspelt option silently ignored would give another model).
-CallOptions call_options(const py::dict& kw) {
+/// The input options every command takes (columns, scales, units, bad rows); false: not one of them.
+bool input_option(const std::string& key, const py::handle& value, CsvColumns& c, Axis& axis, std::string& force_unit) {
+  if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
+  else if (key == "force_unit") force_unit = py::cast<std::string>(value);
+  else if (key == "position_scale") c.position_scale = number(value, key);
+  else if (key == "force_scale") c.force_scale = number(value, key);
+  else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
+  else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
+  else if (key == "time") c.time = py::cast<std::string>(value);
+  else if (key == "position") c.position = py::cast<std::string>(value);
+  else if (key == "velocity") c.velocity = py::cast<std::string>(value);
+  else if (key == "force") c.force = py::cast<std::string>(value);
+  else return false;
+  return true;
+}
+
+/// identify's own options (diagnose takes them too); false: not one of them.
+bool identify_option(const std::string& key, const py::handle& value, IdentifyOptions& id) {
+  if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
+  else if (key == "alignment") id.alignment = py::cast<std::string>(value);
+  else if (key == "force_lag_s") id.force_lag_s = number(value, key);
+  else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
+  else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
+  else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);
+  else if (key == "velocity_resolution") id.velocity_resolution_m_s = zero_or_positive(value, key);
+  else return false;
+  return true;
+}
+
+bool diagnose_option(const std::string& key, const py::handle& value, DiagnoseOptions& d) {
+  if (key == "folds") d.folds = whole_at_least(value, key, 2);
+  else if (key == "block") d.block_s = number(value, key);
+  else return identify_option(key, value, d.identify);
+  return true;
+}
+
+bool validate_option(const std::string& key, const py::handle& value, ValidateOptions& v) {
+  if (key == "filter") v.filter_hz = number(value, key);
+  else if (key == "decimate") v.decimate = whole_at_least(value, key, 1);
+  else if (key == "drop_first") v.drop_first = whole_at_least(value, key, 0);
+  else return false;
+  return true;
+}
+
+/// What a call runs; `read` takes the input options alone.
+enum class Command { identify, diagnose, validate, read };
+
+/// Options as keyword arguments, those of `command` and the input's; any
+/// other name is a TypeError naming it (an option silently ignored, or
+/// misspelt, would give another answer).
+CallOptions call_options(const py::dict& kw, Command command) {
   CallOptions o;
-  IdentifyOptions& id = o.identify;
-  CsvColumns& c = o.columns;
   Axis axis = Axis::linear;
   std::string force_unit;
   for (const auto& [k, value] : kw) {
     const auto key = py::cast<std::string>(k);
     if (value.is_none()) continue;  // None: the default, as an option not given
-    if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
-    else if (key == "alignment") id.alignment = py::cast<std::string>(value);
-    else if (key == "force_lag_s") id.force_lag_s = number(value, key);
-    else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
-    else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
-    else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);
-    else if (key == "velocity_resolution") id.velocity_resolution_m_s = zero_or_positive(value, key);
-    else if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
-    else if (key == "force_unit") force_unit = py::cast<std::string>(value);
-    else if (key == "position_scale") c.position_scale = number(value, key);
-    else if (key == "force_scale") c.force_scale = number(value, key);
-    else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
-    else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
-    else if (key == "time") c.time = py::cast<std::string>(value);
-    else if (key == "position") c.position = py::cast<std::string>(value);
-    else if (key == "velocity") c.velocity = py::cast<std::string>(value);
-    else if (key == "force") c.force = py::cast<std::string>(value);
-    else throw py::type_error("unknown option '" + key + "'");
+    const bool known = input_option(key, value, o.columns, axis, force_unit) ||
+                       (command == Command::identify && identify_option(key, value, o.diagnose.identify)) ||
+                       (command == Command::diagnose && diagnose_option(key, value, o.diagnose)) ||
+                       (command == Command::validate && validate_option(key, value, o.validate));
+    if (!known) throw py::type_error("unknown option '" + key + "'");
   }
-  id.units = units_for(axis, force_unit);
+  o.units = o.diagnose.identify.units = o.validate.units = units_for(axis, force_unit);
   return o;
+}
+
+Command command_named(const std::string& name) {
+  if (name == "identify") return Command::identify;
+  if (name == "diagnose") return Command::diagnose;
+  if (name == "validate") return Command::validate;
+  throw py::value_error("no command '" + name + "' (identify, diagnose, validate)");
 }
 
 std::vector<double> to_vector(const py::object& a) {
@@ -96,26 +148,40 @@ std::vector<double> to_vector(const py::object& a) {
   return std::vector<double>(arr.data(), arr.data() + arr.size());
 }
 
-/// identify() on a trace read without the GIL; the JSON text.
-std::string identify_json(const CsvResult& read, const IdentifyOptions& opt) {
+/// The command on a trace read without the GIL; the JSON text of its --json.
+/// model_text: validate's model (identify's JSON), in the log's units.
+std::string run(Command command, const CsvResult& read, const CallOptions& o, const std::string& model_text) {
   if (!read.ok) throw std::invalid_argument(read.error);
-  return to_json(identify(read.trace, opt)).dump();
+  switch (command) {
+    case Command::identify: return to_json(identify(read.trace, o.diagnose.identify)).dump();
+    case Command::diagnose: return to_json(diagnose(read.trace, o.diagnose)).dump();
+    case Command::validate: break;
+    case Command::read: throw std::logic_error("read is not a command on a trace");
+  }
+  const nlohmann::json model_json = nlohmann::json::parse(model_text);
+  if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
+    throw std::invalid_argument("model: " + why);
+  const DriveParams model = model_from_json(model_json);
+  return to_json(validate(model, read.trace, o.validate), model, o.validate).dump();
 }
 
-std::string identify_arrays(const py::object& t, const py::object& x, const py::object& v, const py::object& u,
-                            const py::dict& kw) {
-  const CallOptions o = call_options(kw);
+std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,
+                       const py::object& u, const py::dict& kw, const std::string& model_text) {
+  const Command command = command_named(name);
+  const CallOptions o = call_options(kw, command);
   TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
   if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
   py::gil_scoped_release release;
-  return identify_json(trace_from_columns(c, o.columns, "arrays", 0), o.identify);
+  return run(command, trace_from_columns(c, o.columns, "arrays", 0), o, model_text);
 }
 
-std::string identify_files(const std::vector<std::string>& paths, const py::dict& kw) {
-  const CallOptions o = call_options(kw);
+std::string run_files(const std::string& name, const std::vector<std::string>& paths, const py::dict& kw,
+                      const std::string& model_text) {
+  const Command command = command_named(name);
+  const CallOptions o = call_options(kw, command);
   if (paths.empty()) throw py::value_error("no recording: give one path or several to pool");
   py::gil_scoped_release release;
-  return identify_json(read_trace_files(paths, o.columns), o.identify);
+  return run(command, read_trace_files(paths, o.columns), o, model_text);
 }
 
 Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
@@ -128,7 +194,7 @@ Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
 /// A trace file through the host reader: its signals in SI units (after the
 /// scales) as arrays, None for a signal not logged, and what was left out.
 py::dict read_signals(const std::string& path, const py::dict& kw) {
-  const CallOptions o = call_options(kw);
+  const CallOptions o = call_options(kw, Command::read);
   CsvResult r;
   {
     py::gil_scoped_release release;
@@ -151,9 +217,10 @@ py::dict read_signals(const std::string& path, const py::dict& kw) {
 
 PYBIND11_MODULE(_feedid, m) {
   m.doc() = "feedid's host reader and identification (the package feedid wraps it)";
-  m.def("identify_arrays", &identify_arrays, py::arg("t"), py::arg("x"), py::arg("v"), py::arg("u"), py::arg("options"),
-        "identify() on signals in memory; the JSON text of the CLI's --json");
-  m.def("identify_files", &identify_files, py::arg("paths"), py::arg("options"),
-        "identify() on one trace file, or several pooled as runs; the JSON text");
+  m.def("run_arrays", &run_arrays, py::arg("command"), py::arg("t"), py::arg("x"), py::arg("v"), py::arg("u"),
+        py::arg("options"), py::arg("model") = "",
+        "identify, diagnose or validate on signals in memory; the JSON text of the CLI's --json");
+  m.def("run_files", &run_files, py::arg("command"), py::arg("paths"), py::arg("options"), py::arg("model") = "",
+        "the same on one trace file, or several pooled as runs");
   m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
 }

@@ -28,9 +28,14 @@ PARAMS = [("m",)] + [(d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs
 
 def cli_identify(paths, *options):
     """`feedid identify --json` on the files: its JSON dict."""
+    return cli("identify", paths, *options)
+
+
+def cli(command, paths, *options):
+    """`feedid <command> --json` on the files: its JSON dict."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "r.json")
-        args = [os.path.join(BIN, "feedid"), "identify", "--json", out, *options]
+        args = [os.path.join(BIN, "feedid"), command, "--json", out, *options]
         for p in paths:
             args += ["--in", p]
         subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -62,6 +67,36 @@ class EmpsArrays(unittest.TestCase):
         self.assertEqual(py["units"], cli["units"])
         self.assertEqual(set(py), set(cli))
 
+    def test_diagnose_and_validate_give_the_cli_results(self):
+        # GIVEN the EMPS arrays, a model identified from them and the held-out pulses log
+        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+        p = np.genfromtxt(pulses, delimiter=",", names=True)
+        # WHEN diagnosed and validated from Python and by the CLI
+        dg = feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"])
+        val = feedid.validate(model, p["t_s"], p["qm_m"], p["force_N"])
+        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+            json.dump(model, f)
+            f.flush()
+            cli_val = cli("validate", [pulses], "--model", f.name, *cols)
+        cli_dg = cli("diagnose", [EMPS], *cols)
+        # THEN the same effects, noise floor and force error
+        self.assertEqual(dg["effect"], cli_dg["effect"])
+        self.assertEqual(dg["effects"], cli_dg["effects"])
+        self.assertAlmostEqual(dg["noise_floor_N"], cli_dg["noise_floor_N"], delta=1e-9 * cli_dg["noise_floor_N"])
+        self.assertEqual(set(dg), set(cli_dg))
+        self.assertAlmostEqual(val["relative_error_pct"], cli_val["relative_error_pct"], delta=1e-9 * cli_val["relative_error_pct"])
+        self.assertEqual(set(val), set(cli_val))
+
+    def test_a_model_in_other_units_is_refused(self):
+        d = np.genfromtxt(EMPS, delimiter=",", names=True, max_rows=3000)
+        rotary = {"m": 1, "pos": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0}, "neg": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0},
+                  "units": {"position": "rad", "force": "N m"}}
+        with self.assertRaisesRegex(ValueError, "the model is in rad and N m"):
+            feedid.validate(rotary, d["t_s"], d["qm_m"], d["force_N"])
+
     def test_read_gives_the_arrays_the_file_holds(self):
         r = feedid.read(EMPS, time="t_s", position="qm_m", force="force_N")
         d = np.genfromtxt(EMPS, delimiter=",", names=True)
@@ -86,6 +121,8 @@ class Errors(unittest.TestCase):
             feedid.identify(t, t, t, velocity_filter=-1)
         with self.assertRaisesRegex(ValueError, "differ in length"):
             feedid.identify(t, t[:50], t)
+        with self.assertRaisesRegex(TypeError, "unknown option 'velocity_filter'"):
+            feedid.validate({}, t, t, t, velocity_filter=10)  # identify's option, not validate's
 
     def test_a_missing_file_is_the_readers_message(self):
         with self.assertRaises(ValueError) as e:

@@ -1,5 +1,6 @@
 """feedid from Python: identify a feed drive's mass and friction from numpy
-arrays or trace files, with the host tool's own reader and identify().
+arrays or trace files, diagnose the gap and validate a model, with the host
+tool's own reader, identify(), diagnose() and validate().
 
 Results are the dicts of the CLI's JSON (``feedid identify --json``), parsed:
 the same keys, units in ``result["units"]``. Errors are exceptions carrying
@@ -11,7 +12,8 @@ import os
 
 from . import _feedid
 
-__all__ = ["Error", "NotPhysical", "identify", "identify_files", "read"]
+__all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
+           "validate_files", "read"]
 
 
 class Error(ValueError):
@@ -29,18 +31,30 @@ class NotPhysical(Error):
     with ``physical`` false, for inspection."""
 
 
-def _checked(text):
-    """The JSON text of identify's to_json as a dict; raises where the CLI
-    exits 2 (an error, or a model that is not physical)."""
+def _failed_on_error(text):
+    """The JSON text of a command's to_json as a dict; Error where it carries one."""
     result = json.loads(text)
     if result.get("error"):
         raise Error(result["error"], result)
+    return result
+
+
+def _checked(text):
+    """The JSON text of identify's to_json as a dict; raises where the CLI
+    exits 2 (an error, or a model that is not physical)."""
+    result = _failed_on_error(text)
     if result.get("physical") is False:
         raise NotPhysical(
             "the identified model is not physical: %s. Such a model pushes with the motion, and so would a "
             "compensation from it. Likeliest cause: %s" % (result.get("not_physical"), result.get("not_physical_cause")),
             result)
     return result
+
+
+def _signals(t, x, u, v):
+    if u is None:
+        raise TypeError("the drive force u is required")
+    return t, x, v, u
 
 
 def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
@@ -62,10 +76,27 @@ def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **opt
     the model is not physical, ValueError for bad input, TypeError for an
     unknown option. The GIL is released while the host works.
     """
-    if u is None:
-        raise TypeError("identify() needs u, the drive force")
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.identify_arrays(t, x, v, u, options))
+    return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
+
+
+def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+    """``feedid diagnose`` on signals (as identify()'s): the gap between the
+    identified model and the trace, and the effect that explains it. options:
+    identify's, plus folds and block (s). The dict of ``diagnose --json``;
+    Error with the host's message where the CLI exits 2."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options))
+
+
+def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+    """``feedid validate``: model (identify's dict, or a truth dict) predicts
+    the force of these signals (as identify()'s). options: filter (Hz),
+    decimate, drop_first and the input options. The dict of ``validate
+    --json``; a model in other units than axis and force_unit give is a
+    ValueError."""
+    options.update(axis=axis, force_unit=force_unit)
+    return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, json.dumps(model)))
 
 
 def _paths(paths):
@@ -80,7 +111,19 @@ def identify_files(paths, axis="linear", force_unit=None, **options):
     position, velocity and force (default t, x, v, u).
     """
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.identify_files(_paths(paths), options))
+    return _checked(_feedid.run_files("identify", _paths(paths), options))
+
+
+def diagnose_files(paths, axis="linear", force_unit=None, **options):
+    """diagnose() on trace files (as identify_files())."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options))
+
+
+def validate_files(model, paths, axis="linear", force_unit=None, **options):
+    """validate() on trace files (as identify_files())."""
+    options.update(axis=axis, force_unit=force_unit)
+    return json.loads(_feedid.run_files("validate", _paths(paths), options, json.dumps(model)))
 
 
 def read(path, **columns):
