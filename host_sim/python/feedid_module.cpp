@@ -1,5 +1,5 @@
-// feedid._feedid: the host's reader, identify(), diagnose() and validate() for
-// Python (pybind11).
+// feedid._feedid: the host's reader, identify(), diagnose(), validate() and
+// monitor() for Python (pybind11).
 // The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
 // results cross as the JSON text of each command's to_json, the CLI's --json.
 // Nothing here prints: errors go to Python as exceptions with the host's
@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <climits>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -22,6 +23,7 @@
 #include "io/trace_files.hpp"
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
+#include "monitor/monitor.hpp"
 #include "validate/validate.hpp"
 
 namespace py = pybind11;
@@ -38,6 +40,7 @@ struct CallOptions {
   Units units;
   DiagnoseOptions diagnose;  ///< its .identify: identify's options
   ValidateOptions validate;
+  MonitorOptions monitor;
 };
 
 double number(const py::handle& value, const std::string& key) {
@@ -53,9 +56,11 @@ double zero_or_positive(const py::handle& value, const std::string& key) {
   return x;
 }
 
-int whole_at_least(const py::handle& value, const std::string& key, int least) {
+int whole_in(const py::handle& value, const std::string& key, int least, int most = INT_MAX) {
   const int n = py::cast<int>(value);
-  if (n < least) throw py::value_error(key + ": " + std::to_string(n) + " is below " + std::to_string(least));
+  if (n < least || n > most)
+    throw py::value_error(key + ": " + std::to_string(n) + " is outside " + std::to_string(least) + " .. " +
+                          (most == INT_MAX ? std::string("") : std::to_string(most)));
   return n;
 }
 
@@ -97,7 +102,7 @@ bool identify_option(const std::string& key, const py::handle& value, IdentifyOp
 }
 
 bool diagnose_option(const std::string& key, const py::handle& value, DiagnoseOptions& d) {
-  if (key == "folds") d.folds = whole_at_least(value, key, 2);
+  if (key == "folds") d.folds = whole_in(value, key, 2);
   else if (key == "block") d.block_s = number(value, key);
   else return identify_option(key, value, d.identify);
   return true;
@@ -105,14 +110,28 @@ bool diagnose_option(const std::string& key, const py::handle& value, DiagnoseOp
 
 bool validate_option(const std::string& key, const py::handle& value, ValidateOptions& v) {
   if (key == "filter") v.filter_hz = number(value, key);
-  else if (key == "decimate") v.decimate = whole_at_least(value, key, 1);
-  else if (key == "drop_first") v.drop_first = whole_at_least(value, key, 0);
+  else if (key == "decimate") v.decimate = whole_in(value, key, 1);
+  else if (key == "drop_first") v.drop_first = whole_in(value, key, 0);
   else return false;
   return true;
 }
 
 /// What a call runs; `read` takes the input options alone.
-enum class Command { identify, diagnose, validate, read };
+bool monitor_option(const std::string& key, const py::handle& value, MonitorOptions& m) {
+  if (key == "epoch_s") {
+    m.detector.epoch_s = number(value, key);
+    if (!(m.detector.epoch_s > 0)) throw py::value_error(key + ": the epoch must be longer than 0 s");
+  } else if (key == "reference_epochs") {
+    m.detector.reference_epochs = whole_in(value, key, 3, feedid::ChangeMonitor<double>::kMaxReferenceEpochs);
+  } else if (key == "threshold") {
+    m.detector.threshold = number(value, key);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+enum class Command { identify, diagnose, validate, monitor, read };
 
 /// Options as keyword arguments, those of `command` and the input's; any
 /// other name is a TypeError naming it (an option silently ignored, or
@@ -127,10 +146,11 @@ CallOptions call_options(const py::dict& kw, Command command) {
     const bool known = input_option(key, value, o.columns, axis, force_unit) ||
                        (command == Command::identify && identify_option(key, value, o.diagnose.identify)) ||
                        (command == Command::diagnose && diagnose_option(key, value, o.diagnose)) ||
-                       (command == Command::validate && validate_option(key, value, o.validate));
+                       (command == Command::validate && validate_option(key, value, o.validate)) ||
+                       (command == Command::monitor && monitor_option(key, value, o.monitor));
     if (!known) throw py::type_error("unknown option '" + key + "'");
   }
-  o.units = o.diagnose.identify.units = o.validate.units = units_for(axis, force_unit);
+  o.units = o.diagnose.identify.units = o.validate.units = o.monitor.identify.units = units_for(axis, force_unit);
   return o;
 }
 
@@ -156,7 +176,8 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
     case Command::identify: return to_json(identify(read.trace, o.diagnose.identify)).dump();
     case Command::diagnose: return to_json(diagnose(read.trace, o.diagnose)).dump();
     case Command::validate: break;
-    case Command::read: throw std::logic_error("read is not a command on a trace");
+    case Command::monitor:
+    case Command::read: throw std::logic_error("monitor and read are not commands on a whole trace");
   }
   const nlohmann::json model_json = nlohmann::json::parse(model_text);
   if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
@@ -182,6 +203,16 @@ std::string run_files(const std::string& name, const std::vector<std::string>& p
   if (paths.empty()) throw py::value_error("no recording: give one path or several to pool");
   py::gil_scoped_release release;
   return run(command, read_trace_files(paths, o.columns), o, model_text);
+}
+
+/// `feedid monitor` on one CSV log, read row by row in constant memory; the
+/// JSON text of its --json (its error, where reading stopped, inside).
+std::string monitor_file(const std::string& path, const py::dict& kw) {
+  const CallOptions o = call_options(kw, Command::monitor);
+  py::gil_scoped_release release;
+  CsvStream in(path, o.columns);
+  if (!in.ok()) throw std::invalid_argument(in.error());
+  return to_json(monitor(in, o.monitor), o.monitor).dump();
 }
 
 Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
@@ -222,5 +253,7 @@ PYBIND11_MODULE(_feedid, m) {
         "identify, diagnose or validate on signals in memory; the JSON text of the CLI's --json");
   m.def("run_files", &run_files, py::arg("command"), py::arg("paths"), py::arg("options"), py::arg("model") = "",
         "the same on one trace file, or several pooled as runs");
+  m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
+        "friction health of one CSV log, streamed; the JSON text of monitor --json");
   m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
 }

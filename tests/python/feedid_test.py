@@ -160,5 +160,34 @@ class Fleet(unittest.TestCase):
             self.assertEqual(frame["units"][i]["sigma"], "V s/rad")
 
 
+class Monitor(unittest.TestCase):
+    def test_monitor_many_gives_the_cli_alarms_one_row_per_log(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+            import feedid.fleet
+        except ImportError as e:
+            self.skipTest("no dask.distributed or pandas: %s" % e)
+        with tempfile.TemporaryDirectory() as tmp:
+            # GIVEN a simulated log whose Coulomb friction steps up by half at 150 s, and a log that is not there
+            log = os.path.join(tmp, "change.csv")
+            subprocess.run([os.path.join(BIN, "feedid"), "simulate", "--program", "sine", "--duration", "240",
+                            "--change-time", "150", "--change-coulomb-fraction", "0.5", "--out", log],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # WHEN monitored as dask tasks on 2 workers, and by the CLI
+            with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+                    Client(cluster) as client:
+                frame = feedid.fleet.monitor_many([log, os.path.join(tmp, "missing.csv")], client=client)
+            cli_mon = cli("monitor", [log])
+            py_mon = feedid.monitor(log)
+        # THEN the CLI's alarms, in both; the missing log is a row with its error
+        self.assertEqual(py_mon["alarms"], cli_mon["alarms"])
+        self.assertEqual(len(frame), 2)
+        self.assertEqual(frame["alarms"][0], len(cli_mon["alarms"]))
+        self.assertEqual(frame["first_alarm_parameter"][0], "fc")
+        self.assertEqual(frame["first_alarm_t_s"][0], cli_mon["alarms"][0]["t_s"])
+        self.assertEqual(frame["epochs"][0], len(cli_mon["epochs"]))
+        self.assertIn("missing.csv", frame["error"][1])
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -13,7 +13,7 @@ import os
 from . import _feedid
 
 __all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
-           "validate_files", "read"]
+           "validate_files", "monitor", "read"]
 
 
 class Error(ValueError):
@@ -124,6 +124,16 @@ def validate_files(model, paths, axis="linear", force_unit=None, **options):
     """validate() on trace files (as identify_files())."""
     options.update(axis=axis, force_unit=force_unit)
     return json.loads(_feedid.run_files("validate", _paths(paths), options, json.dumps(model)))
+
+
+def monitor(path, axis="linear", force_unit=None, **options):
+    """``feedid monitor`` on one CSV log, read row by row in constant memory:
+    each epoch's parameters and the change alarms. options: epoch_s,
+    reference_epochs, threshold and the input options. The dict of
+    ``monitor --json``; Error (with the epochs so far in ``result``) where
+    reading stopped."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.monitor_file(os.fspath(path), options))
 
 
 def read(path, **columns):

@@ -1,4 +1,5 @@
-"""A fleet's logs on dask.distributed: one task per log, one row per log.
+"""A fleet's logs on dask.distributed: one task per log, one row per log
+(identify_many, monitor_many).
 
 Each task runs on a worker, reads its file(s) with the host reader and
 identifies them there (feedid must be importable on the workers). A log
@@ -53,6 +54,28 @@ def identify_log(paths, options):
         return row(paths, None, "%s: %s" % (type(e).__name__, e))
 
 
+def monitor_row(path, result, error=""):
+    """One log's health row: path, epochs, epochs identified, alarms, the
+    first alarm's parameter, direction and time, and the error."""
+    epochs = (result or {}).get("epochs", [])
+    alarms = (result or {}).get("alarms", [])
+    first = alarms[0] if alarms else {}
+    return {"path": path, "epochs": len(epochs), "epochs_identified": sum(1 for e in epochs if not e.get("error")),
+            "alarms": len(alarms), "first_alarm_parameter": first.get("parameter"),
+            "first_alarm_direction": first.get("direction"), "first_alarm_t_s": first.get("t_s"),
+            "first_alarm_change_pct": first.get("change_pct"), "units": (result or {}).get("units"), "error": error}
+
+
+def monitor_log(path, options):
+    """The task: one log's friction health on the worker that runs it."""
+    try:
+        return monitor_row(path, feedid.monitor(path, **options))
+    except ValueError as e:
+        return monitor_row(path, getattr(e, "result", None), str(e))
+    except Exception as e:  # a bad log is a row, never the end of the fleet
+        return monitor_row(path, None, "%s: %s" % (type(e).__name__, e))
+
+
 def _groups(paths_or_groups):
     """Each item is a log: a path, or a list of paths pooled as runs."""
     return [feedid._paths(g) for g in paths_or_groups]
@@ -73,10 +96,25 @@ def identify_many(paths_or_groups, client=None, **options):
     _se and _identifiable, pos_flags, neg_flags, symmetric_sigma/_fc (when
     the directions agree), physical, units (the JSON's units dict), error.
     """
+    return _on_cluster(identify_log, _groups(paths_or_groups), client, options)
+
+
+def monitor_many(paths, client=None, **options):
+    """feedid.monitor on every log (one CSV each) as its own dask task; a
+    pandas DataFrame, one row per log in the order given: path, epochs,
+    epochs_identified, alarms, first_alarm_parameter, _direction, _t_s,
+    _change_pct, units, error. client and options as identify_many's
+    (epoch_s, reference_epochs, threshold and the input options)."""
+    return _on_cluster(monitor_log, [feedid._paths(p)[0] for p in paths], client, options)
+
+
+def _on_cluster(task, logs, client, options):
+    """task(log, options) for every log, one dask task each, on client (a
+    Client, a scheduler address, or None: a LocalCluster for the call); the
+    rows as a DataFrame in the order given."""
     import pandas
     from dask.distributed import Client, LocalCluster
 
-    groups = _groups(paths_or_groups)
     own = None
     if client is None:
         own = Client(LocalCluster())
@@ -85,8 +123,7 @@ def identify_many(paths_or_groups, client=None, **options):
         own = Client(client)
         client = own
     try:
-        futures = client.map(identify_log, groups, options=options, pure=False)
-        rows = client.gather(futures)
+        rows = client.gather(client.map(task, logs, options=options, pure=False))
     finally:
         if own is not None:
             cluster = own.cluster
