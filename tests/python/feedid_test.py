@@ -138,20 +138,25 @@ class Fleet(unittest.TestCase):
             import feedid.fleet
         except ImportError as e:
             self.skipTest("no dask.distributed or pandas: %s" % e)
-        # GIVEN two mechanisms' pooled runs and one log that cannot be read
-        logs = [sysid_log("compbot_drive_left"), sysid_log("compbot_spu"), [os.path.join(SYSID, "missing.csv")]]
+        # GIVEN two mechanisms' pooled runs, one log that cannot be read, and one
+        # run alone, whose model is not physical (the CLI exits 2 on it)
+        logs = [sysid_log("compbot_drive_left"), sysid_log("compbot_spu"), [os.path.join(SYSID, "missing.csv")],
+                sysid_log("compbot_drive_left")[:1]]
         # WHEN identified as dask tasks on a 2-worker LocalCluster (threads: no process start-up in CI)
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
                 Client(cluster) as client:
             self.assertEqual(len(client.scheduler_info()["workers"]), 2)
             frame = feedid.fleet.identify_many(logs, client=client, axis="rotary", force_unit="V")
         # THEN one row per log, in order; the bad one carries its error and stopped nothing
-        self.assertEqual(len(frame), 3)
+        self.assertEqual(len(frame), 4)
         self.assertIn("missing.csv", frame["error"][2])
         self.assertEqual(frame["status"][2], "error")
+        self.assertEqual(frame["status"][3], "not_physical")
+        self.assertIn("not physical", frame["error"][3])
         for i, paths in enumerate(logs[:2]):
             cli = cli_identify(paths, "--axis", "rotary", "--force-unit", "V")
             self.assertEqual(frame["error"][i], "")
+            self.assertEqual(frame["status"][i], "ok")
             self.assertEqual(frame["path"][i], " + ".join(paths))
             for d in ("pos", "neg"):
                 self.assertEqual(frame[d + "_sigma"][i], cli[d]["sigma"])
