@@ -141,19 +141,23 @@ def _on_cluster(task, logs, client, options):
     return pandas.DataFrame(rows)
 
 
-def logs_per_second(paths_or_groups, workers=(1, 2), repeat=1, **options):
+def logs_per_second(paths_or_groups, workers=(1, 2), repeat=1, rounds=3, **options):
     """Fleet throughput: for each worker count, a LocalCluster of that many
     single-threaded worker processes runs identify_many over the logs
-    (repeat times the list), after one warm-up task; logs per second of
-    wall time. A dict {workers: logs/s}."""
+    (repeat times the list), after feedid is imported on every worker;
+    logs per second of wall time. The counts take turns over `rounds`
+    rounds, so that load from elsewhere falls on each alike; the median
+    round per count. A dict {workers: logs/s}."""
     from dask.distributed import Client, LocalCluster
 
     groups = _groups(paths_or_groups) * repeat
-    out = {}
-    for n in workers:
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
-            client.run(lambda: __import__("feedid"))  # imports on every worker before the clock starts
-            start = time.perf_counter()
-            frame = identify_many(groups, client=client, **options)
-            out[n] = len(frame) / (time.perf_counter() - start)
-    return out
+    runs = {n: [] for n in workers}
+    for _ in range(rounds):
+        for n in workers:
+            with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+                    Client(cluster) as client:
+                client.run(lambda: __import__("feedid"))  # imports on every worker before the clock starts
+                start = time.perf_counter()
+                frame = identify_many(groups, client=client, **options)
+                runs[n].append(len(frame) / (time.perf_counter() - start))
+    return {n: sorted(r)[len(r) // 2] for n, r in runs.items()}
