@@ -1,5 +1,5 @@
-// feedid._feedid: the host's reader, identify(), diagnose(), validate() and
-// monitor() for Python (pybind11).
+// feedid._feedid: the host's reader, identify(), diagnose(), validate(),
+// monitor() and the compensation table for Python (pybind11).
 // The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
 // results cross as the JSON text of each command's to_json, the CLI's --json.
 // Nothing here prints: errors go to Python as exceptions with the host's
@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "compensate/compensate.hpp"
 #include "diagnose/diagnose.hpp"
 #include "identify/identify.hpp"
 #include "io/column_trace.hpp"
@@ -215,6 +216,25 @@ std::string monitor_file(const std::string& path, const py::dict& kw) {
   return to_json(monitor(in, o.monitor), o.monitor).dump();
 }
 
+/// `feedid compensate`: the friction table a drive can load, from a model
+/// JSON (identify's); the JSON text of the table, or its CSV with format "csv".
+std::string compensate_model_text(const std::string& model_text, const py::dict& kw) {
+  CompensateOptions opt;
+  std::string format = "json";
+  for (const auto& [k, value] : kw) {
+    const auto key = py::cast<std::string>(k);
+    if (value.is_none()) continue;
+    if (key == "points") opt.points = whole_in(value, key, 2, kMaxTablePoints);
+    else if (key == "max_speed") opt.max_speed_m_s = zero_or_positive(value, key);
+    else if (key == "force_scale") opt.force_scale = number(value, key);
+    else if (key == "force_unit") opt.force_unit = py::cast<std::string>(value);
+    else if (key == "format") format = one_of(value, key, {"json", "csv"});
+    else throw py::type_error("unknown option '" + key + "'");
+  }
+  const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
+  return format == "csv" ? to_csv(c.table, opt) : c.json.dump();
+}
+
 Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
   Array out(static_cast<py::ssize_t>(s.size()));
   double* p = out.mutable_data();
@@ -255,5 +275,7 @@ PYBIND11_MODULE(_feedid, m) {
         "the same on one trace file, or several pooled as runs");
   m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
         "friction health of one CSV log, streamed; the JSON text of monitor --json");
+  m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),
+        "the friction table of a model JSON text; its JSON text, or CSV");
   m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
 }

@@ -90,6 +90,27 @@ class EmpsArrays(unittest.TestCase):
         self.assertAlmostEqual(val["relative_error_pct"], cli_val["relative_error_pct"], delta=1e-9 * cli_val["relative_error_pct"])
         self.assertEqual(set(val), set(cli_val))
 
+    def test_compensate_gives_the_cli_table(self):
+        # GIVEN the model identified from the EMPS arrays, and the same as a file
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "model.json")
+            with open(path, "w") as f:
+                json.dump(model, f)
+            out = os.path.join(tmp, "table.json")
+            subprocess.run([os.path.join(BIN, "feedid"), "compensate", "--model", path, "--points", "12", "--out", out],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            with open(out) as f:
+                cli_table = json.load(f)
+        # WHEN its table is made from Python; THEN it is the CLI's
+        self.assertEqual(feedid.compensate(model, points=12), cli_table)
+        # and a model that is not physical is refused with the CLI's words
+        model["m"] = -1.0
+        model["physical"] = False
+        with self.assertRaisesRegex(ValueError, "no compensation written"):
+            feedid.compensate(model)
+
     def test_a_model_in_other_units_is_refused(self):
         d = np.genfromtxt(EMPS, delimiter=",", names=True, max_rows=3000)
         rotary = {"m": 1, "pos": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0}, "neg": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0},

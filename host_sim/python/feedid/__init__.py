@@ -13,7 +13,7 @@ import os
 from . import _feedid
 
 __all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
-           "validate_files", "monitor", "read"]
+           "validate_files", "monitor", "compensate", "read"]
 
 
 class Error(ValueError):
@@ -134,6 +134,17 @@ def monitor(path, axis="linear", force_unit=None, **options):
     reading stopped."""
     options.update(axis=axis, force_unit=force_unit)
     return _failed_on_error(_feedid.monitor_file(os.fspath(path), options))
+
+
+def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None, format="json"):
+    """``feedid compensate``: the speed -> friction table per direction a
+    drive can load, from identify's dict. max_speed 0: the model's
+    config.velocity_max_m_s. The table's dict (``--format json``), or its
+    CSV text with format="csv". A model that cannot be compensated with
+    (not ok, not physical) is a ValueError with the CLI's message."""
+    text = _feedid.compensate(json.dumps(model), dict(points=points, max_speed=max_speed, force_scale=force_scale,
+                                                      force_unit=force_unit, format=format))
+    return text if format == "csv" else json.loads(text)
 
 
 def read(path, **columns):
