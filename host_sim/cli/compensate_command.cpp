@@ -28,38 +28,19 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
-  std::string unusable;
+  ModelCompensation c;
   try {
-    unusable = unusable_model(mj);
-  } catch (const std::exception& e) {
-    unusable = e.what();
-  }
-  if (!unusable.empty()) {
-    std::fprintf(stderr, "error: %s: %s: no compensation written\n", model_path.c_str(), unusable.c_str());
-    return 2;
-  }
-  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
-    opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
-  if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
-    std::fprintf(stderr, "error: --force-scale %g: must be finite and non-zero\n", opt.force_scale);
-    return 2;
-  }
-  CompensationTable t;
-  try {
-    if (opt.max_speed_m_s <= 0)
-      throw std::invalid_argument(model_path + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
-    t = make_compensation_table(model_from_json(mj), opt.max_speed_m_s, opt.points);
+    c = compensate_model(mj, opt, model_path);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
-  if (mj.contains("input") && mj["input"].value("force_sign", 1) < 0)
+  const CompensationTable& t = c.table;
+  if (c.force_negated)
     std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "
                  "motion as logged); the table is friction along the logged position, so in the drive's own force "
                  "sign the feedforward is minus these values\n", model_path.c_str());
-  nlohmann::json table = to_json(t, opt);
-  if (mj.contains("units")) table["model_units"] = mj["units"];  // the table's speeds and forces are in these
-  const std::string text = format == "csv" ? to_csv(t, opt) : table.dump(2) + "\n";
+  const std::string text = format == "csv" ? to_csv(t, opt) : c.json.dump(2) + "\n";
   if (out_path.empty()) {
     std::cout << text;
   } else {

@@ -190,4 +190,29 @@ std::string unusable_model(const nlohmann::json& mj) {
   return "";
 }
 
+ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions opt, const std::string& source) {
+  std::string unusable;
+  try {
+    unusable = unusable_model(mj);
+  } catch (const std::exception& e) {
+    unusable = e.what();
+  }
+  if (!unusable.empty()) throw std::invalid_argument(source + ": " + unusable + ": no compensation written");
+  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
+    opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
+  if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "--force-scale %g: must be finite and non-zero", opt.force_scale);
+    throw std::invalid_argument(buf);
+  }
+  if (opt.max_speed_m_s <= 0)
+    throw std::invalid_argument(source + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
+  ModelCompensation c;
+  c.table = make_compensation_table(model_from_json(mj), opt.max_speed_m_s, opt.points);
+  c.json = to_json(c.table, opt);
+  if (mj.contains("units")) c.json["model_units"] = mj["units"];  // the table's speeds and forces are in these
+  c.force_negated = mj.contains("input") && mj["input"].value("force_sign", 1) < 0;
+  return c;
+}
+
 }  // namespace feedid::host

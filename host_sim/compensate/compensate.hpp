@@ -55,5 +55,21 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
 /// empty when it can. Throws as model_from_json on a malformed model.
 std::string unusable_model(const nlohmann::json& model);
 
+/// A model JSON's compensation: the table and its JSON (with the model's
+/// units as model_units), and whether the model was identified with the
+/// logged force negated (input.force_sign -1: the drive's feedforward is
+/// then minus the table).
+struct ModelCompensation {
+  CompensationTable table;
+  nlohmann::json json;
+  bool force_negated = false;
+};
+
+/// The table for a model JSON (identify's): up to opt.max_speed_m_s, or
+/// its config.velocity_max_m_s when that is 0. Throws std::invalid_argument
+/// naming `source` when the model cannot be compensated with
+/// (unusable_model), has no top speed, or opt cannot be applied.
+ModelCompensation compensate_model(const nlohmann::json& model, CompensateOptions opt, const std::string& source);
+
 
 }  // namespace feedid::host

@@ -12,6 +12,7 @@
 
 #include <matio.h>
 
+#include "column_trace.hpp"
 #include "message_text.hpp"
 #include "trace_rows.hpp"
 
@@ -175,59 +176,20 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
   }
   result.error = truncated_variable(path);
   if (!result.error.empty()) return result;
-  Trace& tr = result.trace;
-  tr.has_position = has_variable(mat.get(), columns.position);
-  tr.has_velocity = has_variable(mat.get(), columns.velocity);
-  tr.time_unit_stated = time_unit_stated(columns);
-  if (!tr.has_position && !tr.has_velocity) {
+  const bool has_position = has_variable(mat.get(), columns.position);
+  const bool has_velocity = has_variable(mat.get(), columns.velocity);
+  if (!has_position && !has_velocity) {
     result.error = path + ": no variable " + quoted_text(columns.position) + " (position) and no " +
                    quoted_text(columns.velocity) + " (velocity); need at least one; the file has: " + variable_list(path);
     return result;
   }
-  std::vector<double> t, x, v, u;
-  if (!read_vector(mat.get(), path, columns.time, "time", t, result.error) ||
-      !read_vector(mat.get(), path, columns.force, "force", u, result.error) ||
-      (tr.has_position && !read_vector(mat.get(), path, columns.position, "position", x, result.error)) ||
-      (tr.has_velocity && !read_vector(mat.get(), path, columns.velocity, "velocity", v, result.error)))
+  TraceColumns c;
+  if (!read_vector(mat.get(), path, columns.time, "time", c.t, result.error) ||
+      !read_vector(mat.get(), path, columns.force, "force", c.u, result.error) ||
+      (has_position && !read_vector(mat.get(), path, columns.position, "position", c.x, result.error)) ||
+      (has_velocity && !read_vector(mat.get(), path, columns.velocity, "velocity", c.v, result.error)))
     return result;
-  for (const auto* other : {&u, &x, &v})
-    if (!other->empty() && other->size() != t.size()) {
-      result.error = path + ": the variables differ in length (" + quoted_text(columns.time) + " has " + std::to_string(t.size()) +
-                     " elements, another " + std::to_string(other->size()) + ")";
-      return result;
-    }
-
-  RowRules rules(columns, tr, path + ": element ", "element");
-  auto stop = [&] {
-    result.error = rules.error();
-    return result;
-  };
-  tr.samples.reserve(t.size());
-  const double seconds_per_unit = time_scale(columns);
-  char time_text[32];
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    rules.count_row();
-    TraceSample s;
-    s.t_s = t[k] * seconds_per_unit;
-    s.x_m = x.empty() ? 0.0 : x[k] * columns.position_scale;
-    s.v_m_s = v.empty() ? 0.0 : v[k] * columns.position_scale;
-    s.u_N = u[k] * columns.force_scale;
-    const std::size_t row = k + 1;  // MATLAB counts from 1
-    if (!std::isfinite(s.t_s) || !std::isfinite(s.x_m) || !std::isfinite(s.v_m_s) || !std::isfinite(s.u_N)) {
-      if (!rules.bad(rules.at(row) + "a value is NaN/Inf")) return stop();
-      continue;
-    }
-    const TraceSample* last = tr.samples.empty() ? nullptr : &tr.samples.back();
-    if (last && last->t_s == s.t_s && last->x_m == s.x_m && last->v_m_s == s.v_m_s && last->u_N == s.u_N) {
-      rules.repeated();
-      continue;
-    }
-    std::snprintf(time_text, sizeof time_text, "%.17g", s.t_s);
-    if (!rules.take(s, time_text, row)) return stop();
-  }
-  if (!rules.finish(path)) return stop();
-  result.ok = true;
-  return result;
+  return trace_from_columns(c, columns, path, 1);  // MATLAB counts from 1
 }
 
 }  // namespace feedid::host

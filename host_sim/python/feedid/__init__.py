@@ -1,0 +1,156 @@
+"""feedid from Python: identify a feed drive's mass and friction from numpy
+arrays or trace files, diagnose the gap and validate a model, with the host
+tool's own reader, identify(), diagnose() and validate().
+
+Results are the dicts of the CLI's JSON (``feedid identify --json``), parsed:
+the same keys, units in ``result["units"]``. Errors are exceptions carrying
+the host's message. docs/python.md has examples; ``feedid.fleet`` runs many
+logs on a dask cluster.
+"""
+import json
+import os
+
+from . import _feedid
+
+__all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
+           "validate_files", "monitor", "compensate", "read"]
+
+
+class Error(ValueError):
+    """The host could not identify the trace; ``result`` holds its JSON dict
+    (status and error) when it got as far as identify()."""
+
+    def __init__(self, message, result=None):
+        super().__init__(message)
+        self.result = result
+
+
+class NotPhysical(Error):
+    """The identified model is not physical (a negative mass, Coulomb force
+    or viscous coefficient): the CLI's exit 2. ``result`` holds the figures
+    with ``physical`` false, for inspection."""
+
+
+def _failed_on_error(text):
+    """The JSON text of a command's to_json as a dict; Error where it carries one."""
+    result = json.loads(text)
+    if result.get("error"):
+        raise Error(result["error"], result)
+    return result
+
+
+def _checked(text):
+    """The JSON text of identify's to_json as a dict; raises where the CLI
+    exits 2 (an error, or a model that is not physical)."""
+    result = _failed_on_error(text)
+    if result.get("physical") is False:
+        raise NotPhysical(
+            "the identified model is not physical: %s. Such a model pushes with the motion, and so would a "
+            "compensation from it. Likeliest cause: %s" % (result.get("not_physical"), result.get("not_physical_cause")),
+            result)
+    return result
+
+
+def _signals(t, x, u, v):
+    if u is None:
+        raise TypeError("the drive force u is required")
+    return t, x, v, u
+
+
+def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+    """Identifies the nine parameters from one recording's signals.
+
+    t: time (s); x: position (m, or rad with axis="rotary"); u: drive force
+    (N, N m, or the unit force_unit names, e.g. "V"); v (keyword): velocity
+    (m/s or rad/s), optional where x is logged. One-dimensional arrays (or
+    sequences) of one length. Rows with NaN/Inf are skipped and counted
+    (bad_rows="error" to refuse them), rows repeating the previous exactly
+    are left out, and time must increase: the CSV reader's rules.
+
+    options: the CLI's identify options with '_' for '-': method,
+    alignment, force_lag_s, velocity_lag_s, velocity_filter, velocity_min,
+    velocity_resolution, position_scale, force_scale, time_scale, bad_rows.
+
+    Returns the dict of ``feedid identify --json``. Raises Error with the
+    host's message when the trace cannot be identified, NotPhysical when
+    the model is not physical, ValueError for bad input, TypeError for an
+    unknown option. The GIL is released while the host works.
+    """
+    options.update(axis=axis, force_unit=force_unit)
+    return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
+
+
+def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+    """``feedid diagnose`` on signals (as identify()'s): the gap between the
+    identified model and the trace, and the effect that explains it. options:
+    identify's, plus folds and block (s). The dict of ``diagnose --json``;
+    Error with the host's message where the CLI exits 2."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options))
+
+
+def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+    """``feedid validate``: model (identify's dict, or a truth dict) predicts
+    the force of these signals (as identify()'s). options: filter (Hz),
+    decimate, drop_first and the input options. The dict of ``validate
+    --json``; a model in other units than axis and force_unit give is a
+    ValueError."""
+    options.update(axis=axis, force_unit=force_unit)
+    return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, json.dumps(model)))
+
+
+def _paths(paths):
+    return [os.fspath(paths)] if isinstance(paths, (str, os.PathLike)) else [os.fspath(p) for p in paths]
+
+
+def identify_files(paths, axis="linear", force_unit=None, **options):
+    """identify() on a trace file (CSV or .mat) read by the host reader, or a
+    list of files pooled as runs (``feedid identify --in a --in b``).
+
+    options: as identify()'s, plus the column (or .mat variable) names time,
+    position, velocity and force (default t, x, v, u).
+    """
+    options.update(axis=axis, force_unit=force_unit)
+    return _checked(_feedid.run_files("identify", _paths(paths), options))
+
+
+def diagnose_files(paths, axis="linear", force_unit=None, **options):
+    """diagnose() on trace files (as identify_files())."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options))
+
+
+def validate_files(model, paths, axis="linear", force_unit=None, **options):
+    """validate() on trace files (as identify_files())."""
+    options.update(axis=axis, force_unit=force_unit)
+    return json.loads(_feedid.run_files("validate", _paths(paths), options, json.dumps(model)))
+
+
+def monitor(path, axis="linear", force_unit=None, **options):
+    """``feedid monitor`` on one CSV log, read row by row in constant memory:
+    each epoch's parameters and the change alarms. options: epoch_s,
+    reference_epochs, threshold and the input options. The dict of
+    ``monitor --json``; Error (with the epochs so far in ``result``) where
+    reading stopped."""
+    options.update(axis=axis, force_unit=force_unit)
+    return _failed_on_error(_feedid.monitor_file(os.fspath(path), options))
+
+
+def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None, format="json"):
+    """``feedid compensate``: the speed -> friction table per direction a
+    drive can load, from identify's dict. max_speed 0: the model's
+    config.velocity_max_m_s. The table's dict (``--format json``), or its
+    CSV text with format="csv". A model that cannot be compensated with
+    (not ok, not physical) is a ValueError with the CLI's message."""
+    text = _feedid.compensate(json.dumps(model), dict(points=points, max_speed=max_speed, force_scale=force_scale,
+                                                      force_unit=force_unit, format=format))
+    return text if format == "csv" else json.loads(text)
+
+
+def read(path, **columns):
+    """A trace file's signals through the host reader, as numpy arrays:
+    a dict with t, x, v, u (SI after position_scale, force_scale and
+    time_scale; x or v None when not logged) and rows_skipped,
+    rows_repeated, skipped_rows. columns: time, position, velocity, force
+    (names), the scales and bad_rows."""
+    return _feedid.read(os.fspath(path), columns)

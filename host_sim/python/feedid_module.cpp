@@ -1,0 +1,281 @@
+// feedid._feedid: the host's reader, identify(), diagnose(), validate(),
+// monitor() and the compensation table for Python (pybind11).
+// The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
+// results cross as the JSON text of each command's to_json, the CLI's --json.
+// Nothing here prints: errors go to Python as exceptions with the host's
+// message (std::invalid_argument as ValueError, std::runtime_error as
+// RuntimeError, pybind11's translation), and the GIL is released while
+// the host reads and identifies, so that threads of one process overlap.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <climits>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "compensate/compensate.hpp"
+#include "diagnose/diagnose.hpp"
+#include "identify/identify.hpp"
+#include "io/column_trace.hpp"
+#include "io/trace_files.hpp"
+#include "io/units.hpp"
+#include "model/drive_model.hpp"
+#include "monitor/monitor.hpp"
+#include "validate/validate.hpp"
+
+namespace py = pybind11;
+using namespace feedid::host;
+
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// The options of one call, named as the CLI's long options with '_' for '-'
+/// (velocity_filter is --velocity-filter), read into the host's structures.
+struct CallOptions {
+  CsvColumns columns;
+  Units units;
+  DiagnoseOptions diagnose;  ///< its .identify: identify's options
+  ValidateOptions validate;
+  MonitorOptions monitor;
+};
+
+double number(const py::handle& value, const std::string& key) {
+  const double x = py::cast<double>(value);
+  if (!std::isfinite(x)) throw py::value_error(key + ": " + std::to_string(x) + " is not a finite number");
+  return x;
+}
+
+/// A cut-off, band edge or resolution: 0 means "from the data"; negative is an error, not another 0.
+double zero_or_positive(const py::handle& value, const std::string& key) {
+  const double x = number(value, key);
+  if (x < 0) throw py::value_error(key + ": " + std::to_string(x) + " is negative (0: from the data)");
+  return x;
+}
+
+int whole_in(const py::handle& value, const std::string& key, int least, int most = INT_MAX) {
+  const int n = py::cast<int>(value);
+  if (n < least || n > most)
+    throw py::value_error(key + ": " + std::to_string(n) + " is outside " + std::to_string(least) + " .. " +
+                          (most == INT_MAX ? std::string("") : std::to_string(most)));
+  return n;
+}
+
+std::string one_of(const py::handle& value, const std::string& key, const std::set<std::string>& allowed) {
+  const auto s = py::cast<std::string>(value);
+  if (allowed.count(s)) return s;
+  std::string names;
+  for (const auto& a : allowed) names += (names.empty() ? "" : ", ") + a;
+  throw py::value_error(key + ": '" + s + "' is not one of " + names);
+}
+
+/// The input options every command takes (columns, scales, units, bad rows); false: not one of them.
+bool input_option(const std::string& key, const py::handle& value, CsvColumns& c, Axis& axis, std::string& force_unit) {
+  if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
+  else if (key == "force_unit") force_unit = py::cast<std::string>(value);
+  else if (key == "position_scale") c.position_scale = number(value, key);
+  else if (key == "force_scale") c.force_scale = number(value, key);
+  else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
+  else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
+  else if (key == "time") c.time = py::cast<std::string>(value);
+  else if (key == "position") c.position = py::cast<std::string>(value);
+  else if (key == "velocity") c.velocity = py::cast<std::string>(value);
+  else if (key == "force") c.force = py::cast<std::string>(value);
+  else return false;
+  return true;
+}
+
+/// identify's own options (diagnose takes them too); false: not one of them.
+bool identify_option(const std::string& key, const py::handle& value, IdentifyOptions& id) {
+  if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
+  else if (key == "alignment") id.alignment = py::cast<std::string>(value);
+  else if (key == "force_lag_s") id.force_lag_s = number(value, key);
+  else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
+  else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
+  else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);
+  else if (key == "velocity_resolution") id.velocity_resolution_m_s = zero_or_positive(value, key);
+  else return false;
+  return true;
+}
+
+bool diagnose_option(const std::string& key, const py::handle& value, DiagnoseOptions& d) {
+  if (key == "folds") d.folds = whole_in(value, key, 2);
+  else if (key == "block") d.block_s = number(value, key);
+  else return identify_option(key, value, d.identify);
+  return true;
+}
+
+bool validate_option(const std::string& key, const py::handle& value, ValidateOptions& v) {
+  if (key == "filter") v.filter_hz = number(value, key);
+  else if (key == "decimate") v.decimate = whole_in(value, key, 1);
+  else if (key == "drop_first") v.drop_first = whole_in(value, key, 0);
+  else return false;
+  return true;
+}
+
+/// What a call runs; `read` takes the input options alone.
+bool monitor_option(const std::string& key, const py::handle& value, MonitorOptions& m) {
+  if (key == "epoch_s") {
+    m.detector.epoch_s = number(value, key);
+    if (!(m.detector.epoch_s > 0)) throw py::value_error(key + ": the epoch must be longer than 0 s");
+  } else if (key == "reference_epochs") {
+    m.detector.reference_epochs = whole_in(value, key, 3, feedid::ChangeMonitor<double>::kMaxReferenceEpochs);
+  } else if (key == "threshold") {
+    m.detector.threshold = number(value, key);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+enum class Command { identify, diagnose, validate, monitor, read };
+
+/// Options as keyword arguments, those of `command` and the input's; any
+/// other name is a TypeError naming it (an option silently ignored, or
+/// misspelt, would give another answer).
+CallOptions call_options(const py::dict& kw, Command command) {
+  CallOptions o;
+  Axis axis = Axis::linear;
+  std::string force_unit;
+  for (const auto& [k, value] : kw) {
+    const auto key = py::cast<std::string>(k);
+    if (value.is_none()) continue;  // None: the default, as an option not given
+    const bool known = input_option(key, value, o.columns, axis, force_unit) ||
+                       (command == Command::identify && identify_option(key, value, o.diagnose.identify)) ||
+                       (command == Command::diagnose && diagnose_option(key, value, o.diagnose)) ||
+                       (command == Command::validate && validate_option(key, value, o.validate)) ||
+                       (command == Command::monitor && monitor_option(key, value, o.monitor));
+    if (!known) throw py::type_error("unknown option '" + key + "'");
+  }
+  o.units = o.diagnose.identify.units = o.validate.units = o.monitor.identify.units = units_for(axis, force_unit);
+  return o;
+}
+
+Command command_named(const std::string& name) {
+  if (name == "identify") return Command::identify;
+  if (name == "diagnose") return Command::diagnose;
+  if (name == "validate") return Command::validate;
+  throw py::value_error("no command '" + name + "' (identify, diagnose, validate)");
+}
+
+std::vector<double> to_vector(const py::object& a) {
+  if (a.is_none()) return {};
+  const Array arr = Array::ensure(a);
+  if (!arr || arr.ndim() != 1) throw py::value_error("a signal must be a one-dimensional array of numbers");
+  return std::vector<double>(arr.data(), arr.data() + arr.size());
+}
+
+/// The command on a trace read without the GIL; the JSON text of its --json.
+/// model_text: validate's model (identify's JSON), in the log's units.
+std::string run(Command command, const CsvResult& read, const CallOptions& o, const std::string& model_text) {
+  if (!read.ok) throw std::invalid_argument(read.error);
+  switch (command) {
+    case Command::identify: return to_json(identify(read.trace, o.diagnose.identify)).dump();
+    case Command::diagnose: return to_json(diagnose(read.trace, o.diagnose)).dump();
+    case Command::validate: break;
+    case Command::monitor:
+    case Command::read: throw std::logic_error("monitor and read are not commands on a whole trace");
+  }
+  const nlohmann::json model_json = nlohmann::json::parse(model_text);
+  if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
+    throw std::invalid_argument("model: " + why);
+  const DriveParams model = model_from_json(model_json);
+  return to_json(validate(model, read.trace, o.validate), model, o.validate).dump();
+}
+
+std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,
+                       const py::object& u, const py::dict& kw, const std::string& model_text) {
+  const Command command = command_named(name);
+  const CallOptions o = call_options(kw, command);
+  TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
+  if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
+  py::gil_scoped_release release;
+  return run(command, trace_from_columns(c, o.columns, "arrays", 0), o, model_text);
+}
+
+std::string run_files(const std::string& name, const std::vector<std::string>& paths, const py::dict& kw,
+                      const std::string& model_text) {
+  const Command command = command_named(name);
+  const CallOptions o = call_options(kw, command);
+  if (paths.empty()) throw py::value_error("no recording: give one path or several to pool");
+  py::gil_scoped_release release;
+  return run(command, read_trace_files(paths, o.columns), o, model_text);
+}
+
+/// `feedid monitor` on one CSV log, read row by row in constant memory; the
+/// JSON text of its --json (its error, where reading stopped, inside).
+std::string monitor_file(const std::string& path, const py::dict& kw) {
+  const CallOptions o = call_options(kw, Command::monitor);
+  py::gil_scoped_release release;
+  CsvStream in(path, o.columns);
+  if (!in.ok()) throw std::invalid_argument(in.error());
+  return to_json(monitor(in, o.monitor), o.monitor).dump();
+}
+
+/// `feedid compensate`: the friction table a drive can load, from a model
+/// JSON (identify's); the JSON text of the table, or its CSV with format "csv".
+std::string compensate_model_text(const std::string& model_text, const py::dict& kw) {
+  CompensateOptions opt;
+  std::string format = "json";
+  for (const auto& [k, value] : kw) {
+    const auto key = py::cast<std::string>(k);
+    if (value.is_none()) continue;
+    if (key == "points") opt.points = whole_in(value, key, 2, kMaxTablePoints);
+    else if (key == "max_speed") opt.max_speed_m_s = zero_or_positive(value, key);
+    else if (key == "force_scale") opt.force_scale = number(value, key);
+    else if (key == "force_unit") opt.force_unit = py::cast<std::string>(value);
+    else if (key == "format") format = one_of(value, key, {"json", "csv"});
+    else throw py::type_error("unknown option '" + key + "'");
+  }
+  const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
+  return format == "csv" ? to_csv(c.table, opt) : c.json.dump();
+}
+
+Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
+  Array out(static_cast<py::ssize_t>(s.size()));
+  double* p = out.mutable_data();
+  for (const TraceSample& x : s) *p++ = x.*field;
+  return out;
+}
+
+/// A trace file through the host reader: its signals in SI units (after the
+/// scales) as arrays, None for a signal not logged, and what was left out.
+py::dict read_signals(const std::string& path, const py::dict& kw) {
+  const CallOptions o = call_options(kw, Command::read);
+  CsvResult r;
+  {
+    py::gil_scoped_release release;
+    r = read_trace_file(path, o.columns);
+  }
+  if (!r.ok) throw std::invalid_argument(r.error);
+  const auto& s = r.trace.samples;
+  py::dict d;
+  d["t"] = column(s, &TraceSample::t_s);
+  d["x"] = r.trace.has_position ? py::object(column(s, &TraceSample::x_m)) : py::object(py::none());
+  d["v"] = r.trace.has_velocity ? py::object(column(s, &TraceSample::v_m_s)) : py::object(py::none());
+  d["u"] = column(s, &TraceSample::u_N);
+  d["rows_skipped"] = r.trace.rows_skipped;
+  d["rows_repeated"] = r.trace.rows_repeated;
+  d["skipped_rows"] = r.trace.skipped_rows;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_feedid, m) {
+  m.doc() = "feedid's host reader and identification (the package feedid wraps it)";
+  m.def("run_arrays", &run_arrays, py::arg("command"), py::arg("t"), py::arg("x"), py::arg("v"), py::arg("u"),
+        py::arg("options"), py::arg("model") = "",
+        "identify, diagnose or validate on signals in memory; the JSON text of the CLI's --json");
+  m.def("run_files", &run_files, py::arg("command"), py::arg("paths"), py::arg("options"), py::arg("model") = "",
+        "the same on one trace file, or several pooled as runs");
+  m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
+        "friction health of one CSV log, streamed; the JSON text of monitor --json");
+  m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),
+        "the friction table of a model JSON text; its JSON text, or CSV");
+  m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
+}

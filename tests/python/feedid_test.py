@@ -1,0 +1,219 @@
+"""The Python module against the CLI (ctest: python.feedid; docs/python.md).
+
+feedid.identify on the EMPS arrays must give the CLI's estimates on the same
+file, and feedid.fleet.identify_many on SysId logs, on a 2-worker dask
+LocalCluster, one row per log with the CLI's viscous terms. Exit 77 (ctest:
+skipped) where the module was not built or numpy is missing.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+try:
+    import numpy as np
+    import feedid
+except ImportError as e:
+    print("skipped: %s (the module is built where python3-dev and pybind11-dev are found)" % e)
+    sys.exit(77)
+
+BIN = os.environ.get("FEEDID_BIN_DIR", "build/bin")
+SHARED = os.environ.get("FEEDID_SHARED_DIR", "../shared")
+EMPS = os.path.join(SHARED, "data", "emps", "DATA_EMPS.csv")
+SYSID = os.path.join(SHARED, "data", "sysid_team581")
+PARAMS = [("m",)] + [(d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs", "vs")]
+
+
+def cli_identify(paths, *options):
+    """`feedid identify --json` on the files: its JSON dict."""
+    return cli("identify", paths, *options)
+
+
+def cli(command, paths, *options):
+    """`feedid <command> --json` on the files: its JSON dict."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r.json")
+        args = [os.path.join(BIN, "feedid"), command, "--json", out, *options]
+        for p in paths:
+            args += ["--in", p]
+        subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(out) as f:
+            return json.load(f)
+
+
+def value(result, key):
+    return result[key[0]] if len(key) == 1 else result[key[0]][key[1]]
+
+
+def sysid_log(mechanism):
+    return [os.path.join(SYSID, "%s_%s.csv" % (mechanism, run)) for run in ("slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd")]
+
+
+@unittest.skipUnless(os.path.exists(EMPS), "no EMPS data at " + EMPS)
+class EmpsArrays(unittest.TestCase):
+    def test_arrays_give_the_cli_estimates(self):
+        # GIVEN the EMPS columns as numpy arrays, parsed by numpy, not by the host
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        # WHEN identified from Python and by the CLI on the file
+        py = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        cli = cli_identify([EMPS], "--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        # THEN every parameter agrees (m to 1e-9 relative) and so do the units
+        self.assertEqual(py["status"], "ok")
+        self.assertAlmostEqual(py["m"] / cli["m"], 1.0, delta=1e-9)
+        for key in PARAMS:
+            self.assertAlmostEqual(value(py, key), value(cli, key), delta=1e-9 * abs(value(cli, key)), msg=str(key))
+        self.assertEqual(py["units"], cli["units"])
+        self.assertEqual(set(py), set(cli))
+
+    def test_diagnose_and_validate_give_the_cli_results(self):
+        # GIVEN the EMPS arrays, a model identified from them and the held-out pulses log
+        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+        p = np.genfromtxt(pulses, delimiter=",", names=True)
+        # WHEN diagnosed and validated from Python and by the CLI
+        dg = feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"])
+        val = feedid.validate(model, p["t_s"], p["qm_m"], p["force_N"])
+        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+            json.dump(model, f)
+            f.flush()
+            cli_val = cli("validate", [pulses], "--model", f.name, *cols)
+        cli_dg = cli("diagnose", [EMPS], *cols)
+        # THEN the same effects, noise floor and force error
+        self.assertEqual(dg["effect"], cli_dg["effect"])
+        self.assertEqual(dg["effects"], cli_dg["effects"])
+        self.assertAlmostEqual(dg["noise_floor_N"], cli_dg["noise_floor_N"], delta=1e-9 * cli_dg["noise_floor_N"])
+        self.assertEqual(set(dg), set(cli_dg))
+        self.assertAlmostEqual(val["relative_error_pct"], cli_val["relative_error_pct"], delta=1e-9 * cli_val["relative_error_pct"])
+        self.assertEqual(set(val), set(cli_val))
+
+    def test_compensate_gives_the_cli_table(self):
+        # GIVEN the model identified from the EMPS arrays, and the same as a file
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "model.json")
+            with open(path, "w") as f:
+                json.dump(model, f)
+            out = os.path.join(tmp, "table.json")
+            subprocess.run([os.path.join(BIN, "feedid"), "compensate", "--model", path, "--points", "12", "--out", out],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            with open(out) as f:
+                cli_table = json.load(f)
+        # WHEN its table is made from Python; THEN it is the CLI's
+        self.assertEqual(feedid.compensate(model, points=12), cli_table)
+        # and a model that is not physical is refused with the CLI's words
+        model["m"] = -1.0
+        model["physical"] = False
+        with self.assertRaisesRegex(ValueError, "no compensation written"):
+            feedid.compensate(model)
+
+    def test_a_model_in_other_units_is_refused(self):
+        d = np.genfromtxt(EMPS, delimiter=",", names=True, max_rows=3000)
+        rotary = {"m": 1, "pos": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0}, "neg": {"sigma": 1, "fc": 1, "fs": 0, "vs": 0},
+                  "units": {"position": "rad", "force": "N m"}}
+        with self.assertRaisesRegex(ValueError, "the model is in rad and N m"):
+            feedid.validate(rotary, d["t_s"], d["qm_m"], d["force_N"])
+
+    def test_read_gives_the_arrays_the_file_holds(self):
+        r = feedid.read(EMPS, time="t_s", position="qm_m", force="force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        self.assertIsNone(r["v"])
+        np.testing.assert_array_equal(r["u"], d["force_N"])
+        np.testing.assert_array_equal(r["x"], d["qm_m"])
+
+
+class Errors(unittest.TestCase):
+    def test_a_nan_row_is_refused_with_where_when_asked(self):
+        t = np.arange(100) * 1e-3
+        u = np.ones(100)
+        u[7] = np.nan
+        with self.assertRaisesRegex(ValueError, "arrays: element 7: a value is NaN/Inf"):
+            feedid.identify(t, np.sin(t), u, bad_rows="error")
+
+    def test_unknown_option_and_bad_values_are_named(self):
+        t = np.arange(100) * 1e-3
+        with self.assertRaisesRegex(TypeError, "unknown option 'velocity_fliter'"):
+            feedid.identify(t, t, t, velocity_fliter=10)
+        with self.assertRaisesRegex(ValueError, "velocity_filter: .* is negative"):
+            feedid.identify(t, t, t, velocity_filter=-1)
+        with self.assertRaisesRegex(ValueError, "differ in length"):
+            feedid.identify(t, t[:50], t)
+        with self.assertRaisesRegex(TypeError, "unknown option 'velocity_filter'"):
+            feedid.validate({}, t, t, t, velocity_filter=10)  # identify's option, not validate's
+
+    def test_a_missing_file_is_the_readers_message(self):
+        with self.assertRaises(ValueError) as e:
+            feedid.identify_files("/nonexistent/log.csv")
+        self.assertIn("/nonexistent/log.csv", str(e.exception))
+
+
+@unittest.skipUnless(os.path.isdir(SYSID), "no SysId data at " + SYSID)
+class Fleet(unittest.TestCase):
+    def test_two_logs_on_two_workers_give_the_cli_viscous_terms(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+            import feedid.fleet
+        except ImportError as e:
+            self.skipTest("no dask.distributed or pandas: %s" % e)
+        # GIVEN two mechanisms' pooled runs, one log that cannot be read, and one
+        # run alone, whose model is not physical (the CLI exits 2 on it)
+        logs = [sysid_log("compbot_drive_left"), sysid_log("compbot_spu"), [os.path.join(SYSID, "missing.csv")],
+                sysid_log("compbot_drive_left")[:1]]
+        # WHEN identified as dask tasks on a 2-worker LocalCluster (threads: no process start-up in CI)
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            self.assertEqual(len(client.scheduler_info()["workers"]), 2)
+            frame = feedid.fleet.identify_many(logs, client=client, axis="rotary", force_unit="V")
+        # THEN one row per log, in order; the bad one carries its error and stopped nothing
+        self.assertEqual(len(frame), 4)
+        self.assertIn("missing.csv", frame["error"][2])
+        self.assertEqual(frame["status"][2], "error")
+        self.assertEqual(frame["status"][3], "not_physical")
+        self.assertIn("not physical", frame["error"][3])
+        for i, paths in enumerate(logs[:2]):
+            cli = cli_identify(paths, "--axis", "rotary", "--force-unit", "V")
+            self.assertEqual(frame["error"][i], "")
+            self.assertEqual(frame["status"][i], "ok")
+            self.assertEqual(frame["path"][i], " + ".join(paths))
+            for d in ("pos", "neg"):
+                self.assertEqual(frame[d + "_sigma"][i], cli[d]["sigma"])
+                self.assertEqual(frame[d + "_sigma_se"][i], cli[d]["sigma_se"])
+            self.assertEqual(frame["m"][i], cli["m"])
+            self.assertEqual(frame["units"][i]["sigma"], "V s/rad")
+
+
+class Monitor(unittest.TestCase):
+    def test_monitor_many_gives_the_cli_alarms_one_row_per_log(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+            import feedid.fleet
+        except ImportError as e:
+            self.skipTest("no dask.distributed or pandas: %s" % e)
+        with tempfile.TemporaryDirectory() as tmp:
+            # GIVEN a simulated log whose Coulomb friction steps up by half at 150 s, and a log that is not there
+            log = os.path.join(tmp, "change.csv")
+            subprocess.run([os.path.join(BIN, "feedid"), "simulate", "--program", "sine", "--duration", "240",
+                            "--change-time", "150", "--change-coulomb-fraction", "0.5", "--out", log],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # WHEN monitored as dask tasks on 2 workers, and by the CLI
+            with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+                    Client(cluster) as client:
+                frame = feedid.fleet.monitor_many([log, os.path.join(tmp, "missing.csv")], client=client)
+            cli_mon = cli("monitor", [log])
+            py_mon = feedid.monitor(log)
+        # THEN the CLI's alarms, in both; the missing log is a row with its error
+        self.assertEqual(py_mon["alarms"], cli_mon["alarms"])
+        self.assertEqual(len(frame), 2)
+        self.assertEqual(frame["alarms"][0], len(cli_mon["alarms"]))
+        self.assertEqual(frame["first_alarm_parameter"][0], "fc")
+        self.assertEqual(frame["first_alarm_t_s"][0], cli_mon["alarms"][0]["t_s"])
+        self.assertEqual(frame["epochs"][0], len(cli_mon["epochs"]))
+        self.assertIn("missing.csv", frame["error"][1])
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
