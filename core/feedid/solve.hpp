@@ -234,11 +234,13 @@ bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int ma
 /// vertex is the result, as search_stribeck() finishes. About 3 fits per
 /// level instead of a grid and a golden section. False when the walk leaves
 /// the range less half a grid step at either end (search_stribeck() would
-/// flag such an optimum) or takes more than max_iter moves: the caller then
-/// searches fully.
+/// flag such an optimum) or takes more than kStribeckRefineMoves moves (from
+/// half a grid step down to the final width takes 4 shrinks; the rest allows
+/// a few steps downhill): the caller then searches on the grid. The bound
+/// keeps the worst case of solve() near that of a full search every round.
+constexpr int kStribeckRefineMoves = 8;
 template <typename T, int Bands>
-bool refine_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int max_iter, T h, T& log_vs,
-                     T& best_ssr) {
+bool refine_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, T h, T& log_vs, T& best_ssr) {
   const T l0 = port::log(vs_lo), l1 = port::log(vs_hi);
   const T step = (l1 - l0) / T(kStribeckGridPoints - 1);
   const T final_h = T(0.5) * stribeck_bracket_tolerance<T>();
@@ -246,7 +248,7 @@ bool refine_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int ma
   T x = log_vs;
   h = port::clamp(h, final_h, T(0.5) * step);
   T fm = stribeck_cost(p, x);
-  for (int i = 0; i < max_iter; ++i) {
+  for (int i = 0; i < kStribeckRefineMoves; ++i) {
     if (!inside(x - h) || !inside(x + h)) return false;
     const T fa = stribeck_cost(p, x - h), fb = stribeck_cost(p, x + h);
     if (!(fm < T(1e30))) return false;
@@ -340,7 +342,7 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
 
   T log_vs = near && near->usable && !near->at_bound ? near->log_vs : T(0), ssr = T(0);
   bool at_bound = false;
-  const bool refined = near && near->usable && !near->at_bound && refine_stribeck(p, vs_lo, vs_hi, cfg.max_vs_iterations, near->next_h, log_vs, ssr);
+  const bool refined = near && near->usable && !near->at_bound && refine_stribeck(p, vs_lo, vs_hi, near->next_h, log_vs, ssr);
   const bool coarse = !with_errors;
   if (!refined && !search_stribeck(p, vs_lo, vs_hi, cfg.max_vs_iterations, log_vs, ssr, at_bound, coarse)) {
     e.flags |= flag_fit_failed;

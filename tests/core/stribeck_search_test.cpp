@@ -38,7 +38,7 @@ TEST(StribeckSearch, RefinementFromTheMasslessGridFindsTheFullSearchOptimum) {
     const auto p = detail::friction_points(est->statistics(), d, core_test::default_drive().mass_kg);
     double l_refined = l_coarse, ssr_refined = 0;
     const double half_step = 0.5 * std::log(hi / lo) / (detail::kStribeckGridPoints - 1);
-    ASSERT_TRUE(detail::refine_stribeck(p, lo, hi, cfg.max_vs_iterations, half_step, l_refined, ssr_refined));
+    ASSERT_TRUE(detail::refine_stribeck(p, lo, hi, half_step, l_refined, ssr_refined));
     double l_full = 0, ssr_full = 0;
     ASSERT_TRUE(detail::search_stribeck(p, lo, hi, cfg.max_vs_iterations, l_full, ssr_full, at_bound));
     // THEN both end within the final bracket's half-width of each other, and
@@ -58,7 +58,7 @@ TEST(StribeckSearch, RefinementGivesUpAtTheRangeEnd) {
   const double step = std::log(hi / lo) / (detail::kStribeckGridPoints - 1);
   double l = std::log(hi) - 0.4 * step, ssr = 0;
   // WHEN refined THEN it declines (a full search must place and flag such an optimum)
-  EXPECT_FALSE(detail::refine_stribeck(p, lo, hi, cfg.max_vs_iterations, 0.5 * step, l, ssr));
+  EXPECT_FALSE(detail::refine_stribeck(p, lo, hi, 0.5 * step, l, ssr));
 }
 
 }  // namespace
