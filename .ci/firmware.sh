@@ -124,4 +124,20 @@ sort -t$'\t' -k2 -n -r "$build"/port/cortex_m/CMakeFiles/feedid_core_m4.dir/core
   awk -F'\t' 'NR <= 5 {f = $1; sub(/^[^:]*:[0-9]+:[0-9]+:/, "", f); sub(/ \[with.*/, "", f); printf "  %6d  %s\n", $2, f}' || true
 grep -E '^sizeof|^  push|^  solve|^  hand-off|^stack' "$build/qemu-icount.log" || true
 
+# The figures the core is budgeted by (issue 34), on one line for tools:
+# push_mean = the timed loop over the trace (incl. reading the sample),
+# push_max = the costliest single push() of either run (identification and
+# tracking), solve = the costlier of the two bands solves, tracker_close_max =
+# the costliest HealthTracker::close_epoch(). Each is "= N instructions" of
+# its line under -icount shift=0, rounded to the instruction.
+cost_of() {  # log-file line-prefix
+  awk -v want="$2" 'index($0, want) == 1 { for (i = 1; i < NF; i++) if ($i == "=") v = $(i + 1) } END { printf "%d", v + 0.5 }' "$1"
+}
+max_of() { if [ "$1" -gt "$2" ]; then echo "$1"; else echo "$2"; fi; }
+push_mean=$(cost_of "$build/qemu-icount.log" "  push() mean per sample, loop over the trace")
+push_max=$(max_of "$(cost_of "$build/qemu-icount.log" "  push() max:")" "$(cost_of "$build/qemu-monitor.log" "  HealthTracker push() max:")")
+solve_max=$(max_of "$(cost_of "$build/qemu-icount.log" "  solve() mid-stream")" "$(cost_of "$build/qemu-icount.log" "  solve() final")")
+close_max=$(cost_of "$build/qemu-monitor.log" "  close_epoch() max")
+echo "m4 cost: push_mean=$push_mean push_max=$push_max solve=$solve_max tracker_close_max=$close_max instructions"
+
 finish

@@ -15,6 +15,8 @@ namespace feedid::analysis {
 using detail::FrictionPoints;
 /// FrictionPoints<T, Bands> friction_points(stats, direction 0|1, mass_kg).
 using detail::friction_points;
+/// add_friction_point(points, time_s, speed integral, speed^2 integral, friction impulse): one band point.
+using detail::add_friction_point;
 /// Stribeck law at a fixed vs fitted on band points: theta = (sigma, Fc, Fs),
 /// the residual sum of squares, optionally the inverse normal matrix. False
 /// when the points cannot carry it.

@@ -12,9 +12,15 @@ namespace detail {
 
 /// One direction's friction curve as band points: target Y_j = U_j - m*dv_j
 /// (force integral with the residual inertia removed) against time, speed
-/// and second moment of the band.
+/// and second moment of the band. What does not depend on vs is formed
+/// once here, not in each of the ~100 fits of a search: the band's squared
+/// mean speed and speed variance (the Stribeck integral's moments), and the
+/// (Fc, sigma) block of the normal equations with its right-hand side.
 template <typename T, int Bands> struct FrictionPoints {
   T time[Bands] = {}, speed[Bands] = {}, speed2[Bands] = {}, target[Bands] = {};
+  T mean2[Bands] = {}, var[Bands] = {};  ///< (speed/time)^2, max(0, speed2/time - mean2)
+  SymMatrix<T, 3> a_cv{};  ///< sum w phi_r phi_c for r, c in {Fc, sigma}; w = 1/time
+  Vector<T, 3> b_cv{};     ///< sum w phi_r target for r in {Fc, sigma}
   int count = 0;
   T total_time = T(0);
 };
@@ -45,6 +51,32 @@ template <typename T> uint32_t mass_uncertainty_flags(T mass, T mass_se) {
 /// Bands with less time than this (s) carry too few samples to count as a point.
 template <typename T> constexpr T min_band_time_s() { return T(thresholds::kMinBandTime_s); }
 
+/// Appends one band point (its time, integrals of speed and speed^2, and
+/// the friction impulse it must explain) with the moments every fit reuses.
+/// False when the points are full.
+template <typename T, int Bands>
+bool add_friction_point(FrictionPoints<T, Bands>& p, T t, T speed, T speed2, T target) {
+  if (p.count >= Bands) return false;
+  const int k = p.count++;
+  p.time[k] = t;
+  p.speed[k] = speed;
+  p.speed2[k] = speed2;
+  p.target[k] = target;
+  p.total_time += t;
+  // The operations of exp_integral_moments(), so that a fit gives the same
+  // integrals to the bit.
+  const T mean = speed / t;
+  p.mean2[k] = mean * mean;
+  p.var[k] = port::max(T(0), speed2 / t - mean * mean);
+  const T phi[2] = {t, speed};
+  const T w = T(1) / t;
+  for (int r = 0; r < 2; ++r) {
+    p.b_cv.v[r] += w * phi[r] * target;
+    for (int c = 0; c < 2; ++c) p.a_cv.a[r][c] += w * phi[r] * phi[c];
+  }
+  return true;
+}
+
 template <typename T, int Bands, int C>
 FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d, T mass) {
   FrictionPoints<T, Bands> p;
@@ -52,12 +84,7 @@ FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d
     const BandSums<T>& b = s.band[d][j];
     const T t = b.time_s.get();
     if (!(t >= min_band_time_s<T>())) continue;
-    const int k = p.count++;
-    p.time[k] = t;
-    p.speed[k] = b.speed.get();
-    p.speed2[k] = b.speed2.get();
-    p.target[k] = b.force.get() - mass * b.dvel.get();
-    p.total_time += t;
+    (void)add_friction_point(p, t, b.speed.get(), b.speed2.get(), b.force.get() - mass * b.dvel.get());
   }
   return p;
 }
@@ -103,22 +130,26 @@ bool solve_coulomb_viscous(const SymMatrix<T, 3>& a, const Vector<T, 3>& b, T to
 template <typename T, int Bands>
 bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& theta, T& ssr,
                      Vector<T, 3>* inv_diag = nullptr, bool* stribeck_active = nullptr) {
-  SymMatrix<T, 3> a;
-  Vector<T, 3> b;
+  // Only the Stribeck column depends on vs: the (Fc, sigma) block is p's.
+  SymMatrix<T, 3> a = p.a_cv;
+  Vector<T, 3> b = p.b_cv;
   T e[Bands];
   T sum_e = T(0), sum_e2 = T(0);
+  const T inv_vs2 = T(1) / (vs * vs);
   for (int k = 0; k < p.count; ++k) {
-    e[k] = exp_integral_moments(p.time[k], p.speed[k], p.speed2[k], vs);
+    e[k] = exp_integral_mean_var(p.time[k], p.mean2[k], p.var[k], inv_vs2);
     const T share = e[k] / p.time[k];  // mean of exp(-(v/vs)^2) in the band, 0..1
     sum_e += share;
     sum_e2 += share * share;
-    const T phi[3] = {p.time[k], p.speed[k], e[k]};
     const T w = T(1) / p.time[k];
-    for (int r = 0; r < 3; ++r) {
-      b.v[r] += w * phi[r] * p.target[k];
-      for (int c = 0; c < 3; ++c) a.a[r][c] += w * phi[r] * phi[c];
-    }
+    const T we = w * e[k];
+    a.a[0][2] += we * p.time[k];
+    a.a[1][2] += we * p.speed[k];
+    a.a[2][2] += we * e[k];
+    b.v[2] += we * p.target[k];
   }
+  a.a[2][0] = a.a[0][2];
+  a.a[2][1] = a.a[1][2];
   const T tol = T(sizeof(T) == 4 ? 1e-5 : 1e-10);
   // Effective number of bands the exponential reaches: (sum s)^2 / sum s^2.
   bool active = sum_e2 > T(0) && sum_e * sum_e >= T(2) * sum_e2 &&
@@ -134,19 +165,9 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
 template <typename T, int Bands>
 bool fit_coulomb_viscous_at(const FrictionPoints<T, Bands>& p, Vector<T, 3>& theta, T& ssr,
                             Vector<T, 3>* inv_diag = nullptr) {
-  SymMatrix<T, 3> a;
-  Vector<T, 3> b;
   T e[Bands];
-  for (int k = 0; k < p.count; ++k) {
-    e[k] = T(0);
-    const T phi[2] = {p.time[k], p.speed[k]};
-    const T w = T(1) / p.time[k];
-    for (int r = 0; r < 2; ++r) {
-      b.v[r] += w * phi[r] * p.target[k];
-      for (int c = 0; c < 2; ++c) a.a[r][c] += w * phi[r] * phi[c];
-    }
-  }
-  if (!solve_coulomb_viscous(a, b, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
+  for (int k = 0; k < p.count; ++k) e[k] = T(0);
+  if (!solve_coulomb_viscous(p.a_cv, p.b_cv, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
   ssr = friction_ssr(p, theta, e);
   return port::is_finite(ssr);
 }
@@ -175,13 +196,46 @@ uint32_t hold_falling_friction(const FrictionPoints<T, Bands>& p, Vector<T, 3>& 
 }
 
 constexpr int kStribeckGridPoints = thresholds::kStribeckGridPoints;
+/// The width in log(vs) at which the bracketing stops and a parabola finishes.
+template <typename T> constexpr T stribeck_bracket_tolerance() { return T(2e-3); }
+
+/// The band fit's residual at log(vs) = l (1e30 if the fit fails).
+template <typename T, int Bands> T stribeck_cost(const FrictionPoints<T, Bands>& p, T l) {
+  Vector<T, 3> th;
+  T ssr;
+  return fit_friction_at(p, port::exp(l), th, ssr) ? ssr : T(1e30);
+}
+
+/// The minimum of the residual in the bracket [a, b] of log(vs): golden
+/// section down to stribeck_bracket_tolerance() (at most max_iter steps),
+/// then the vertex of a parabola through the bracket: unlike the last golden
+/// comparisons (between nearly equal costs, decided by rounding), the vertex
+/// moves continuously with the data.
+template <typename T, int Bands>
+void stribeck_in_bracket(const FrictionPoints<T, Bands>& p, T a, T b, int max_iter, T& log_vs, T& best_ssr) {
+  auto eval = [&](T l) { return stribeck_cost(p, l); };
+  constexpr T golden = T(0.6180339887498949);
+  T x1 = b - golden * (b - a), x2 = a + golden * (b - a);
+  T f1 = eval(x1), f2 = eval(x2);
+  for (int i = 0; i < max_iter && (b - a) > stribeck_bracket_tolerance<T>(); ++i) {
+    if (f1 < f2) { b = x2; x2 = x1; f2 = f1; x1 = b - golden * (b - a); f1 = eval(x1); }
+    else { a = x1; x1 = x2; f1 = f2; x2 = a + golden * (b - a); f2 = eval(x2); }
+  }
+  const T h = T(0.5) * (b - a), mid = T(0.5) * (a + b);
+  const T fa = eval(a), fm = eval(mid), fb = eval(b);
+  const T curv = fa - T(2) * fm + fb;
+  log_vs = curv > T(0) ? port::clamp(mid - T(0.5) * h * (fb - fa) / curv, a, b) : mid;
+  best_ssr = eval(log_vs);
+}
 
 /// Stribeck velocity search on log(vs): a coarse grid (robust to the local
 /// minima of a flat cost) then golden-section refinement in the best grid
 /// cell, at most max_iter steps. Returns the best log(vs) and its cost.
+/// With `coarse`, the grid alone: the vertex of the parabola through the
+/// best grid point and its neighbours, a start for refine_stribeck().
 template <typename T, int Bands>
 bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int max_iter,
-                     T& log_vs, T& best_ssr, bool& at_bound) {
+                     T& log_vs, T& best_ssr, bool& at_bound, bool coarse = false) {
   constexpr int grid = kStribeckGridPoints;
   const T l0 = port::log(vs_lo), l1 = port::log(vs_hi);
   const T step = (l1 - l0) / T(grid - 1);
@@ -194,32 +248,61 @@ bool search_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, int ma
     if (cost[g] >= T(0) && (best < 0 || cost[g] < cost[best])) best = g;
   }
   if (best < 0) return false;
-  auto eval = [&](T l) {
-    T ssr;
-    return fit_friction_at(p, port::exp(l), th, ssr) ? ssr : T(1e30);
-  };
-  T a = l0 + step * T(best > 0 ? best - 1 : 0);
-  T b = l0 + step * T(best < grid - 1 ? best + 1 : grid - 1);
-  constexpr T golden = T(0.6180339887498949);
-  T x1 = b - golden * (b - a), x2 = a + golden * (b - a);
-  T f1 = eval(x1), f2 = eval(x2);
-  for (int i = 0; i < max_iter && (b - a) > T(2e-3); ++i) {
-    if (f1 < f2) { b = x2; x2 = x1; f2 = f1; x1 = b - golden * (b - a); f1 = eval(x1); }
-    else { a = x1; x1 = x2; f1 = f2; x2 = a + golden * (b - a); f2 = eval(x2); }
+  const T a = l0 + step * T(best > 0 ? best - 1 : 0);
+  const T b = l0 + step * T(best < grid - 1 ? best + 1 : grid - 1);
+  if (coarse) {
+    log_vs = l0 + step * T(best);
+    best_ssr = cost[best];
+    if (best > 0 && best < grid - 1 && cost[best - 1] >= T(0) && cost[best + 1] >= T(0)) {
+      const T curv = cost[best - 1] - T(2) * cost[best] + cost[best + 1];
+      if (curv > T(0)) log_vs = port::clamp(log_vs - T(0.5) * step * (cost[best + 1] - cost[best - 1]) / curv, a, b);
+    }
+  } else {
+    stribeck_in_bracket(p, a, b, max_iter, log_vs, best_ssr);
   }
-  // Finish with the vertex of a parabola through the bracket: unlike the
-  // last golden comparisons (between nearly equal costs, decided by
-  // rounding), the vertex moves continuously with the data.
-  const T h = T(0.5) * (b - a), mid = T(0.5) * (a + b);
-  const T fa = eval(a), fm = eval(mid), fb = eval(b);
-  const T curv = fa - T(2) * fm + fb;
-  log_vs = curv > T(0) ? port::clamp(mid - T(0.5) * h * (fb - fa) / curv, a, b) : mid;
-  best_ssr = eval(log_vs);
   if (cost[best] < best_ssr) { log_vs = l0 + step * T(best); best_ssr = cost[best]; }
   const T margin = T(0.02) * step;
   at_bound = (log_vs - l0) < margin + step * T(0.5) && best == 0 ? true
            : (l1 - log_vs) < margin + step * T(0.5) && best == grid - 1;
   return true;
+}
+
+/// Stribeck velocity near a previous optimum log_vs, after a change of the
+/// band targets (the next round of the mass/friction alternation): from
+/// log_vs -+ h (h at most half a grid step), either step downhill by h (the centre
+/// is not the lowest) or move to the vertex of the parabola through the
+/// three costs and shrink h 8x; at h of half the final bracket width the
+/// vertex is the result, as search_stribeck() finishes. About 3 fits per
+/// level instead of a grid and a golden section. False when the walk leaves
+/// the range less half a grid step at either end (search_stribeck() would
+/// flag such an optimum) or takes more than kStribeckRefineMoves moves (from
+/// half a grid step down to the final width takes 4 shrinks; the rest allows
+/// a few steps downhill): the caller then searches on the grid. The bound
+/// keeps the worst case of solve() near that of a full search every round.
+constexpr int kStribeckRefineMoves = 8;
+template <typename T, int Bands>
+bool refine_stribeck(const FrictionPoints<T, Bands>& p, T vs_lo, T vs_hi, T h, T& log_vs, T& best_ssr) {
+  const T l0 = port::log(vs_lo), l1 = port::log(vs_hi);
+  const T step = (l1 - l0) / T(kStribeckGridPoints - 1);
+  const T final_h = T(0.5) * stribeck_bracket_tolerance<T>();
+  auto inside = [&](T l) { return l - l0 >= T(0.5) * step && l1 - l >= T(0.5) * step; };
+  T x = log_vs;
+  h = port::clamp(h, final_h, T(0.5) * step);
+  T fm = stribeck_cost(p, x);
+  for (int i = 0; i < kStribeckRefineMoves; ++i) {
+    if (!inside(x - h) || !inside(x + h)) return false;
+    const T fa = stribeck_cost(p, x - h), fb = stribeck_cost(p, x + h);
+    if (!(fm < T(1e30))) return false;
+    if (fa < fm || fb < fm) { x += fa < fb ? -h : h; fm = port::min(fa, fb); continue; }
+    const T curv = fa - T(2) * fm + fb;
+    const T vertex = curv > T(0) ? port::clamp(x - T(0.5) * h * (fb - fa) / curv, x - h, x + h) : x;
+    if (h > final_h) { x = vertex; fm = stribeck_cost(p, x); h = port::max(final_h, h / T(8)); continue; }
+    log_vs = vertex;
+    best_ssr = stribeck_cost(p, vertex);
+    if (fm < best_ssr) { log_vs = x; best_ssr = fm; }
+    return true;
+  }
+  return false;
 }
 
 /// Whether the data shows the Stribeck bend at all: some time below vs, and
@@ -276,13 +359,21 @@ template <typename T> struct DirectionFit {
   T ssr = T(0);      ///< weighted residual (N^2 s)
   int dof = 0;
   bool usable = false;  ///< friction known well enough to enter the mass equation
+  bool at_bound = false;  ///< the Stribeck search ended at its range's end
+  T log_vs = T(0);      ///< where the search ended (usable only)
+  T next_h = T(1e30);   ///< half-width for the next round's refine_stribeck(): twice this round's move
 };
 
-/// Friction of one direction at a given mass: search vs, fit, then standard
-/// errors from the Gauss-Newton Jacobian (T, V, E, Fs dE/dvs) at the optimum.
+/// Friction of one direction at a given mass: search vs (near the previous
+/// round's optimum `near` when there is one inside the range; else the grid
+/// alone in a round whose fit only feeds the mass equation (!with_errors),
+/// and fully in the published one), fit, then, if `with_errors`,
+/// standard errors from the Gauss-Newton Jacobian
+/// (T, V, E, Fs dE/dvs) at the optimum, R^2 and the evidence flags.
 template <typename T, int Bands, int C>
 DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>& cfg, int d,
-                              T mass, T vs_lo, T vs_hi) {
+                              T mass, T vs_lo, T vs_hi, const DirectionFit<T>* near = nullptr,
+                              bool with_errors = true) {
   DirectionFit<T> out;
   DirectionEstimate<T>& e = out.est;
   const FrictionPoints<T, Bands> p = friction_points(s, d, mass);
@@ -291,12 +382,19 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   e.sections = s.dir[d].sections;
   if (p.count < 5) { e.flags |= flag_no_data; return out; }
 
-  T log_vs = T(0), ssr = T(0);
+  T log_vs = near && near->usable && !near->at_bound ? near->log_vs : T(0), ssr = T(0);
   bool at_bound = false;
-  if (!search_stribeck(p, vs_lo, vs_hi, cfg.max_vs_iterations, log_vs, ssr, at_bound)) {
+  const bool refined = near && near->usable && !near->at_bound && refine_stribeck(p, vs_lo, vs_hi, near->next_h, log_vs, ssr);
+  const bool coarse = !with_errors;
+  if (!refined && !search_stribeck(p, vs_lo, vs_hi, cfg.max_vs_iterations, log_vs, ssr, at_bound, coarse)) {
     e.flags |= flag_fit_failed;
     return out;
   }
+  out.at_bound = at_bound;
+  out.log_vs = log_vs;
+  // After the grid alone the optimum is known to a grid step; after a
+  // refinement the next round's move is of the order of this one's.
+  if (refined) out.next_h = T(2) * port::abs(log_vs - near->log_vs);
   const T vs = port::exp(log_vs);
   Vector<T, 3> th;
   bool stribeck_active = false;
@@ -308,6 +406,7 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
   out.ssr = ssr;
   out.dof = p.count - 4;
   out.usable = true;
+  if (!with_errors) return out;
 
   // Jacobian w.r.t. (Fc, sigma, Fs, vs); dE/dvs by a central difference in vs.
   const T h = T(sizeof(T) == 4 ? 1e-2 : 1e-4);
@@ -415,12 +514,20 @@ Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
   // Friction needs m only for the small residual-inertia correction, and m
   // needs friction; alternate. The coupling is weak (sum of dv per band is
   // near zero), so a few rounds converge to working precision.
+  // Only the first round searches vs over its whole range; later rounds
+  // refine near the previous optimum, and only the last one (the published
+  // fit) computes standard errors and flags.
   constexpr int rounds = 4;
   for (int it = 0; it < rounds; ++it) {
-    for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, mass_ok ? mass : T(0), lo, hi);
+    const T m_fit = mass_ok ? mass : T(0);
+    const bool last = it == rounds - 1;
+    for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, m_fit, lo, hi, it > 0 ? &fit[d] : nullptr, last);
     T m_new;
     mass_ok = mass_equation(s, layout, fit, m_new, num, dv2, tau_dv2);
-    if (!mass_ok) break;
+    if (!mass_ok) {  // no further round: this one's fit is published
+      if (!last) for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, m_fit, lo, hi, &fit[d], true);
+      break;
+    }
     mass = m_new;
   }
   out.pos = fit[0].est;

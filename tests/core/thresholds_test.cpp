@@ -86,12 +86,7 @@ TEST(Thresholds, AFallingCurvesSlopeIsHeldAtItsBound) {
     feedid::analysis::FrictionPoints<double, 8> p;
     for (int k = 0; k < 6; ++k) {
       const double t = 0.1 * (k + 1), v = 1e-3 * (k + 1);
-      p.time[k] = t;
-      p.speed[k] = v * t;
-      p.speed2[k] = v * v * t;
-      p.target[k] = (level + slope * v) * t;
-      p.total_time += t;
-      p.count = k + 1;
+      (void)feedid::analysis::add_friction_point(p, t, v * t, v * v * t, (level + slope * v) * t);
     }
     return p;
   };
