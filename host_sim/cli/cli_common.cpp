@@ -243,6 +243,8 @@ Trace run_simulation(const SimConfig& cfg) {
 
 void note_force_outliers(const ForceOutliers& out, const Units& units) {
   if (out.saturation.found()) std::fprintf(stderr, "note: force %s\n", out.saturation.describe(units.force).c_str());
+  if (out.position_spikes.rows > 0)
+    std::fprintf(stderr, "note: %s\n", out.position_spikes.describe(units.position).c_str());
   if (out.rows > 0)
     std::fprintf(stderr, "note: %s; first: %s\n", out.describe(units.force).c_str(), out.first.front().c_str());
 }

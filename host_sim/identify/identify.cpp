@@ -960,7 +960,9 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows},
                 {"force_outlier_rows", r.force_outliers.rows}, {"force_outlier_limit", r.force_outliers.limit},
                 {"force_outliers", r.force_outliers.first},
-                {"force_saturation", r.force_outliers.saturation.to_json()}};
+                {"force_saturation", r.force_outliers.saturation.to_json()},
+                {"position_spike_rows", r.force_outliers.position_spikes.rows},
+                {"position_spikes", r.force_outliers.position_spikes.first}};
   if (r.streamed)
     j["input"]["streamed"] = "read row by row: force lag, velocity filter and band edges from the first 60 s; standard "
                              "errors from a jackknife over ten groups of 10 s blocks dealt round-robin, and the timing "
@@ -1023,6 +1025,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   if (!unphysical.empty())
     o << "  NOT PHYSICAL: " << unphysical << " (m must be positive, Fc and sigma not negative)\n";
   for (const std::string& w : implausible_magnitudes(r)) o << "  WARNING: " << w << "\n";
+  if (r.force_outliers.position_spikes.rows > 0) o << "  " << r.force_outliers.position_spikes.describe(r.units.position) << "\n";
   if (r.force_outliers.saturation.found()) o << "  force " << r.force_outliers.saturation.describe(r.units.force) << "\n";
   if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)

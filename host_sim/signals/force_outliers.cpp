@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "signals/condition.hpp"
 #include "signals/filters.hpp"
 
 namespace feedid::host {
@@ -143,7 +144,47 @@ Trace leave_out_force_saturation(const Trace& logged, ForceSaturation& found) {
   return kept;
 }
 
-Trace bridge_force_outliers(const Trace& clipped, const std::string& force_unit, ForceOutliers& found) {
+std::string PositionSpikes::describe(const std::string& position_unit) const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "%zu position row%s jumped more than %.4g %s (%g times the %g quantile of the position's steps) and "
+                "back, bridged by the straight line between its neighbours; first: %s",
+                rows, rows == 1 ? "" : "s", limit_m, position_unit.c_str(), kForceOutlierFactor, kForceScaleQuantile,
+                first.empty() ? "" : first.front().c_str());
+  return buf;
+}
+
+Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found) {
+  found = PositionSpikes{};
+  const std::size_t n = logged.samples.size();
+  if (!logged.has_position || n < 3) return logged;
+  std::vector<double> t, steps;
+  for (const TraceSample& s : logged.samples) t.push_back(s.t_s);
+  const double gap_s = max_step_s(median_step(t));
+  for (std::size_t k = 1; k < n; ++k)
+    if (!(t[k] - t[k - 1] > gap_s)) steps.push_back(logged.samples[k].x_m - logged.samples[k - 1].x_m);
+  const double scale = quantile_abs(steps, kForceScaleQuantile);
+  if (!(scale > 0.0)) return logged;
+  found.limit_m = kForceOutlierFactor * scale;
+  Trace out = logged;
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    if (t[k] - t[k - 1] > gap_s || t[k + 1] - t[k] > gap_s) continue;  // a run's end: no neighbour to judge by
+    const double before = out.samples[k - 1].x_m, here = logged.samples[k].x_m, after = logged.samples[k + 1].x_m;
+    if (!(std::fabs(here - before) > found.limit_m && std::fabs(after - here) > found.limit_m &&
+          std::fabs(after - before) <= found.limit_m))
+      continue;
+    ++found.rows;
+    char value[96];
+    std::snprintf(value, sizeof value, ": position %.9g", here);
+    if (found.first.size() < kNamedOutliers) found.first.push_back(where(logged, k) + value);
+    out.samples[k].x_m = before + (after - before) * (t[k] - t[k - 1]) / (t[k + 1] - t[k - 1]);
+  }
+  return out;
+}
+
+Trace bridge_force_outliers(const Trace& spiky, const std::string& force_unit, ForceOutliers& found) {
+  PositionSpikes spikes;
+  const Trace clipped = bridge_position_spikes(spiky, spikes);
   ForceSaturation saturation;
   const Trace logged = leave_out_force_saturation(clipped, saturation);
   std::vector<double> u, t;
@@ -153,6 +194,7 @@ Trace bridge_force_outliers(const Trace& clipped, const std::string& force_unit,
   }
   found = ForceOutliers{};
   found.saturation = saturation;
+  found.position_spikes = spikes;
   found.limit = force_outlier_limit(travel_of(logged), u);
   Trace out = logged;
   const double gap_s = t.size() > 1 ? max_step_s(median_step(t)) : 0.0;

@@ -59,9 +59,26 @@ struct ForceSaturation {
   nlohmann::json to_json() const;
 };
 
+/// A position row no drive can have logged: a step to it and a step back,
+/// each beyond kForceOutlierFactor times the 0.999 quantile of the log's
+/// position steps, between neighbours that agree within that limit. One
+/// row 1 m off in EMPS made its velocity noise 4 m/s and nothing could be
+/// identified. The row's position becomes the straight line between its
+/// neighbours; its force stays.
+struct PositionSpikes {
+  double limit_m = 0.0;            ///< the step limit (the position's unit)
+  std::size_t rows = 0;            ///< rows bridged
+  std::vector<std::string> first;  ///< the first kNamedOutliers: file, time and position
+  std::string describe(const std::string& position_unit) const;
+};
+
+/// The trace with its position spikes bridged (the rule above).
+Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found);
+
 /// Force rows beyond the limit, and what became of them.
 struct ForceOutliers {
   ForceSaturation saturation;  ///< clipped rows, left out before the limit is read
+  PositionSpikes position_spikes;  ///< position rows bridged before anything else
   double limit = 0.0;       ///< force_outlier_limit of the trace as logged (its force unit)
   std::size_t rows = 0;     ///< forces beyond it
   std::size_t unbridged = 0;  ///< of those, with no good force within their stretch to bridge them by

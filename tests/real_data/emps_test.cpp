@@ -223,4 +223,20 @@ TEST_F(Emps, ClippedForceIsNamedAndLeftOut) {
   EXPECT_NEAR(r.estimate.mass_kg / base.estimate.mass_kg, 1.0, 0.02) << r.estimate.mass_kg;
 }
 
+// GIVEN the EMPS identification log with one position row 1 m off (before,
+// its velocity noise made the lowest band 4.4 m/s and nothing identified),
+// THEN the row is bridged and named, and every parameter is the clean log's.
+TEST_F(Emps, APositionSpikeIsBridgedAndNamed) {
+  const Trace clean = read_emps("DATA_EMPS.csv");
+  const IdentifyResult base = identify(clean, IdentifyOptions{});
+  ASSERT_EQ(base.status, feedid::Status::ok) << base.error;
+  Trace spiky = clean;
+  spiky.samples[12000].x_m += 1.0;
+  const IdentifyResult r = identify(spiky, IdentifyOptions{});
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  EXPECT_EQ(r.force_outliers.position_spikes.rows, 1u);
+  const auto want = key_parameters(base.estimate), got = key_parameters(r.estimate);
+  for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / want[i], 1.0, 1e-3) << i;
+}
+
 }  // namespace

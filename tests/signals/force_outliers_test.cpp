@@ -179,5 +179,25 @@ TEST(ForceSaturation, ACoarselyQuantisedForceIsNotCalledClipped) {
   EXPECT_FALSE(found.found()) << found.describe("N");
 }
 
+TEST(PositionSpikes, AOneRowJumpIsBridgedAndAFastMoveIsNot) {
+  // GIVEN a reciprocation (peak step 0.16 mm per 1 ms row) with one row 1 m off
+  Trace tr = reciprocating(10.0);
+  const Trace clean = tr;
+  tr.samples[5000].x_m += 1.0;
+  // WHEN bridged  THEN that row, and only it, is back between its neighbours and named
+  PositionSpikes found;
+  const Trace out = bridge_position_spikes(tr, found);
+  EXPECT_EQ(found.rows, 1u);
+  ASSERT_EQ(found.first.size(), 1u);
+  EXPECT_NE(found.first.front().find("recip.csv: t = 5 s"), std::string::npos) << found.first.front();
+  EXPECT_NEAR(out.samples[5000].x_m, clean.samples[5000].x_m, 1e-6);
+  for (std::size_t k = 0; k < out.samples.size(); ++k)
+    if (k != 5000) EXPECT_EQ(out.samples[k].x_m, clean.samples[k].x_m) << k;
+  // AND the clean motion, fast strokes included, is left whole
+  PositionSpikes none;
+  (void)bridge_position_spikes(clean, none);
+  EXPECT_EQ(none.rows, 0u);
+}
+
 }  // namespace
 }  // namespace feedid::host
