@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "diagnose/diagnose.hpp"
+#include "gap/model_gap.hpp"
 #include "io/progress.hpp"
 #include "report/report.hpp"
 #include "cli_common.hpp"
@@ -20,7 +21,7 @@ struct DiagnoseCommand : Command {
   InputOptions input;
   DiagnoseOptions opt;
   std::vector<std::string> in_path;
-  std::string json_path, report_dir, method = "bands";
+  std::string json_path, report_dir, method = "bands", model_path, controller_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
     app->add_option("--in", in_path, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)");
@@ -29,6 +30,39 @@ struct DiagnoseCommand : Command {
     add_identify_options(app, cols, input, opt.identify, method);
     app->add_option("--folds", opt.folds, "time folds; odd ones are held out")->capture_default_str();
     app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
+    app->add_option("--model", model_path, "diagnose this model as given (identify --json, or hand-written: m, pos, neg, "
+                                           "offset_N): the base model is not refitted");
+    app->add_option("--controller", controller_path, "with --model: replay the model in this drive loop (replay's "
+                                                     "controller JSON) on held-out time, before and after the causes");
+  }
+  std::vector<std::string> with_inputs(std::vector<std::string> more) const {
+    more.insert(more.end(), in_path.begin(), in_path.end());
+    return more;
+  }
+  /// diagnose --model [--controller]: the given model's gap (gap/model_gap.hpp).
+  int run_given_model(const CsvResult& csv) {
+    opt.model = read_model_file(model_path);
+    for (const auto& w : opt.model->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (const std::string why = model_units_mismatch({{"units", opt.model->units}}, opt.identify.units); !why.empty())
+      throw std::invalid_argument(model_path + ": " + why);
+    std::optional<Controller> controller;
+    std::optional<LoggedRun> run;
+    ReplayOptions ropt;
+    ropt.units = opt.identify.units;
+    if (!controller_path.empty()) {
+      if (in_path.size() != 1 || !input.in_list.empty())
+        throw std::invalid_argument("--controller: a replay takes one continuous recording (one --in)");
+      controller = read_controller_file(controller_path);
+      for (const auto& w : controller->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+      run = read_logged_run(in_path.front(), cols, *controller);
+      for (const auto& n : run->notes) std::fprintf(stderr, "note: %s\n", n.c_str());
+    }
+    const ModelGap g = model_gap(csv.trace, opt, controller ? &*controller : nullptr, run ? &*run : nullptr, ropt);
+    if (!json_path.empty() && !write_json(json_path, to_json(g), with_inputs({model_path, controller_path}))) return 1;
+    if (!g.diagnosis.error.empty()) { std::fprintf(stderr, "error: %s\n", g.diagnosis.error.c_str()); return 2; }
+    note_force_outliers(g.diagnosis.force_outliers, opt.identify.units);
+    std::cout << summary(g);
+    return write_report(g.diagnosis, report_dir, csv.trace.source);
   }
   int run() override {
     if (method != "bands") {
@@ -41,6 +75,8 @@ struct DiagnoseCommand : Command {
     Progress p("diagnose");
     if (csv.trace.samples.size() > 500000) opt.progress = std::ref(p);
     opt.identify.units = input.units();
+    if (!model_path.empty()) return run_given_model(csv);
+    if (!controller_path.empty()) throw std::invalid_argument("--controller needs --model (the model to replay)");
     const DiagnoseResult r = diagnose(csv.trace, opt);
     if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
     if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }

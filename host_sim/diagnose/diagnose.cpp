@@ -377,7 +377,12 @@ struct Stage {
   const BaseColumns& base;
   const std::vector<EffectModel>& catalogue;
   double sampling_floor_N = 0.0;  ///< point_sampling_floor
+  double given_mass_kg = 0.0;     ///< a given model's mass (DiagnoseOptions::model); 0 when the base is fitted
 };
+
+/// The mass an effect's parameters are judged against: the given model's,
+/// or the fitted one's (the first base column).
+double stage_mass(const Stage& st, const Vec& theta) { return st.base.fixed.empty() ? st.given_mass_kg : theta(0); }
 
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
@@ -479,7 +484,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   }
   e.model.fit = f;
   e.model.residual = st.bank.residual(model_columns(st.base, e.model), &ex, f.theta);
-  e.c.parameters = em.parameters(e.p, e.size, f.theta.tail(ex.cols.cols()), f.theta(0));
+  e.c.parameters = em.parameters(e.p, e.size, f.theta.tail(ex.cols.cols()), stage_mass(st, f.theta));
   e.c.heldout_rms_N = heldout_rms(e.model.residual, st.obs);
   e.c.z_statistic = improvement_z(current.residual, e.model.residual, st.obs);
   // Exactly a combination of the model's terms (an offset is Fc+ - Fc-
@@ -490,7 +495,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   if (r2 > 0.995)
     e.c.note = std::string(e.c.indistinguishable ? "its term is" : "its term is nearly") +
                " a combination of the model's terms on this data (R^2 " + std::to_string(r2) + ")";
-  const std::string why_not = em.implausible ? em.implausible(e.c.parameters, f.theta(0)) : std::string();
+  const std::string why_not = em.implausible ? em.implausible(e.c.parameters, stage_mass(st, f.theta)) : std::string();
   if (!why_not.empty()) e.c.note = "not physical: " + why_not;
   e.c.significant = !e.c.indistinguishable && why_not.empty();
   e.plausible = e.c.significant;
@@ -643,7 +648,7 @@ void name_parameters(const Stage& st, const Model& m, DiagnoseResult& out) {
   for (std::size_t k = 0; k < m.terms.size(); ++k) {
     const auto& t = m.terms[k];
     const auto q = static_cast<Eigen::Index>(t.cols.size());
-    out.effects[k].parameters = st.catalogue[t.effect].parameters(t.p, t.size, m.fit.theta.segment(c, q), m.fit.theta(0));
+    out.effects[k].parameters = st.catalogue[t.effect].parameters(t.p, t.size, m.fit.theta.segment(c, q), stage_mass(st, m.fit.theta));
     c += q;
   }
 }
@@ -917,6 +922,27 @@ diag::MeasuredFriction measured_friction(const BaseColumns& b, const Model& base
   return f;
 }
 
+/// The friction a given model states, for every run (the drift's plausibility test).
+diag::MeasuredFriction given_friction(const DriveParams& d, std::size_t runs) {
+  diag::MeasuredFriction f;
+  for (std::size_t r = 0; r < runs; ++r) {
+    f.coulomb_N.insert(f.coulomb_N.end(), {d.pos.coulomb_N, d.neg.coulomb_N});
+    f.viscous_Ns_m.insert(f.viscous_Ns_m.end(), {d.pos.viscous_Ns_m, d.neg.viscous_Ns_m});
+  }
+  return f;
+}
+
+/// The mean force a given model predicts over each interval, from the
+/// same velocity and acceleration the fitted base's columns use: what the
+/// observations' force less it leaves is the gap the effects may explain.
+Vec given_prediction(const Observations& obs, const ModelFile& m) {
+  const Signals& s = obs.signals();
+  return obs.sample_column([&](std::size_t j) {
+    const double a = (s.v[j + 1] - s.v[j]) / obs.interval_dt(j);
+    return predict_force(m.drive, obs.interval_v(j), a) + m.offset_N;
+  });
+}
+
 bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseResult& out) {
   out.blocks_heldout = obs.heldout_count();
   out.blocks_identification = obs.size() - out.blocks_heldout - out.heldout_beyond_identification;
@@ -947,6 +973,11 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const Signals sig = aligned_signals(trace, opt, out);
   const diag::Folds folds = diag::make_folds(sig, opt.folds, auto_config(sig, opt.identify).velocity_min_m_s);
   out.folds = folds.count();
+  out.fold_edges = folds.edges;
+  if (opt.model) {
+    out.model_given = true;
+    out.given_model = *opt.model;
+  }
   if (!identify_base(trace, sig, folds, opt, out)) return out;
   if (opt.progress) opt.progress(0.1);
 
@@ -954,27 +985,41 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   if (!enough_observations(trace, obs, out)) return out;
   std::vector<char> id(obs.size());
   for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.obs()[i].heldout ? 0 : 1;
-  ColumnBank bank(obs.sample_column([&](std::size_t j) { return obs.interval_force(j); }), id);
+  Vec force = obs.sample_column([&](std::size_t j) { return obs.interval_force(j); });
+  // A given model: its force is taken off and nothing of it is refitted
+  // (no base columns, no run levels), so the effects explain what it leaves.
+  if (opt.model) force -= given_prediction(obs, *opt.model);
+  ColumnBank bank(force, id);
   const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
-  BaseColumns base_cols = add_base_columns(obs, bank, out.base);
-  add_run_levels(obs, bank, extent.run_starts, base_cols);
+  BaseColumns base_cols;
+  if (!opt.model) {
+    base_cols = add_base_columns(obs, bank, out.base);
+    add_run_levels(obs, bank, extent.run_starts, base_cols);
+  }
   const Model base = fit_base(bank, base_cols, out.base);
-  out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
+  // A given model has no fit whose reach the held-out folds could exceed.
+  if (!opt.model) out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
   if (!enough_observations(trace, obs, out)) return out;
   if (opt.progress) opt.progress(0.2);
 
-  const std::vector<EffectModel> catalogue =
-      diag::effect_catalogue(obs, extent, out.lag_beyond_conventions_s, measured_friction(base_cols, base, extent.run_starts.size()));
+  const std::size_t runs = extent.run_starts.size();
+  const double mass_kg = opt.model ? opt.model->drive.mass_kg : out.base.estimate.mass_kg;
+  const std::vector<EffectModel> catalogue = diag::effect_catalogue(
+      obs, extent, out.lag_beyond_conventions_s,
+      opt.model ? given_friction(opt.model->drive, runs) : measured_friction(base_cols, base, runs));
   const Stage st{obs, bank, base_cols, catalogue,
-                 point_sampling_floor(obs, out.base.estimate.mass_kg, out.base.signals.force_convention == "instant")};
+                 point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
+                 opt.model ? mass_kg : 0.0};
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);
   if (!out.effects.empty()) {
-    out.augmented_model = drive_params(base_cols, final_model);
+    out.augmented_model = opt.model ? opt.model->drive : drive_params(base_cols, final_model);
     out.has_augmented_model = true;
   }
-  report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
+  // A given model's Coulomb forces are not fitted here: an asymmetry in
+  // them is the file's, and an offset is a candidate like any other.
+  if (!opt.model) report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
   report_run_levels(base_cols, out.effects.empty() ? base : final_model, opt, out);
   out.where = where_gap_lies(obs, base.residual, out.base, opt.block_s);
   if (out.gap_remains && !out.effects.empty()) out.where_left = where_gap_lies(obs, final_model.residual, out.base, opt.block_s);
@@ -1061,7 +1106,17 @@ nlohmann::json to_json(const DiagnoseResult& r) {
     if (x.indistinguishable) ind.push_back({{"kind", x.kind}, {"note", x.note}, {"parameters", x.parameters}});
   j["indistinguishable"] = ind;
   j["ambiguities"] = r.ambiguities;
-  j["base_model"] = to_json(r.base);
+  if (r.model_given) {
+    // The given model is the base; the core's fit on the identification
+    // folds only set the signals' timing and velocity range.
+    nlohmann::json m = model_json(r.given_model.drive, r.base.units);
+    m["offset_N"] = r.given_model.offset_N;
+    j["base_model"] = {{"given", r.given_model.source}, {"refitted", false}, {"model", m},
+                       {"note", "the mass, friction and offset are the file's; only the effects are fitted, on the "
+                                "identification folds"}};
+  } else {
+    j["base_model"] = to_json(r.base);
+  }
   j["timing"] = {{"force_lag_s", r.force_lag_s},
                  {"lag_beyond_conventions_s", r.lag_beyond_conventions_s},
                  {"convention_force_delay_limit_periods", convention_force_delay_limit()},
@@ -1085,6 +1140,8 @@ std::string summary(const DiagnoseResult& r) {
   std::snprintf(buf, sizeof buf, "held-out gap: RMS %.3g %s (noise floor %.3g %s, ratio %.2f) over %zu observations\n",
                 r.rms_base_N, n, r.noise_floor_N, n, r.noise_floor_N > 0 ? r.rms_base_N / r.noise_floor_N : 0.0, r.blocks_heldout);
   o << buf;
+  if (r.model_given)
+    o << "base model: " << r.given_model.source << " as given (mass, friction and offset not refitted)\n";
   if (r.sampling_floor_N > 0) {
     std::snprintf(buf, sizeof buf, "  the force is point-sampled: acceleration steps within a period add %.3g %s RMS to the floor\n",
                   r.sampling_floor_N, n);

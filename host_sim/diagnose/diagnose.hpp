@@ -4,6 +4,7 @@
 // held-out gap. docs/diagnosis.md gives the method. Host only.
 #pragma once
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "identify/identify.hpp"
 #include "io/trace.hpp"
 #include "model/effects.hpp"
+#include "model/model_file.hpp"
 
 namespace feedid::host {
 
@@ -36,6 +38,11 @@ struct DiagnoseOptions {
   /// identification folds do not reach; it is set aside, not scored.
   double max_leverage = 0.5;
   std::function<void(double)> progress;
+  /// A model to diagnose as given (`diagnose --model`): its mass, friction
+  /// and offset are the base model, not refitted; only the effects are
+  /// fitted on the identification folds, and the gap is judged on the
+  /// held-out ones. Empty: the base model is fitted on the identification folds.
+  std::optional<ModelFile> model;
 };
 
 struct Candidate {
@@ -98,6 +105,9 @@ struct DiagnoseResult {
   double lag_beyond_conventions_s = 0.0;  ///< estimated lag beyond the conventions, left to `delay` (s)
   std::string position_origin = "measured";  ///< or how it was obtained (integrated from velocity)
   ForceOutliers force_outliers;  ///< forces beyond the data's limit, bridged as identify bridges them
+  bool model_given = false;  ///< the base model is DiagnoseOptions::model, not fitted
+  ModelFile given_model;     ///< that model (when model_given)
+  std::vector<double> fold_edges;  ///< interior fold edges on the trace's clock (s); odd folds are held out
   int folds = 0;  ///< time folds used (at most DiagnoseOptions::folds; each spans two motion cycles)
   // Series for the report (observations): centre time, position, velocity, residual before/after.
   std::vector<double> block_t, block_x, block_v, block_r_base, block_r_aug;

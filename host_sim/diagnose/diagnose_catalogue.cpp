@@ -134,9 +134,12 @@ nlohmann::json friction_profile(const Vec& c, int spans, double x_lo, double tra
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
     const double med = sorted[sorted.size() / 2];
     for (double& q : v) q -= med;
+    return med;
   };
-  less_median(f[0]);
-  less_median(f[1]);
+  // The medians are each direction's Coulomb change: the base model's own
+  // when it is fitted, but a given model's (diagnose --model) keeps its
+  // Coulomb force, and a replay of the profile needs them.
+  const double level[2] = {less_median(f[0]), less_median(f[1])};
   std::vector<double> mean(points);
   std::size_t peak = 0;
   for (int i = 0; i < points; ++i) {
@@ -147,6 +150,7 @@ nlohmann::json friction_profile(const Vec& c, int spans, double x_lo, double tra
   while (a > 0 && std::fabs(mean[a - 1]) > 0.5 * std::fabs(mean[peak])) --a;
   while (b + 1 < mean.size() && std::fabs(mean[b + 1]) > 0.5 * std::fabs(mean[peak])) ++b;
   return {{"x_min_m", x[a]}, {"x_max_m", x[b]}, {"delta_N", mean[peak]}, {"shape", "spline"}, {"spans", spans},
+          {"level_N", {{"positive", level[0]}, {"negative", level[1]}}},
           {"profile", {{"x_m", x}, {"positive_N", f[0]}, {"negative_N", f[1]}}}};
 }
 

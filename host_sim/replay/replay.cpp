@@ -91,19 +91,18 @@ double continuous_period(const LoggedRun& run) {
   return dt;
 }
 
-/// The model's constant load force as the plant's only effect.
-Effects offset_only(double offset_N) {
-  Effects e;
-  e.offset_N = offset_N;
+/// The plant's effects: the model's constant load force added to those asked for.
+Effects plant_effects(double offset_N, Effects e) {
+  e.offset_N += offset_N;
   return e;
 }
 
 /// The drive's loop around the model's plant, one sample at a time.
 class LoopReplay {
  public:
-  LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps)
-      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(offset_only(m.offset_N)),
-        plant_(m.drive, fx_, no_extra_, no_change_), vel_(c.position_fir, dt),
+  LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps, const ReplayOptions& opt)
+      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(plant_effects(m.offset_N, opt.effects)), extra_(opt.extra_force),
+        plant_(m.drive, fx_, extra_, no_change_), vel_(c.position_fir, dt),
         commands_(static_cast<std::size_t>(c.delay_samples) + 1, 0.0) {}
   void start_at(double x) { plant_.start_at(x); }
 
@@ -136,7 +135,7 @@ class LoopReplay {
   double dt_;
   int substeps_;
   Effects fx_{};
-  ExtraForce no_extra_{};
+  ExtraForce extra_{};
   ServiceChange no_change_{};
   DrivePlant plant_;
   VelocityEstimate vel_;
@@ -146,13 +145,14 @@ class LoopReplay {
 
 /// The model in the loop over the run: x, v, a and force at every sample
 /// into r (r.gains, r.dt_s and r.substeps set).
-void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, ReplayResult& r) {
+void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
+                      ReplayResult& r) {
   const std::size_t n = run.t.size();
   r.x_sim.resize(n);
   r.v_sim.resize(n);
   r.a_sim.resize(n);
   r.u_sim.resize(n);
-  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps);
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, opt);
   loop.start_at(run.x.front());
   for (std::size_t k = 0; k < n; ++k)
     loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
@@ -190,6 +190,9 @@ void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResu
   r.v_sim = tail(r.v_sim);
   r.a_sim = tail(r.a_sim);
   r.u_sim = tail(r.u_sim);
+  r.x_sim_processed = tail(xsf);
+  r.v_sim_processed = tail(vs);
+  r.a_sim_processed = tail(as);
 }
 
 }  // namespace
@@ -234,7 +237,7 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
   r.gains = resolve_gains(c, r.gain_fit);
 
-  simulate_in_loop(model, c, run, r);
+  simulate_in_loop(model, c, run, opt, r);
   compare_with_run(run, opt, r);
   r.samples_compared = r.t.size();
   return r;
@@ -252,6 +255,37 @@ nlohmann::json gains_json(const Gains& g, ControlLaw law) {
   return j;
 }
 }  // namespace
+
+namespace {
+
+/// The four relative errors of a against b over the kept samples, relative to the measured signals.
+ReplayFigures kept_errors(const ReplayResult& r, const std::vector<double>* a, const std::vector<double>* b,
+                          const std::vector<char>& keep) {
+  const std::vector<double>* meas[4] = {&r.x, &r.v, &r.a, &r.u};
+  RelativeError e[4];
+  for (int s = 0; s < 4; ++s)
+    for (std::size_t k = 0; k < meas[s]->size() && k < keep.size(); ++k)
+      if (keep[k]) e[s].add(a[s][k] - b[s][k], (*meas[s])[k]);
+  return {e[0].pct(), e[1].pct(), e[2].pct(), e[3].pct()};
+}
+
+}  // namespace
+
+ReplayFigures figures_where(const ReplayResult& r, const std::vector<char>& keep, bool same_processing) {
+  const std::vector<double> meas[4] = {r.x, r.v, r.a, r.u};
+  if (same_processing) {
+    const std::vector<double> sim[4] = {r.x_sim_processed, r.v_sim_processed, r.a_sim_processed, r.u_sim};
+    return kept_errors(r, meas, sim, keep);
+  }
+  const std::vector<double> sim[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
+  return kept_errors(r, meas, sim, keep);
+}
+
+ReplayFigures processing_where(const ReplayResult& r, const std::vector<char>& keep) {
+  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
+  const std::vector<double> processed[4] = {r.x_sim_processed, r.v_sim_processed, r.a_sim_processed, r.u_sim};
+  return kept_errors(r, state, processed, keep);
+}
 
 nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Controller& c, const ReplayOptions& opt) {
   nlohmann::json j;

@@ -23,6 +23,7 @@
 #include "io/csv_trace.hpp"
 #include "io/units.hpp"
 #include "model/model_file.hpp"
+#include "sim/drive_sim.hpp"
 
 namespace feedid::host {
 
@@ -48,6 +49,12 @@ struct ReplayOptions {
   double filter_hz = 100;  ///< cut-off of the zero-phase Butterworth on the measured position (Hz)
   int drop_first = 49;     ///< samples left out at the start (the filter's edge), as in the protocol
   Units units;             ///< labels only (units.hpp)
+  /// Unmodelled effects added to the model's plant (diagnose's named
+  /// effects, sim/drive_sim.hpp); offset_N adds to the model's own.
+  Effects effects;
+  /// A further force against the motion, f(t, x, v) (N), for an effect the
+  /// plant's fixed shapes do not draw (a drift per direction); none when empty.
+  ExtraForce extra_force;
 };
 
 /// Relative errors (%), 100 ||y - y_sim|| / ||y||, of the four signals.
@@ -74,7 +81,17 @@ struct ReplayResult {
   Units units;                        ///< ReplayOptions::units
   /// The compared series (every sample after drop_first), for plots.
   std::vector<double> t, x, v, a, u, x_sim, v_sim, a_sim, u_sim;
+  /// The simulated position processed as the measured one, and its velocity and acceleration.
+  std::vector<double> x_sim_processed, v_sim_processed, a_sim_processed;
 };
+
+/// The four figures over the compared samples k (index into ReplayResult::t)
+/// where keep[k] is non-zero: simulated from the plant's state, or
+/// processed as the measured signals when `same_processing`.
+ReplayFigures figures_where(const ReplayResult& r, const std::vector<char>& keep, bool same_processing);
+/// The processing's own share over the same samples: the simulated state
+/// against the same simulation processed, relative to the measured signal.
+ReplayFigures processing_where(const ReplayResult& r, const std::vector<char>& keep);
 
 /// Replays the model in the loop of `c` over `run`. `fit_always`: fit the
 /// gains from the log even when the file gives them all (a check of the

@@ -1,0 +1,68 @@
+// The gap of a given model on a new run (issue 28, part 2): the diagnosis
+// with the model as its base (DiagnoseOptions::model), and, given the
+// drive's controller, the model replayed in the drive's loop before and
+// after the named causes, judged on the held-out folds' time only.
+//
+// A cause is a catalogue effect the diagnosis names, added to the replay's
+// plant where the plant draws it (plant_effects), or the comparison itself:
+// the protocol compares a processed measurement with the plant's raw state,
+// and when processing the simulation alike removes at least
+// kComparisonEnergyShare of a signal's held-out error energy, the
+// processing is named a cause and the figures after are taken with both
+// sides processed alike. Host only.
+#pragma once
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "diagnose/diagnose.hpp"
+#include "replay/replay.hpp"
+
+namespace feedid::host {
+
+/// Share of a signal's held-out error energy, 1 - (e_alike / e)^2, that
+/// processing alike must remove for the comparison to be named a cause.
+constexpr double kComparisonEnergyShare = 0.25;
+
+/// A named effect and whether the replay's plant simulates it.
+struct PlantEffect {
+  std::string kind;
+  bool simulated = false;
+  std::string note;  ///< how it enters the plant, or why it does not
+};
+
+/// The named effects as the plant's effects (sim/drive_sim.hpp) and one
+/// extra force for those its fixed shapes do not draw; each effect says
+/// whether and how it entered. mass_kg: the model's (a compliance's load share).
+struct PlantEffects {
+  Effects effects;
+  ExtraForce extra_force;
+  std::vector<PlantEffect> list;
+};
+PlantEffects plant_effects(const std::vector<NamedEffect>& named, double mass_kg);
+
+struct ModelGap {
+  DiagnoseResult diagnosis;
+  bool replayed = false;
+  std::size_t heldout_samples = 0;  ///< replayed samples in held-out folds (after the first drop_first)
+  /// Held-out figures (%), relative_error_pct's definition: before and
+  /// after the named causes; after_effects: the effects alone, compared as
+  /// the protocol does; same_processing: both sides processed alike;
+  /// processing: the processing's own share (before).
+  ReplayFigures before_pct, after_pct, after_effects_pct, before_same_pct, after_same_pct, processing_pct;
+  bool comparison_named = false;
+  std::vector<PlantEffect> plant;
+  ReplayResult before, after;  ///< the whole replays (series for plots)
+};
+
+/// Diagnoses `trace` against opt.model (required) and, when `c` and `run`
+/// are given, replays before and after. Throws std::invalid_argument for a
+/// replay that cannot run (replay's errors).
+ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Controller* c, const LoggedRun* run,
+                   const ReplayOptions& ropt);
+
+nlohmann::json to_json(const ModelGap& g);
+std::string summary(const ModelGap& g);
+
+}  // namespace feedid::host
