@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "report/report.hpp"
+#include "model/model_file.hpp"
 #include "validate/validate.hpp"
 #include "cli_common.hpp"
 
@@ -32,10 +33,13 @@ struct ValidateCommand : Command {
     app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
   }
   int run() override {
-    const nlohmann::json model_json = read_json_file(model_path);
-    const DriveParams model = model_from_json(model_json);  // errors reach main's handler
+    // The one model reader replay and diagnose use; its errors reach main's handler.
+    const ModelFile file = read_model_file(model_path);
+    for (const auto& w : file.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    const DriveParams& model = file.drive;
+    opt.offset_N = file.offset_N;
     opt.units = input.units();
-    if (const std::string why = model_units_mismatch(model_json, opt.units); !why.empty()) {
+    if (const std::string why = model_units_mismatch({{"units", file.units}}, opt.units); !why.empty()) {
       std::fprintf(stderr, "error: %s: %s\n", model_path.c_str(), why.c_str());
       return 2;
     }

@@ -19,6 +19,7 @@
 
 #include "compensate/compensate.hpp"
 #include "diagnose/diagnose.hpp"
+#include "model/model_file.hpp"
 #include "identify/identify.hpp"
 #include "io/column_trace.hpp"
 #include "io/trace_files.hpp"
@@ -183,8 +184,10 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
   const nlohmann::json model_json = nlohmann::json::parse(model_text);
   if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
     throw std::invalid_argument("model: " + why);
-  const DriveParams model = model_from_json(model_json);
-  return to_json(validate(model, read.trace, o.validate), model, o.validate).dump();
+  const ModelFile file = model_file_from_json(model_json, "model");
+  CallOptions with_offset = o;
+  with_offset.validate.offset_N = file.offset_N;
+  return to_json(validate(file.drive, read.trace, with_offset.validate), file.drive, with_offset.validate).dump();
 }
 
 std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,

@@ -81,7 +81,7 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
   std::vector<double> v, a;
   protocol_derivatives(p, has_position, opt.filter_hz, v, a);
   std::vector<double> u_hat(n);
-  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]);
+  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]) + opt.offset_N;
   for (std::size_t k = first; k < n; ++k) full.add(p.u[k], u_hat[k]);
   // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
   // new Nyquist frequency, like MATLAB decimate's default) and every n-th
@@ -139,7 +139,7 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
 }
 
 nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const ValidateOptions& opt) {
-  return {{"relative_error_pct", r.relative_error_pct},
+  nlohmann::json j = {{"relative_error_pct", r.relative_error_pct},
           {"relative_error_full_rate_pct", r.relative_error_full_pct},
           {"rms_error_N", r.rms_error_N},
           {"error_norm_N", r.error_norm_N},
@@ -164,6 +164,9 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"position_unwraps", r.position_wrap.wraps},
           {"model", model_json(model, r.units)},
           {"units", units_json(r.units)}};
+  // Only a model with a load force states it (the keys of one without are unchanged).
+  if (opt.offset_N != 0.0) j["model"]["offset_N"] = opt.offset_N;
+  return j;
 }
 
 }  // namespace feedid::host
