@@ -8,6 +8,7 @@
 #include <functional>
 #include <utility>
 
+#include "gap/model_gap.hpp"
 #include "identify/identify.hpp"
 #include "io/trace_files.hpp"
 #include "model/model_file.hpp"
@@ -105,6 +106,30 @@ TEST_F(EmpsReplay, IdentifiedModelReplaysNoWorseThanThePublishedOne) {
     // AND the force, which the identification fits, is better outright
     EXPECT_LT(a.force, b.force) << p.file;
   }
+}
+
+// Issue 28's bar for `diagnose --model M --controller C` on PULSES, M
+// identified on DATA_EMPS: a cause named, the held-out acceleration error
+// at most 12 % with it (published 19.8 %), the force error not grown.
+TEST_F(EmpsReplay, DiagnoseOfTheIdentifiedModelOnPulsesNamesACauseAndClosesTheAccelerationGap) {
+  const CsvResult id_in = read_trace_file(emps_dir + "/DATA_EMPS.csv", emps_columns());
+  ASSERT_TRUE(id_in.ok) << id_in.error;
+  const IdentifyResult id = identify(id_in.trace, IdentifyOptions{});
+  ASSERT_EQ(id.status, feedid::Status::ok) << id.error;
+  DiagnoseOptions opt;
+  opt.model = model_file_from_json(to_json(id), "identify");
+  const Controller c = read_controller_file(examples + "/emps_controller.json");
+  const CsvResult pulses = read_trace_file(emps_dir + "/DATA_EMPS_PULSES.csv", emps_columns());
+  ASSERT_TRUE(pulses.ok) << pulses.error;
+  const LoggedRun run = read_logged_run(emps_dir + "/DATA_EMPS_PULSES.csv", emps_columns(), c);
+  const ModelGap g = model_gap(pulses.trace, opt, &c, &run, ReplayOptions{});
+  ASSERT_TRUE(g.diagnosis.error.empty()) << g.diagnosis.error;
+  ASSERT_TRUE(g.replayed);
+  EXPECT_TRUE(g.comparison_named || !g.diagnosis.effects.empty()) << summary(g);
+  EXPECT_LE(g.after_pct.acceleration, 12.0) << summary(g);
+  EXPECT_LE(g.after_pct.force, g.before_pct.force) << summary(g);
+  // The effects in the plant alone do not grow the force error either.
+  EXPECT_LE(g.after_effects_pct.force, g.before_pct.force) << summary(g);
 }
 
 TEST_F(EmpsReplay, LoggedCommandRevealsTheDocumentedGains) {
