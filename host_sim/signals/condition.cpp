@@ -12,6 +12,12 @@ namespace {
 
 /// Encoder quantum: the smallest position step, if the steps are (nearly
 /// all) integer multiples of it; 0 for an unquantised or resampled position.
+/// The smallest step carries the rounding of the two positions it joins:
+/// EMPS's positions moved by 1e-13 relative (a parser that does not round
+/// correctly) moved it by 5e-7, a step of 2000 counts then missed the
+/// lattice by 1e-3 and the quantum was lost (the band edge fell sixfold).
+/// So the lattice is checked against the spacing refined over every step of
+/// a few counts; the quantum returned stays the smallest step.
 double position_quantum(const std::vector<double>& x) {
   double q = 0.0;
   const double scale = 1e-12 * std::max(1.0, quantile_abs(x, 1.0));
@@ -20,9 +26,15 @@ double position_quantum(const std::vector<double>& x) {
     if (d > scale && (q == 0.0 || d < q)) q = d;
   }
   if (q == 0.0) return 0.0;
+  double dn = 0.0, nn = 0.0;  // least squares of |step| = n q over steps of 1-8 counts
+  for (std::size_t k = 1; k < x.size(); ++k) {
+    const double d = std::fabs(x[k] - x[k - 1]), n = std::round(d / q);
+    if (n >= 1.0 && n <= 8.0 && std::fabs(d / q - n) < 0.05) { dn += d * n; nn += n * n; }
+  }
+  const double spacing = dn / nn;
   std::size_t on_grid = 0, n = 0;
   for (std::size_t k = 1; k < x.size(); k += 7) {
-    const double r = (x[k] - x[k - 1]) / q;
+    const double r = (x[k] - x[k - 1]) / spacing;
     ++n;
     if (std::fabs(r - std::round(r)) < 1e-3) ++on_grid;
   }

@@ -84,5 +84,25 @@ TEST(Condition, UnevenStampsOfALogSampledWhenReadAreKept) {
   for (std::size_t k = 0; k < times.size(); ++k) ASSERT_EQ(s.t[k], times[k]);
 }
 
+// GIVEN a 1 kHz log from a 50 nm encoder far from its origin (0.25 m), its
+// positions moved by 1e-13 relative as a parser that does not round
+// correctly leaves them, THEN the encoder quantum is still found, and
+// where it was (the smallest step moved by 5e-7, a 2000-count step missed
+// the lattice, and the quantum was lost: EMPS's band edge fell sixfold).
+TEST(Condition, TheEncoderQuantumSurvivesTheLastDigitsOfThePositions) {
+  const double q = 5e-8;
+  Trace tr;
+  tr.source = "quantised";
+  tr.time_unit_stated = true;
+  for (int k = 0; k < 20000; ++k) {
+    // a creep at 0.4 counts per sample (steps of one count), then strokes of up to 2500
+    const double t = 1e-3 * k, x = k < 5000 ? 0.25 + 2e-5 * t : 0.2501 + 0.1 * std::sin(2.0 * M_PI * 0.2 * (t - 5.0));
+    const double moved = std::round(x / q) * q * (1.0 + 1e-13 * static_cast<double>(k % 3 - 1));
+    tr.samples.push_back({t, moved, 0.0, 10.0 * std::cos(2.0 * M_PI * 0.2 * t)});
+  }
+  const Signals s = condition(tr, ConditionOptions{});
+  EXPECT_NEAR(s.position_quantum_m, q, 1e-5 * q);  // the smallest step, with its last digits
+}
+
 }  // namespace
 }  // namespace feedid::host
