@@ -161,6 +161,24 @@ TEST(CsvFormats, HeaderlessFilesNameTheirColumnsWithColumns) {
   EXPECT_TRUE(contains(read_both(bare, cols).error, "--columns: column 't' (time) appears more than once"));
 }
 
+// GIVEN a list of recordings (--in-list) where one headerless file names
+// its columns with the key `columns`, THEN it is read with those names and
+// the other file with its header.
+TEST(CsvFormats, InListTakesColumnsPerFile) {
+  const std::string bare = write_text("list_bare", "0,0,1.5\n0.001,1e-06,2.25\n0.002,2.5e-06,-3.125\n");
+  const std::string plain = write_text("list_plain", kPlain);
+  const std::string list = write_text("list", bare + " columns=t,x,u\n" + plain + "\n");
+  std::vector<TraceInput> inputs;
+  std::string error;
+  ASSERT_TRUE(read_input_list(list, CsvColumns{}, inputs, error)) << error;
+  ASSERT_EQ(inputs.size(), 2u);
+  EXPECT_EQ(inputs[0].columns.names_by_position, (std::vector<std::string>{"t", "x", "u"}));
+  EXPECT_TRUE(inputs[1].columns.names_by_position.empty());
+  const CsvResult r = read_trace_files(inputs);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.trace.samples.size(), 6u);
+}
+
 TEST(TimeStamp, Iso8601FormsAndRanges) {
   IsoTime a, b;
   ASSERT_TRUE(parse_iso8601("2026-11-25T12:00:00Z", false, a));
