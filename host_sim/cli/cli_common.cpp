@@ -109,8 +109,13 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
   }
   const Trace& t = out.trace;
   note_time_unit(inputs);
+  note_format(t.notes);
   note_skipped_rows(path, t.rows_skipped, t.rows_repeated, t.skipped_rows);
   return true;
+}
+
+void note_format(const std::vector<std::string>& notes) {
+  for (const std::string& n : notes) std::fprintf(stderr, "note: %s\n", n.c_str());
 }
 
 void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t repeated,
@@ -164,12 +169,17 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   const std::size_t before_input = c->get_options().size();
   add_bad_row_option(c, cols);
   c->add_option("--in-list", u.in_list,
-                "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. position-scale=.. "
+                "file listing recordings, one per line: path [time=.. position=.. velocity=.. force=.. columns=.. position-scale=.. "
                 "force-scale=..] to override the options for that file");
-  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s)")->capture_default_str();
+  c->add_option_function<std::string>("--columns", [&cols](const std::string& v) { cols.names_by_position = names_by_position(v); },
+                                      "names of the columns by position, for a CSV without a header row, e.g. t,x,u "
+                                      "(an empty name: a column not read, t,,x,u)");
+  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s, or ISO 8601 stamps)")->capture_default_str();
   c->add_option("--rate", cols.rate_hz, "sample rate (Hz) of a CSV without a time column: data row k is at k / rate")
       ->check(CLI::PositiveNumber);
-  c->add_option("--position", cols.position, "CSV column or .mat variable of position (m; rad with --axis rotary)")->capture_default_str();
+  c->add_option("--position", cols.position,
+                "CSV column or .mat variable of position (m; rad with --axis rotary); in a .mat also a struct field "
+                "(rec.act_pos) or a matrix column (data(:,2) or data:2)")->capture_default_str();
   c->add_option("--velocity", cols.velocity,
                 "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
   c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
@@ -293,11 +303,12 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
     std::fprintf(stderr, "error: monitor reads one log (--in); --in-list is for identify, validate and diagnose\n");
     return 2;
   }
-  CsvStream stream(path, cols);
+  CsvStream stream = open_trace_stream(path, cols);
   if (!stream.ok()) {
     std::fprintf(stderr, "error: %s\n", stream.error().c_str());
     return 2;
   }
+  note_format(stream.notes());
   opt.identify.units = in.units();
   StreamProgress progress("monitor");
   opt.progress = [&progress](double t) { progress(t); };

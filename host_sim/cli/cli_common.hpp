@@ -62,6 +62,9 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
 /// reader's, whole-file or streamed, is said this way (nothing if none).
 void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t repeated,
                        const std::vector<std::string>& first_skipped);
+/// A note on stderr of each thing the reader did with a file's format
+/// (Trace::notes: lines left out before the header, ISO 8601 stamps).
+void note_format(const std::vector<std::string>& notes);
 /// A note on stderr of the force rows left out as outliers, naming the first (nothing if none).
 void note_force_outliers(const ForceOutliers& out, const Units& units);
 

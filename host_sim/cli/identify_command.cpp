@@ -53,6 +53,7 @@ struct IdentifyCommand : Command {
     CsvStream in(in_path.front(), cols);
     if (!in.ok()) { std::fprintf(stderr, "error: %s\n", in.error().c_str()); return 2; }
     std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
+    note_format(in.notes());
     StreamProgress progress("identify");
     opt.progress = [&progress](double t) { progress(t); };
     const IdentifyResult r = identify_stream(in, in_path.front(), opt);

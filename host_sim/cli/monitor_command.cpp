@@ -21,7 +21,7 @@ struct MonitorCommand : Command {
   std::string in_path, json_path, plot_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
-    app->add_option("--in", in_path, "log CSV, read row by row")->required();
+    app->add_option("--in", in_path, "log: a CSV, read row by row, or a .mat, read whole")->required();
     app->add_option("--json", json_path, "write epochs and alarms as JSON");
     app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
     app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);

@@ -16,19 +16,12 @@
 #include <string_view>
 #include <vector>
 
+#include "csv_table.hpp"
 #include "message_text.hpp"
 #include "trace_rows.hpp"
 
 namespace feedid::host {
 namespace {
-
-// Roles a header column can play (a column may serve several).
-enum Role : unsigned {
-  kTime = 1u << 0,
-  kPosition = 1u << 1,
-  kVelocity = 1u << 2,
-  kForce = 1u << 3,
-};
 
 std::string errno_text(int err) { return std::strerror(err); }
 
@@ -86,45 +79,6 @@ bool read_file(const std::string& path, std::string& out, std::string& error) {
   return true;
 }
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-/// Trims whitespace, then one pair of surrounding double quotes (and whitespace inside).
-std::string_view trim_field(const char* b, const char* e) {
-  while (b < e && is_space(*b)) ++b;
-  while (e > b && is_space(e[-1])) --e;
-  if (e - b >= 2 && *b == '"' && e[-1] == '"') {
-    ++b;
-    --e;
-    while (b < e && is_space(*b)) ++b;
-    while (e > b && is_space(e[-1])) --e;
-  }
-  return std::string_view(b, static_cast<std::size_t>(e - b));
-}
-
-/// True when [b, e) holds only whitespace other than the separator.
-bool is_blank(const char* b, const char* e, char sep) {
-  for (; b < e; ++b) {
-    if (*b == sep || !is_space(*b)) return false;
-  }
-  return true;
-}
-
-/// Splits [b, e) at `sep` into `fields` (raw, untrimmed ranges).
-void split(const char* b, const char* e, char sep,
-           std::vector<std::pair<const char*, const char*>>& fields) {
-  fields.clear();
-  for (;;) {
-    const void* hit = std::memchr(b, sep, static_cast<std::size_t>(e - b));
-    if (hit == nullptr) {
-      fields.emplace_back(b, e);
-      return;
-    }
-    const char* s = static_cast<const char*>(hit);
-    fields.emplace_back(b, s);
-    b = s + 1;
-  }
-}
-
 /// Parsed line cursor over an in-memory buffer; counts lines 1-based.
 struct LineCursor {
   const char* p;
@@ -151,154 +105,6 @@ CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns) {
   if (!read_file(path, buf, failed.error)) return failed;
   return parse_trace_csv(buf, path, columns);
 }
-
-namespace {
-
-/// What the header says: separator, column names, and which role each
-/// column plays (only columns with a role are parsed).
-struct CsvLayout {
-  char sep = ',';
-  std::vector<std::string> names;
-  std::vector<unsigned> roles;
-  bool has_position = false, has_velocity = false;
-  double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
-  double rate_hz = 0.0;     ///< > 0: no time column, data row k is at k / rate_hz (CsvColumns::rate_hz)
-};
-
-/// Index of `name` in the header, -1 if absent, -2 if it appears twice.
-long find_column(const std::vector<std::string>& names, const std::string& name) {
-  if (name.empty()) return -1;
-  long found = -1;
-  for (std::size_t i = 0; i < names.size(); ++i)
-    if (names[i] == name) {
-      if (found >= 0) return -2;
-      found = static_cast<long>(i);
-    }
-  return found;
-}
-
-/// The header line [hb, he) against the wanted columns: the layout, or an
-/// error naming the line, the column and what the header has.
-bool parse_header(const char* hb, const char* he, const std::string& at_header, const CsvColumns& columns, CsvLayout& out,
-                  std::string& error) {
-  const std::string_view header_text(hb, static_cast<std::size_t>(he - hb));
-  if (header_text.find(',') == std::string_view::npos)
-    out.sep = header_text.find(';') != std::string_view::npos ? ';' : header_text.find('\t') != std::string_view::npos ? '\t' : ',';
-  std::vector<std::pair<const char*, const char*>> fields;
-  split(hb, he, out.sep, fields);
-  for (const auto& f : fields) out.names.emplace_back(trim_field(f.first, f.second));
-  struct Wanted {
-    const std::string* name;
-    const char* role_name;
-    unsigned role;
-    long index;
-  };
-  Wanted wanted[4] = {{&columns.time, "time", kTime, -1},
-                      {&columns.position, "position", kPosition, -1},
-                      {&columns.velocity, "velocity", kVelocity, -1},
-                      {&columns.force, "force", kForce, -1}};
-  for (Wanted& w : wanted) {
-    w.index = find_column(out.names, *w.name);
-    if (w.index == -2) {
-      error = at_header + "column " + quoted_text(*w.name) + " (" + w.role_name + ") appears more than once; header has: " +
-              name_list(out.names);
-      return false;
-    }
-  }
-  if (columns.rate_hz > 0 && wanted[0].index >= 0) {
-    error = at_header + "--rate is for a log without a time column, and this one has " + quoted_text(columns.time) +
-            ": give one or the other";
-    return false;
-  }
-  out.rate_hz = columns.rate_hz;
-  for (const Wanted& w : {wanted[0], wanted[3]})
-    if (w.index < 0 && !(w.role == kTime && out.rate_hz > 0)) {
-      error = at_header + "missing column " + quoted_text(*w.name) + " (" + w.role_name + "); header has: " + name_list(out.names) +
-              (w.role == kTime ? " (a log without a time column: give its sample rate, --rate)" : "");
-      return false;
-    }
-  if (wanted[1].index < 0 && wanted[2].index < 0) {
-    error = at_header + "missing column " + quoted_text(columns.position) + " (position) and " + quoted_text(columns.velocity) +
-            " (velocity); need at least one; header has: " + name_list(out.names);
-    return false;
-  }
-  out.time_scale = time_scale(columns);
-  out.has_position = wanted[1].index >= 0;
-  out.has_velocity = wanted[2].index >= 0;
-  out.roles.assign(out.names.size(), 0u);
-  for (const Wanted& w : wanted)
-    if (w.index >= 0) out.roles[static_cast<std::size_t>(w.index)] |= w.role;
-  return true;
-}
-
-enum class RowRead { kept, skipped, stop };
-
-/// One data row [lb, le) (not blank; the buffer NUL-terminated after it)
-/// through the row rules: kept, skipped (bad or repeated), or stop (the
-/// error, in rules.error()). prev_row: the last kept row's text.
-RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_view prev_row, const CsvLayout& lay,
-                 const CsvColumns& columns, RowRules& rules, std::vector<std::pair<const char*, const char*>>& fields,
-                 TraceSample& s) {
-  rules.count_row();
-  const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
-  // Without a time column a row like the one before is the axis at rest, not a repeat.
-  if (lay.rate_hz == 0 && !prev_row.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
-    rules.repeated();
-    return RowRead::skipped;
-  }
-  split(lb, le, lay.sep, fields);
-  const std::size_t ncols = lay.names.size();
-  if (fields.size() != ncols)
-    return rules.bad(rules.at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size()))
-               ? RowRead::skipped
-               : RowRead::stop;
-  s = TraceSample{};
-  std::string_view time_text;
-  std::string row_time;  // the time a --rate log's row is at, for messages
-  if (lay.rate_hz > 0) {
-    s.t_s = static_cast<double>(rules.rows() - 1) / lay.rate_hz;
-    row_time = std::to_string(s.t_s);
-    time_text = row_time;
-  }
-  for (std::size_t i = 0; i < ncols; ++i) {
-    const unsigned r = lay.roles[i];
-    if (r == 0u) continue;
-    const std::string_view text = trim_field(fields[i].first, fields[i].second);
-    // `text` starts with a non-space character, so strtod skips nothing and
-    // stops no later than the separator / line end that bounds the field
-    // (the buffer is NUL-terminated, so it cannot run off the end).
-    char* endp = nullptr;
-    errno = 0;
-    const double value = text.empty() ? 0.0 : std::strtod(text.data(), &endp);
-    std::string why;
-    if (text.empty())
-      why = ": empty value";
-    else if (endp != text.data() + text.size())
-      why = ": " + quoted_text(text) + " is not a number";
-    else if (!std::isfinite(value))
-      why = errno == ERANGE ? ": " + quoted_text(text) + " is out of range for a double" : ": value is NaN/Inf";
-    if (!why.empty())
-      return rules.bad(rules.at(line) + "column " + quoted_text(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
-    if (r & kTime) {
-      s.t_s = value * lay.time_scale;
-      time_text = text;
-    }
-    if (r & kPosition) s.x_m = value * columns.position_scale;
-    if (r & kVelocity) s.v_m_s = value * columns.position_scale;
-    if (r & kForce) s.u_N = value * columns.force_scale;
-  }
-  return rules.take(s, time_text, line) ? RowRead::kept : RowRead::stop;
-}
-
-/// Skips a UTF-8 byte-order mark.
-const char* after_bom(const char* b, const char* e) {
-  return e - b >= 3 && static_cast<unsigned char>(b[0]) == 0xEF && static_cast<unsigned char>(b[1]) == 0xBB &&
-                 static_cast<unsigned char>(b[2]) == 0xBF
-             ? b + 3
-             : b;
-}
-
-}  // namespace
 
 namespace {
 struct TimeUnit {
@@ -331,6 +137,17 @@ bool time_unit_stated(const CsvColumns& c) {
   return c.rate_hz > 0 || c.time_scale > 0 || (unit_ending(c.time) && c.time != "s");
 }
 
+namespace {
+/// The line after the cursor's that is not blank, without moving it: the
+/// first data row, whose time field says whether the time is ISO 8601.
+void detect_from_next_row(LineCursor cursor, csv::Layout& lay) {
+  const char* b = nullptr;
+  const char* e = nullptr;
+  while (cursor.next(b, e))
+    if (!csv::is_blank(b, e, lay.sep)) return csv::detect_time_format(lay, b, e);
+}
+}  // namespace
+
 CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const CsvColumns& columns) {
   CsvResult result;
   result.trace.source = path;
@@ -338,47 +155,51 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   result.trace.has_velocity = false;
   result.error = scale_error(columns);
   if (!result.error.empty()) return result;
-  LineCursor cursor{after_bom(buf.data(), buf.data() + buf.size()), buf.data() + buf.size()};
+  LineCursor cursor{csv::after_bom(buf.data(), buf.data() + buf.size()), buf.data() + buf.size()};
   RowRules rules(columns, result.trace, path + ":", "line");
+  csv::TableSearch search(columns, rules, path);
 
   const char* b = nullptr;
   const char* e = nullptr;
-  bool have_header = false;
-  while (!have_header && cursor.next(b, e)) {
+  csv::TableSearch::Step step = csv::TableSearch::Step::more;
+  while (step == csv::TableSearch::Step::more && cursor.next(b, e)) {
     if (static_cast<std::size_t>(e - b) > kMaxLineBytes) {
       result.error = too_long_line(path, cursor.line);
       return result;
     }
-    have_header = !is_blank(b, e, '\0');
+    if (!csv::is_blank(b, e, '\0')) step = search.feed(b, e, cursor.line);
   }
-  if (!have_header) {
-    result.error = path + ": empty file (no header row)";
+  if (step == csv::TableSearch::Step::more || step == csv::TableSearch::Step::error) {
+    result.error = step == csv::TableSearch::Step::more ? search.end_error() : search.error();
     return result;
   }
-  CsvLayout lay;
-  if (!parse_header(b, e, rules.at(cursor.line), columns, lay, result.error)) return result;
+  csv::Layout& lay = search.layout();
+  const bool first_row_here = step == csv::TableSearch::Step::data;  // --columns: this line is data
+  if (first_row_here) csv::detect_time_format(lay, b, e);
+  else detect_from_next_row(cursor, lay);
   result.trace.has_position = lay.has_position;
   result.trace.has_velocity = lay.has_velocity;
-  result.trace.time_unit_stated = time_unit_stated(columns);
+  result.trace.time_unit_stated = time_unit_stated(columns) || lay.iso_time;
+  result.trace.notes = csv::layout_notes(lay, columns, path);
 
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
-  std::vector<std::pair<const char*, const char*>> fields;
+  csv::Fields fields;
   std::string_view prev_row;
   TraceSample s;
-  while (cursor.next(b, e)) {
+  for (bool have = first_row_here || cursor.next(b, e); have; have = cursor.next(b, e)) {
     if (static_cast<std::size_t>(e - b) > kMaxLineBytes) {
       result.error = too_long_line(path, cursor.line);
       result.trace.samples.clear();
       return result;
     }
-    if (is_blank(b, e, lay.sep)) continue;
-    const RowRead r = read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
-    if (r == RowRead::stop) {
+    if (csv::is_blank(b, e, lay.sep)) continue;
+    const csv::RowRead r = csv::read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
+    if (r == csv::RowRead::stop) {
       result.error = rules.error();
       return result;
     }
-    if (r == RowRead::kept) prev_row = std::string_view(b, static_cast<std::size_t>(e - b));
+    if (r == csv::RowRead::kept) prev_row = std::string_view(b, static_cast<std::size_t>(e - b));
   }
   if (!rules.finish(path)) {
     result.error = rules.error();
@@ -391,16 +212,21 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
 struct CsvStream::Impl {
   std::ifstream file;
   CsvColumns columns;
-  Trace counts;  ///< no samples kept: RowRules' counters and skipped rows
+  Trace counts;  ///< no samples kept (unless whole): RowRules' counters, skipped rows, notes
   RowRules rules;
-  CsvLayout layout;
+  csv::Layout layout;
   std::vector<char> buf = std::vector<char>(kMaxLineBytes + 2);  ///< one line, NUL-terminated: the stream's bound
   std::string_view line;
+  bool pending = false;  ///< `line` is the first data row, read before next() (its time said whether it is ISO 8601)
+  bool whole = false;    ///< a trace read whole (a .mat): counts.samples are handed on from `index`
+  bool unit_stated = false;
   std::string prev_row;
-  std::size_t line_no = 0, kept = 0;
-  std::vector<std::pair<const char*, const char*>> fields;
-  Impl(const std::string& path, const CsvColumns& c)
-      : file(path, std::ios::binary), columns(c), rules(columns, counts, path + ":", "line") {}
+  std::size_t line_no = 0, kept = 0, index = 0;
+  csv::Fields fields;
+  Impl(const std::string& path, const CsvColumns& c, bool open)
+      : columns(c), rules(columns, counts, path + ":", "line") {
+    if (open) file.open(path, std::ios::binary);
+  }
 
   enum class Line { read, end, too_long };
   /// The next line into `line` (without its newline), never more than
@@ -414,11 +240,24 @@ struct CsvStream::Impl {
     const std::size_t size = file.eof() ? n : n - 1;  // gcount counts the newline it took
     if (size > kMaxLineBytes) return Line::too_long;
     line = std::string_view(buf.data(), size);
+    if (line_no == 1) line.remove_prefix(static_cast<std::size_t>(csv::after_bom(line.data(), line.data() + size) - line.data()));
     return Line::read;
+  }
+  /// The first non-blank line after the header, held for next(): the
+  /// whole-file reader looks at the same row. False: a line too long.
+  bool hold_first_row() {
+    for (Line got; (got = next_line()) != Line::end;) {
+      if (got == Line::too_long) return false;
+      if (csv::is_blank(line.data(), line.data() + line.size(), layout.sep)) continue;
+      pending = true;
+      return true;
+    }
+    return true;
   }
 };
 
-CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_(std::make_unique<Impl>(path, columns)) {
+CsvStream::CsvStream(const std::string& path, const CsvColumns& columns)
+    : impl_(std::make_unique<Impl>(path, columns, true)) {
   Impl& m = *impl_;
   source_ = path;
   error_ = scale_error(columns);
@@ -427,47 +266,82 @@ CsvStream::CsvStream(const std::string& path, const CsvColumns& columns) : impl_
     error_ = path + ": cannot open: " + errno_text(errno);
     return;
   }
-  for (Impl::Line got; (got = m.next_line()) != Impl::Line::end;) {
+  csv::TableSearch search(m.columns, m.rules, path);
+  csv::TableSearch::Step step = csv::TableSearch::Step::more;
+  for (Impl::Line got; step == csv::TableSearch::Step::more && (got = m.next_line()) != Impl::Line::end;) {
     if (got == Impl::Line::too_long) {
       error_ = too_long_line(path, m.line_no + 1);
       return;
     }
     const char* b = m.line.data();
-    if (m.line_no == 1) b = after_bom(b, b + m.line.size());
-    if (is_blank(b, m.line.data() + m.line.size(), '\0')) continue;
-    if (parse_header(b, m.line.data() + m.line.size(), m.rules.at(m.line_no), columns, m.layout, error_)) {
-      has_position_ = m.layout.has_position;
-      has_velocity_ = m.layout.has_velocity;
-      ok_ = true;
-    }
+    if (!csv::is_blank(b, b + m.line.size(), '\0')) step = search.feed(b, b + m.line.size(), m.line_no);
+  }
+  if (step == csv::TableSearch::Step::more || step == csv::TableSearch::Step::error) {
+    error_ = step == csv::TableSearch::Step::more ? search.end_error() : search.error();
     return;
   }
-  error_ = path + ": empty file (no header row)";
+  m.layout = std::move(search.layout());
+  m.pending = step == csv::TableSearch::Step::data;  // --columns: this line is the first row
+  if (!m.pending && !m.hold_first_row()) {
+    error_ = too_long_line(path, m.line_no + 1);
+    return;
+  }
+  if (m.pending) csv::detect_time_format(m.layout, m.line.data(), m.line.data() + m.line.size());
+  m.unit_stated = feedid::host::time_unit_stated(columns) || m.layout.iso_time;
+  m.counts.notes = csv::layout_notes(m.layout, columns, path);
+  has_position_ = m.layout.has_position;
+  has_velocity_ = m.layout.has_velocity;
+  ok_ = true;
 }
 
+CsvStream::CsvStream(CsvResult read) : impl_(std::make_unique<Impl>(read.trace.source, CsvColumns{}, false)) {
+  Impl& m = *impl_;
+  source_ = read.trace.source;
+  error_ = read.error;
+  ok_ = read.ok;
+  has_position_ = read.trace.has_position;
+  has_velocity_ = read.trace.has_velocity;
+  m.whole = true;
+  m.unit_stated = read.trace.time_unit_stated;
+  m.counts = std::move(read.trace);
+}
+
+CsvStream::CsvStream(CsvStream&&) noexcept = default;
 CsvStream::~CsvStream() = default;
 
-bool CsvStream::time_unit_stated() const { return feedid::host::time_unit_stated(impl_->columns); }
+bool CsvStream::time_unit_stated() const { return impl_->unit_stated; }
+const std::vector<std::string>& CsvStream::notes() const { return impl_->counts.notes; }
 
 bool CsvStream::next(TraceSample& s) {
   if (!ok_) return false;
   Impl& m = *impl_;
-  for (Impl::Line got; (got = m.next_line()) != Impl::Line::end;) {
-    if (got == Impl::Line::too_long) {
-      error_ = too_long_line(source_, m.line_no + 1);
-      ok_ = false;
-      return false;
+  if (m.whole) {
+    ok_ = m.index < m.counts.samples.size();
+    if (ok_) s = m.counts.samples[m.index++];
+    return ok_;
+  }
+  for (;;) {
+    if (m.pending) {
+      m.pending = false;
+    } else {
+      const Impl::Line got = m.next_line();
+      if (got == Impl::Line::end) break;
+      if (got == Impl::Line::too_long) {
+        error_ = too_long_line(source_, m.line_no + 1);
+        ok_ = false;
+        return false;
+      }
     }
     const char* b = m.line.data();
     const char* e = b + m.line.size();
-    if (is_blank(b, e, m.layout.sep)) continue;
-    const RowRead r = read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
-    if (r == RowRead::stop) {
+    if (csv::is_blank(b, e, m.layout.sep)) continue;
+    const csv::RowRead r = csv::read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
+    if (r == csv::RowRead::stop) {
       error_ = m.rules.error();
       ok_ = false;
       return false;
     }
-    if (r == RowRead::kept) {
+    if (r == csv::RowRead::kept) {
       ++m.kept;
       m.counts.samples.clear();  // RowRules keeps each row; the stream hands it on instead
       m.prev_row.assign(b, e);   // reuses its capacity

@@ -33,6 +33,10 @@ struct CsvColumns {
   /// counting the rows left out too, is at k / rate_hz. 0: the time column
   /// is required. A log with a time column and a rate is an error (which?).
   double rate_hz = 0.0;
+  /// --columns: the names of a file's columns by position, for a file
+  /// without a header row (an empty name: a column not read). Empty: the
+  /// header row names them.
+  std::vector<std::string> names_by_position;
 };
 
 /// Seconds per unit of a time column from the unit that ends its name,
@@ -54,7 +58,8 @@ struct CsvResult {
   Trace trace;  ///< its rows_skipped, rows_repeated and skipped_rows say what was left out
 };
 
-/// Reads a CSV with a header row. Columns are looked up by name; time and force
+/// Reads a CSV with a header row (or, with names_by_position, without
+/// one). Columns are looked up by name; time and force
 /// are required, and at least one of position and velocity. When a column is
 /// missing, has_position / has_velocity say so. Every value must parse as a
 /// finite number and time must increase strictly; a row that breaks this is
@@ -63,8 +68,11 @@ struct CsvResult {
 /// that repeats the previous one exactly (a logger writing a sample twice)
 /// is counted apart and never kept as a zero-length interval. Bytes that
 /// are not printable ASCII are escaped (\xNN) in messages. Blank lines and a
-/// trailing newline are allowed; separators ',' (and ';' or tab if the header
-/// uses them).
+/// trailing newline are allowed. The formats loggers write (csv_table.hpp):
+/// separators ',', ';' or tab (a ',' in a number of a ';' or tab file is
+/// its decimal point), comment and metadata lines before the header (left
+/// out, counted in a note), ISO 8601 time stamps (seconds since the first
+/// row's). Trace::notes says what was read other than plain.
 CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns);
 /// The same for text already in memory; `source` names it in messages.
 CsvResult parse_trace_csv(const std::string& text, const std::string& source, const CsvColumns& columns);
@@ -78,12 +86,18 @@ CsvResult parse_trace_csv(const std::string& text, const std::string& source, co
 class CsvStream {
  public:
   CsvStream(const std::string& path, const CsvColumns& columns);
+  /// A trace already read whole (a .mat file: libmatio reads whole
+  /// variables), handed on row by row: its error, counts and notes as read.
+  explicit CsvStream(CsvResult read);
+  CsvStream(CsvStream&&) noexcept;
   ~CsvStream();
   bool ok() const { return ok_; }
   const std::string& error() const { return error_; }
   bool has_position() const { return has_position_; }
   bool has_velocity() const { return has_velocity_; }
   bool time_unit_stated() const;  ///< as Trace::time_unit_stated
+  /// As Trace::notes: lines left out before the table, ISO 8601 stamps.
+  const std::vector<std::string>& notes() const;
   /// The next kept row; false at the end or on an error.
   bool next(TraceSample& s);
   std::size_t rows_skipped() const;

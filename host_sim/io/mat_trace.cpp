@@ -112,50 +112,168 @@ bool has_variable(mat_t* mat, const std::string& name) {
   return v != nullptr;
 }
 
-template <typename T> void copy_as_double(const void* data, std::size_t n, std::vector<double>& out) {
-  const T* p = static_cast<const T*>(data);
-  out.assign(p, p + n);
+/// The 1-based index in `text` (digits only, > 0), or 0.
+std::size_t index_of(const std::string& text) {
+  if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos) return 0;
+  return static_cast<std::size_t>(std::stoul(text));
 }
 
-/// The variable as doubles, or an error naming why it is not a vector.
-bool read_vector(mat_t* mat, const std::string& path, const std::string& name, const char* role, std::vector<double>& out,
-                 std::string& error) {
-  MatVar v(Mat_VarRead(mat, name.c_str()));
-  const std::string var = "variable " + quoted_text(name) + " (" + role + ")";
-  if (!v) {
-    // Listed but unreadable is a damaged file, not a missing name.
-    error = has_variable(mat, name) ? path + ": " + var + " is in the file but its data cannot be read (the file is "
-                                                           "truncated or corrupt)"
-                                    : path + ": no " + var + "; the file has: " + variable_list(path);
+}  // namespace
+
+bool parse_mat_name(const std::string& text, MatName& out) {
+  out = MatName{};
+  std::string rest = text;
+  const std::size_t open = rest.rfind('(');
+  if (!rest.empty() && rest.back() == ')' && open != std::string::npos) {
+    std::string inside = rest.substr(open + 1, rest.size() - open - 2);
+    inside.erase(std::remove(inside.begin(), inside.end(), ' '), inside.end());  // data(:, 2) as MATLAB takes it
+    const std::size_t comma = inside.find(',');
+    if (comma == std::string::npos) return false;
+    const std::string a = inside.substr(0, comma), b = inside.substr(comma + 1);
+    out.column = a == ":" ? index_of(b) : 0;
+    out.row = b == ":" ? index_of(a) : 0;
+    if (out.column == 0 && out.row == 0) return false;
+    rest.resize(open);
+  } else if (const std::size_t colon = rest.rfind(':'); colon != std::string::npos) {
+    out.column = index_of(rest.substr(colon + 1));
+    if (out.column == 0) return false;
+    rest.resize(colon);
+  }
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t dot = rest.find('.', from);
+    const std::string part = rest.substr(from, dot == std::string::npos ? std::string::npos : dot - from);
+    if (part.empty() || part.find_first_of("():,") != std::string::npos) return false;
+    (from == 0 ? out.variable : out.fields.emplace_back()) = part;
+    if (dot == std::string::npos) return true;
+    from = dot + 1;
+  }
+}
+
+namespace {
+
+/// The struct field `name` selects in `v` (read whole), or null with `error`
+/// naming where the path breaks and the fields there are.
+matvar_t* select_field(matvar_t* v, const MatName& name, const std::string& at, std::string& error) {
+  std::string walked = name.variable;
+  auto field_names = [](matvar_t* st) {
+    std::vector<std::string> fields;
+    char* const* names = Mat_VarGetStructFieldnames(st);
+    for (unsigned i = 0; names != nullptr && i < Mat_VarGetNumberOfFields(st) && i <= kListedNames; ++i)
+      fields.emplace_back(names[i] ? names[i] : "?");
+    return name_list(fields);
+  };
+  for (std::size_t k = 0; k <= name.fields.size(); ++k) {
+    if (k == name.fields.size()) {
+      if (v->class_type == MAT_C_STRUCT)
+        error = at + quoted_text(walked) + " is a struct: name one of its fields (" + walked + ".FIELD); it has: " +
+                field_names(v);
+      return v->class_type == MAT_C_STRUCT ? nullptr : v;
+    }
+    const std::string& field = name.fields[k];
+    if (v->class_type != MAT_C_STRUCT) {
+      error = at + quoted_text(walked) + " is not a struct (a " + dims_text(*v) + " array), so it has no field " +
+              quoted_text(field);
+      return nullptr;
+    }
+    std::size_t n = 1;
+    for (int d = 0; d < v->rank; ++d) n *= v->dims[d];
+    if (n != 1) {
+      error = at + quoted_text(walked) + " is a " + dims_text(*v) + " struct array: one struct expected";
+      return nullptr;
+    }
+    matvar_t* f = Mat_VarGetStructFieldByName(v, field.c_str(), 0);
+    if (f == nullptr) {
+      error = at + "no field " + quoted_text(field) + " in struct " + quoted_text(walked) + "; it has: " + field_names(v);
+      return nullptr;
+    }
+    v = f;
+    walked += "." + field;
+  }
+  return v;
+}
+
+template <typename T> void copy_as_double(const void* data, std::size_t first, std::size_t stride, std::size_t n,
+                                          std::vector<double>& out) {
+  const T* p = static_cast<const T*>(data) + first;
+  out.resize(n);
+  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i * stride]);
+}
+
+/// Where the selected elements lie in `v`'s data (column-major): a column
+/// or row of a matrix, or a whole vector; false with `why` otherwise.
+bool selection(const matvar_t& v, const MatName& name, std::size_t& first, std::size_t& stride, std::size_t& n,
+               std::string& why) {
+  std::size_t total = 1, longest = 0;
+  for (int d = 0; d < v.rank; ++d) {
+    total *= v.dims[d];
+    longest = std::max(longest, v.dims[d]);
+  }
+  const std::size_t rows = v.rank >= 1 ? v.dims[0] : 0, cols = v.rank == 2 ? v.dims[1] : 0;
+  first = 0;
+  stride = 1;
+  n = total;
+  if (name.column == 0 && name.row == 0) {
+    if (total != longest)
+      why = " (a " + dims_text(v) + " matrix: one row or one column expected; a column of it is " + name.variable +
+            "(:,2) or " + name.variable + ":2, a row " + name.variable + "(2,:))";
+    return why.empty();
+  }
+  if (v.rank != 2 || (name.column > cols) || (name.row > rows)) {
+    why = " (a " + dims_text(v) + " array has no " +
+          (name.column ? "column " + std::to_string(name.column) : "row " + std::to_string(name.row)) + ")";
     return false;
   }
-  std::size_t n = 1, longest = 0;
-  for (int d = 0; d < v->rank; ++d) {
-    n *= v->dims[d];
-    longest = std::max(longest, v->dims[d]);
+  first = name.column ? (name.column - 1) * rows : name.row - 1;
+  stride = name.column ? 1 : rows;
+  n = name.column ? rows : cols;
+  return true;
+}
+
+/// The variable (or its field, column or row) as doubles, or an error
+/// naming why it is not a vector.
+bool read_vector(mat_t* mat, const std::string& path, const std::string& spec, const char* role, std::vector<double>& out,
+                 std::string& error) {
+  const std::string var = "variable " + quoted_text(spec) + " (" + role + ")";
+  MatName name;
+  if (!parse_mat_name(spec, name)) {
+    error = path + ": " + var + " is not a .mat name: a variable, a struct field (rec.act_pos), a matrix column "
+                                "(data(:,2) or data:2) or row (data(2,:))";
+    return false;
   }
-  if (v->isComplex || v->data == nullptr || n != longest) {
+  MatVar root(Mat_VarRead(mat, name.variable.c_str()));
+  if (!root) {
+    // Listed but unreadable is a damaged file, not a missing name.
+    error = has_variable(mat, name.variable)
+                ? path + ": " + var + " is in the file but its data cannot be read (the file is truncated or corrupt)"
+                : path + ": no variable " + quoted_text(name.variable) + " (" + role + "); the file has: " + variable_list(path);
+    return false;
+  }
+  const matvar_t* v = select_field(root.get(), name, path + ": " + var + ": ", error);
+  if (v == nullptr) return false;
+  std::size_t first = 0, stride = 1, n = 0;
+  std::string why;
+  if (v->isComplex || v->data == nullptr || !selection(*v, name, first, stride, n, why)) {
     error = path + ": " + var + " is not a real vector" +
-            (v->isComplex          ? " (complex)"
-             : n != longest        ? " (a " + dims_text(*v) + " matrix: one row or one column expected)"
-             : v->data == nullptr  ? " (" + dims_text(*v) + ", no data: empty, or its data cannot be read)"
-                                   : std::string(" (empty)"));
+            (v->isComplex         ? " (complex)"
+             : !why.empty()       ? why
+             : v->data == nullptr ? " (" + dims_text(*v) + ", no data: empty, or its data cannot be read)"
+                                  : std::string(" (empty)"));
     return false;
   }
   switch (v->class_type) {
-    case MAT_C_DOUBLE: copy_as_double<double>(v->data, n, out); return true;
-    case MAT_C_SINGLE: copy_as_double<float>(v->data, n, out); return true;
-    case MAT_C_INT8: copy_as_double<std::int8_t>(v->data, n, out); return true;
-    case MAT_C_UINT8: copy_as_double<std::uint8_t>(v->data, n, out); return true;
-    case MAT_C_INT16: copy_as_double<std::int16_t>(v->data, n, out); return true;
-    case MAT_C_UINT16: copy_as_double<std::uint16_t>(v->data, n, out); return true;
-    case MAT_C_INT32: copy_as_double<std::int32_t>(v->data, n, out); return true;
-    case MAT_C_UINT32: copy_as_double<std::uint32_t>(v->data, n, out); return true;
-    case MAT_C_INT64: copy_as_double<std::int64_t>(v->data, n, out); return true;
-    case MAT_C_UINT64: copy_as_double<std::uint64_t>(v->data, n, out); return true;
+    case MAT_C_DOUBLE: copy_as_double<double>(v->data, first, stride, n, out); return true;
+    case MAT_C_SINGLE: copy_as_double<float>(v->data, first, stride, n, out); return true;
+    case MAT_C_INT8: copy_as_double<std::int8_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_UINT8: copy_as_double<std::uint8_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_INT16: copy_as_double<std::int16_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_UINT16: copy_as_double<std::uint16_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_INT32: copy_as_double<std::int32_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_UINT32: copy_as_double<std::uint32_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_INT64: copy_as_double<std::int64_t>(v->data, first, stride, n, out); return true;
+    case MAT_C_UINT64: copy_as_double<std::uint64_t>(v->data, first, stride, n, out); return true;
     default:
-      error = path + ": " + var + " is not numeric (MATLAB class " +
-              std::to_string(static_cast<int>(v->class_type)) + ")";
+      error = path + ": " + var + " is not numeric (MATLAB class " + std::to_string(static_cast<int>(v->class_type)) + ")";
       return false;
   }
 }
@@ -176,8 +294,11 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
   }
   result.error = truncated_variable(path);
   if (!result.error.empty()) return result;
-  const bool has_position = has_variable(mat.get(), columns.position);
-  const bool has_velocity = has_variable(mat.get(), columns.velocity);
+  // Present when its variable is: a wrong field or column of it is then
+  // said by read_vector, not taken as a signal not logged.
+  MatName position, velocity;
+  const bool has_position = parse_mat_name(columns.position, position) && has_variable(mat.get(), position.variable);
+  const bool has_velocity = parse_mat_name(columns.velocity, velocity) && has_variable(mat.get(), velocity.variable);
   if (!has_position && !has_velocity) {
     result.error = path + ": no variable " + quoted_text(columns.position) + " (position) and no " +
                    quoted_text(columns.velocity) + " (velocity); need at least one; the file has: " + variable_list(path);

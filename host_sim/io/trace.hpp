@@ -31,6 +31,9 @@ struct Trace {
   std::size_t rows_skipped = 0;   ///< bad rows the reader left out
   std::size_t rows_repeated = 0;  ///< rows that repeated the previous one exactly
   std::vector<std::string> skipped_rows;  ///< the first few skips, with file:line and why
+  /// What the reader did with the file's format, for a note each ("a.csv:
+  /// 3 lines before the header ... left out"; ISO 8601 stamps read).
+  std::vector<std::string> notes;
   /// Pooled recordings, in order (empty for one file). Between two runs the
   /// time jumps by kRunGap_s, a gap every stage treats as a break: no
   /// integral, section, window or block spans two files.

@@ -24,6 +24,26 @@ CsvResult read_trace_file(const std::string& path, const CsvColumns& columns) {
   return is_mat_file(path) ? read_trace_mat(path, columns) : read_trace_csv(path, columns);
 }
 
+CsvStream open_trace_stream(const std::string& path, const CsvColumns& columns) {
+  if (is_mat_file(path)) return CsvStream(read_trace_mat(path, columns));
+  return CsvStream(path, columns);
+}
+
+std::vector<std::string> names_by_position(const std::string& list) {
+  std::vector<std::string> names;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t comma = list.find(',', from);
+    std::string name = list.substr(from, comma == std::string::npos ? std::string::npos : comma - from);
+    const auto not_space = [](unsigned char c) { return !std::isspace(c); };
+    name.erase(name.begin(), std::find_if(name.begin(), name.end(), not_space));
+    name.erase(std::find_if(name.rbegin(), name.rend(), not_space).base(), name.end());
+    names.push_back(name);
+    if (comma == std::string::npos) return names;
+    from = comma + 1;
+  }
+}
+
 CsvResult read_trace_files(const std::vector<std::string>& paths, const CsvColumns& columns) {
   std::vector<TraceInput> inputs;
   for (const auto& p : paths) inputs.push_back({p, columns});
@@ -56,6 +76,7 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
       else if (key == "position") in.columns.position = value;
       else if (key == "velocity") in.columns.velocity = value;
       else if (key == "force") in.columns.force = value;
+      else if (key == "columns") in.columns.names_by_position = names_by_position(value);
       else if (key == "position-scale" || key == "force-scale" || key == "time-scale") {
         char* end = nullptr;
         const double x = std::strtod(value.c_str(), &end);
@@ -65,7 +86,7 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
         }
         (key == "force-scale" ? in.columns.force_scale : key == "time-scale" ? in.columns.time_scale : in.columns.position_scale) = x;
       } else {
-        error = where + "unknown key " + quoted_text(key) + " (time, position, velocity, force, position-scale, force-scale, time-scale)";
+        error = where + "unknown key " + quoted_text(key) + " (time, position, velocity, force, columns, position-scale, force-scale, time-scale)";
         return false;
       }
     }
@@ -107,6 +128,7 @@ CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
     t.time_unit_stated = t.time_unit_stated && one.trace.time_unit_stated;
     t.rows_skipped += one.trace.rows_skipped;
     t.rows_repeated += one.trace.rows_repeated;
+    t.notes.insert(t.notes.end(), one.trace.notes.begin(), one.trace.notes.end());
     for (auto& why : one.trace.skipped_rows)
       if (t.skipped_rows.size() < 5) t.skipped_rows.push_back(why);
     t.source += (t.source.empty() ? "" : " + ") + path;

@@ -24,6 +24,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const feedid::host::CsvResult r = feedid::host::parse_trace_csv(text, "fuzz.csv", feedid::host::CsvColumns{});
   require(feedid::host::is_bounded_printable(r.error));
   for (const auto& why : r.trace.skipped_rows) require(feedid::host::is_bounded_printable(why));
+  for (const auto& note : r.trace.notes) require(feedid::host::is_bounded_printable(note));
   if (!r.ok) {
     require(r.error.rfind("fuzz.csv", 0) == 0);
     return 0;

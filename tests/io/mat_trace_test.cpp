@@ -188,3 +188,108 @@ TEST(MatTrace, EmpsFromMatEqualsEmpsFromCsv) {
 
 }  // namespace
 }  // namespace feedid::host
+
+namespace feedid::host {
+namespace {
+
+/// A double matrix `rows` x `cols` from column-major data, unnamed for a
+/// struct field when name is null.
+matvar_t* matrix(const char* name, std::size_t rows, std::size_t cols, std::vector<double> data) {
+  size_t dims[2] = {rows, cols};
+  return Mat_VarCreate(name, MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, data.data(), 0);
+}
+
+const std::vector<double> kT = {0.0, 0.001, 0.002}, kX = {0.0, 1e-6, 3e-6}, kU = {1.0, 2.0, 4.0};
+
+/// A file as recorders write them: `rec` a struct with fields act_pos, F
+/// and a nested struct meta.time; `data` an n x 3 matrix (t, x, u by
+/// column); `rows` its 3 x n transpose (t, x, u by row).
+std::string write_structured(mat_ft version) {
+  const std::string path = ::testing::TempDir() + "feedid_struct" + (version == MAT_FT_MAT73 ? "73" : "5") + ".mat";
+  std::remove(path.c_str());
+  mat_t* mat = Mat_CreateVer(path.c_str(), nullptr, version);
+  size_t one[2] = {1, 1};
+  const char* meta_fields[] = {"time"};
+  matvar_t* meta = Mat_VarCreateStruct("meta", 2, one, meta_fields, 1);
+  Mat_VarSetStructFieldByName(meta, "time", 0, matrix(nullptr, 3, 1, kT));
+  const char* rec_fields[] = {"act_pos", "F", "meta"};
+  matvar_t* rec = Mat_VarCreateStruct("rec", 2, one, rec_fields, 3);
+  Mat_VarSetStructFieldByName(rec, "act_pos", 0, matrix(nullptr, 1, 3, kX));
+  Mat_VarSetStructFieldByName(rec, "F", 0, matrix(nullptr, 3, 1, kU));
+  Mat_VarSetStructFieldByName(rec, "meta", 0, meta);
+  std::vector<double> by_column, by_row;
+  for (const auto* v : {&kT, &kX, &kU}) by_column.insert(by_column.end(), v->begin(), v->end());
+  for (std::size_t k = 0; k < 3; ++k)
+    for (const auto* v : {&kT, &kX, &kU}) by_row.push_back((*v)[k]);
+  matvar_t* data = matrix("data", 3, 3, by_column);
+  matvar_t* rows = matrix("rows", 3, 3, by_row);
+  for (matvar_t* v : {rec, data, rows}) {
+    EXPECT_EQ(Mat_VarWrite(mat, v, MAT_COMPRESSION_NONE), 0);
+    Mat_VarFree(v);
+  }
+  Mat_Close(mat);
+  return path;
+}
+
+// GIVEN a v5 and a v7.3 file holding the signals as struct fields (one of
+// them nested), as columns of a matrix and as rows of one, THEN each name
+// form reads the same rows; a name of a field, column or row the file does
+// not have is an error naming it and what is there.
+TEST(MatTrace, StructFieldsAndMatrixColumnsAndRows) {
+  for (const mat_ft version : {MAT_FT_MAT5, MAT_FT_MAT73}) {
+    const std::string path = write_structured(version);
+    for (const CsvColumns& c : {named("rec.meta.time", "rec.act_pos", "rec.F"), named("data(:,1)", "data:2", "data(:, 3)"),
+                                named("rows(1,:)", "rows(2,:)", "rows(3,:)")}) {
+      const CsvResult r = read_trace_file(path, c);
+      ASSERT_TRUE(r.ok) << c.time << ": " << r.error;
+      ASSERT_EQ(r.trace.samples.size(), 3u) << c.time;
+      for (std::size_t k = 0; k < 3; ++k) {
+        EXPECT_EQ(r.trace.samples[k].t_s, kT[k]) << c.time;
+        EXPECT_EQ(r.trace.samples[k].x_m, kX[k]) << c.time;
+        EXPECT_EQ(r.trace.samples[k].u_N, kU[k]) << c.time;
+      }
+    }
+    const struct {
+      CsvColumns c;
+      const char* says;
+    } bad[] = {
+        {named("rec.meta.time", "rec.pos", "rec.F"), "no field 'pos' in struct 'rec'; it has: 'act_pos', 'F', 'meta'"},
+        {named("rec.meta", "rec.act_pos", "rec.F"), "'rec.meta' is a struct: name one of its fields (rec.meta.FIELD); it has: 'time'"},
+        {named("data(:,1)", "data(:,4)", "data(:,3)"), "variable 'data(:,4)' (position) is not a real vector (a 3x3 array has no column 4)"},
+        {named("data(:,1)", "data.x", "data(:,3)"), "'data' is not a struct (a 3x3 array), so it has no field 'x'"},
+        {named("data", "data:2", "data:3"), "a 3x3 matrix: one row or one column expected; a column of it is data(:,2) or data:2"},
+        {named("data(:,0)", "data:2", "data:3"), "variable 'data(:,0)' (time) is not a .mat name"},
+        {named("data(1,2)", "data:2", "data:3"), "is not a .mat name"},
+        {named("data(:,1)", "data:2", "nothere.x"), "no variable 'nothere' (force); the file has: '"},
+    };
+    for (const auto& b : bad) {
+      const CsvResult r = read_trace_file(path, b.c);
+      EXPECT_FALSE(r.ok) << b.says;
+      EXPECT_TRUE(contains(r.error, path + ": ")) << r.error;
+      EXPECT_TRUE(contains(r.error, b.says)) << r.error;
+    }
+  }
+}
+
+// GIVEN a .mat log, THEN the stream monitor reads (open_trace_stream) hands
+// on the rows the whole-file reader gives, and a .mat it cannot read is its
+// error at open.
+TEST(MatTrace, StreamedLikeTheWholeFile) {
+  const std::string path = write_structured(MAT_FT_MAT5);
+  const CsvColumns c = named("data(:,1)", "data:2", "data:3");
+  CsvStream st = open_trace_stream(path, c);
+  ASSERT_TRUE(st.ok()) << st.error();
+  EXPECT_TRUE(st.has_position());
+  std::vector<TraceSample> rows;
+  TraceSample s;
+  while (st.next(s)) rows.push_back(s);
+  EXPECT_TRUE(st.error().empty()) << st.error();
+  ASSERT_EQ(rows.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(rows[k].x_m, kX[k]);
+  CsvStream missing = open_trace_stream(path, named("data(:,1)", "data:2", "F"));
+  EXPECT_FALSE(missing.ok());
+  EXPECT_TRUE(contains(missing.error(), "no variable 'F' (force)")) << missing.error();
+}
+
+}  // namespace
+}  // namespace feedid::host

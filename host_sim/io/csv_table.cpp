@@ -1,0 +1,382 @@
+// The table inside a trace CSV (csv_table.hpp).
+#include "csv_table.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include "message_text.hpp"
+
+namespace feedid::host::csv {
+namespace {
+
+// Roles a column can play (a column may serve several).
+enum Role : unsigned {
+  kTime = 1u << 0,
+  kPosition = 1u << 1,
+  kVelocity = 1u << 2,
+  kForce = 1u << 3,
+};
+
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+/// Trims whitespace, then one pair of surrounding double quotes (and whitespace inside).
+std::string_view trim_field(const char* b, const char* e) {
+  while (b < e && is_space(*b)) ++b;
+  while (e > b && is_space(e[-1])) --e;
+  if (e - b >= 2 && *b == '"' && e[-1] == '"') {
+    ++b;
+    --e;
+    while (b < e && is_space(*b)) ++b;
+    while (e > b && is_space(e[-1])) --e;
+  }
+  return std::string_view(b, static_cast<std::size_t>(e - b));
+}
+
+/// Index of `name` among `names`, -1 if absent, -2 if it appears twice.
+long find_column(const std::vector<std::string>& names, const std::string& name) {
+  if (name.empty()) return -1;
+  long found = -1;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) {
+      if (found >= 0) return -2;
+      found = static_cast<long>(i);
+    }
+  return found;
+}
+
+/// The columns `names` (a header's, or --columns; `listed` says which in
+/// messages) against the wanted ones: the roles into `out`, or an error
+/// naming the line, the column and what the names are. `matched`: how many
+/// wanted names were found, to tell a header with a wrong name from a title.
+bool layout_from_names(std::vector<std::string> names, const std::string& at, const char* listed,
+                       const CsvColumns& columns, Layout& out, std::string& error, std::size_t& matched) {
+  out.names = std::move(names);
+  struct Wanted {
+    const std::string* name;
+    const char* role_name;
+    unsigned role;
+    long index;
+  };
+  Wanted wanted[4] = {{&columns.time, "time", kTime, -1},
+                      {&columns.position, "position", kPosition, -1},
+                      {&columns.velocity, "velocity", kVelocity, -1},
+                      {&columns.force, "force", kForce, -1}};
+  matched = 0;
+  for (Wanted& w : wanted) {
+    w.index = find_column(out.names, *w.name);
+    matched += w.index != -1;
+  }
+  const std::string has = std::string("; ") + listed + ": " + name_list(out.names);
+  for (const Wanted& w : wanted)
+    if (w.index == -2) {
+      error = at + "column " + quoted_text(*w.name) + " (" + w.role_name + ") appears more than once" + has;
+      return false;
+    }
+  if (columns.rate_hz > 0 && wanted[0].index >= 0) {
+    error = at + "--rate is for a log without a time column, and this one has " + quoted_text(columns.time) +
+            ": give one or the other";
+    return false;
+  }
+  out.rate_hz = columns.rate_hz;
+  for (const Wanted& w : {wanted[0], wanted[3]})
+    if (w.index < 0 && !(w.role == kTime && out.rate_hz > 0)) {
+      error = at + "missing column " + quoted_text(*w.name) + " (" + w.role_name + ")" + has +
+              (w.role == kTime ? " (a log without a time column: give its sample rate, --rate)" : "");
+      return false;
+    }
+  if (wanted[1].index < 0 && wanted[2].index < 0) {
+    error = at + "missing column " + quoted_text(columns.position) + " (position) and " + quoted_text(columns.velocity) +
+            " (velocity); need at least one" + has;
+    return false;
+  }
+  out.time_scale = time_scale(columns);
+  out.has_position = wanted[1].index >= 0;
+  out.has_velocity = wanted[2].index >= 0;
+  out.roles.assign(out.names.size(), 0u);
+  for (const Wanted& w : wanted)
+    if (w.index >= 0) out.roles[static_cast<std::size_t>(w.index)] |= w.role;
+  return true;
+}
+
+std::vector<std::string> trimmed_names(const Fields& fields) {
+  std::vector<std::string> names;
+  for (const auto& f : fields) names.emplace_back(trim_field(f.first, f.second));
+  return names;
+}
+
+enum class Number { ok, empty, not_number, out_of_range, not_finite };
+
+/// The (trimmed) field as a number, every byte of it; with decimal_comma a
+/// ',' is the decimal point (a `;` or tab file from a German or French
+/// locale). `text` lies in a NUL-terminated buffer and ends at a separator,
+/// a line end or a quote, so strtod stops inside the line.
+Number read_number(std::string_view text, bool decimal_comma, double& value) {
+  if (text.empty()) return Number::empty;
+  char local[64];
+  std::string longer;
+  const char* p = text.data();
+  if (decimal_comma && text.find(',') != std::string_view::npos) {
+    char* copy = local;
+    if (text.size() >= sizeof local) {
+      longer.assign(text);
+      copy = longer.data();
+    } else {
+      text.copy(local, text.size());
+      local[text.size()] = '\0';
+    }
+    for (std::size_t i = 0; i < text.size(); ++i)
+      if (copy[i] == ',') copy[i] = '.';
+    p = copy;
+  }
+  char* end = nullptr;
+  errno = 0;
+  value = std::strtod(p, &end);
+  if (end != p + text.size()) return Number::not_number;
+  if (!std::isfinite(value)) return errno == ERANGE ? Number::out_of_range : Number::not_finite;
+  return Number::ok;
+}
+
+/// A number (finite or not) or an ISO 8601 stamp: a value a data row holds.
+bool is_value(std::string_view text, char sep) {
+  double v = 0.0;
+  IsoTime t;
+  const Number n = read_number(text, sep != ',', v);
+  return n == Number::ok || n == Number::out_of_range || n == Number::not_finite || parse_iso8601(text, sep != ',', t);
+}
+
+/// The number of fields of a data row: two or more values split at tab, `;`
+/// or `,` (tried in this order: a `;` row may hold decimal commas); 0 when
+/// the line is not one.
+std::size_t value_fields(const char* b, const char* e, Fields& fields) {
+  for (const char sep : {'\t', ';', ','}) {
+    if (std::memchr(b, sep, static_cast<std::size_t>(e - b)) == nullptr) continue;
+    split(b, e, sep, fields);
+    bool all = fields.size() >= 2;
+    for (std::size_t i = 0; all && i < fields.size(); ++i) all = is_value(trim_field(fields[i].first, fields[i].second), sep);
+    if (all) return fields.size();
+  }
+  return 0;
+}
+
+/// A comment line: `#`, `%` or `//` first (after whitespace).
+bool is_comment(const char* b, const char* e) {
+  while (b < e && is_space(*b)) ++b;
+  return b < e && (*b == '#' || *b == '%' || (*b == '/' && e - b >= 2 && b[1] == '/'));
+}
+
+}  // namespace
+
+void split(const char* b, const char* e, char sep, Fields& fields) {
+  fields.clear();
+  for (;;) {
+    const void* hit = std::memchr(b, sep, static_cast<std::size_t>(e - b));
+    if (hit == nullptr) {
+      fields.emplace_back(b, e);
+      return;
+    }
+    const char* s = static_cast<const char*>(hit);
+    fields.emplace_back(b, s);
+    b = s + 1;
+  }
+}
+
+bool is_blank(const char* b, const char* e, char sep) {
+  for (; b < e; ++b) {
+    if (*b == sep || !is_space(*b)) return false;
+  }
+  return true;
+}
+
+const char* after_bom(const char* b, const char* e) {
+  return e - b >= 3 && static_cast<unsigned char>(b[0]) == 0xEF && static_cast<unsigned char>(b[1]) == 0xBB &&
+                 static_cast<unsigned char>(b[2]) == 0xBF
+             ? b + 3
+             : b;
+}
+
+TableSearch::TableSearch(const CsvColumns& columns, const RowRules& rules, std::string source)
+    : columns_(columns), rules_(rules), source_(std::move(source)) {
+  if (columns.names_by_position.empty()) return;
+  std::size_t matched = 0;
+  if (!layout_from_names(columns.names_by_position, source_ + ": ", "--columns names", columns, layout_, error_, matched))
+    error_ = source_ + ": --columns: " + error_.substr(source_.size() + 2);
+}
+
+void TableSearch::before_table(const char* b, const char* e, std::size_t line) {
+  if (layout_.lines_before++ > 0) return;
+  layout_.first_before_line = line;
+  layout_.first_before.assign(trim_field(b, e));
+}
+
+TableSearch::Step TableSearch::feed(const char* b, const char* e, std::size_t line) {
+  if (!error_.empty()) return Step::error;
+  if (!columns_.names_by_position.empty()) return feed_named(b, e, line);
+  if (is_comment(b, e)) {
+    before_table(b, e, line);
+    return Step::more;
+  }
+  if (const std::size_t n = value_fields(b, e, fields_)) return no_header_at_data(line, n);
+  for (const char sep : {',', ';', '\t'}) {
+    split(b, e, sep, fields_);
+    Layout found;
+    found.sep = sep;
+    std::string why;
+    std::size_t matched = 0;
+    if (layout_from_names(trimmed_names(fields_), rules_.at(line), "header has", columns_, found, why, matched)) {
+      found.lines_before = layout_.lines_before;
+      found.first_before_line = layout_.first_before_line;
+      found.first_before = std::move(layout_.first_before);
+      found.table_line = line;
+      layout_ = std::move(found);
+      return Step::header;
+    }
+    // Kept: the line with the most wanted names, or with none anywhere the
+    // one with the most fields (a header of other names, not a title).
+    if (!any_candidate_ || matched > best_matched_ ||
+        (matched == 0 && best_matched_ == 0 && fields_.size() > best_fields_)) {
+      best_matched_ = matched;
+      best_fields_ = fields_.size();
+      best_error_ = std::move(why);
+      any_candidate_ = true;
+    }
+  }
+  before_table(b, e, line);
+  return Step::more;
+}
+
+TableSearch::Step TableSearch::no_header_at_data(std::size_t line, std::size_t fields) {
+  const std::string hint = "name the columns by position with --columns (one name per field, e.g. --columns " +
+                           columns_.time + "," + columns_.position + "," + columns_.force + ")";
+  if (best_matched_ > 0)
+    error_ = best_error_;
+  else if (!any_candidate_ || best_fields_ < fields)
+    error_ = rules_.at(line) + "no header row names the columns (line " + std::to_string(line) + " is data, " +
+             std::to_string(fields) + " fields): " + hint;
+  else
+    error_ = best_error_ + "; if the file has no header row, " + hint;
+  return Step::error;
+}
+
+TableSearch::Step TableSearch::feed_named(const char* b, const char* e, std::size_t line) {
+  if (is_comment(b, e)) {
+    before_table(b, e, line);
+    return Step::more;
+  }
+  const std::size_t want = layout_.names.size();
+  for (const char sep : {'\t', ';', ','}) {
+    split(b, e, sep, fields_);
+    if (fields_.size() != want) continue;
+    bool values = true;
+    for (std::size_t i = 0; values && i < want; ++i)
+      values = layout_.roles[i] == 0u || is_value(trim_field(fields_[i].first, fields_[i].second), sep);
+    if (!values) continue;
+    layout_.sep = sep;
+    layout_.table_line = line;
+    return Step::data;
+  }
+  if (const std::size_t n = value_fields(b, e, fields_)) {
+    error_ = rules_.at(line) + "a data row of " + std::to_string(n) + " fields, and --columns names " +
+             std::to_string(want) + " (" + name_list(layout_.names) + "): give one name per field, empty for a column not read";
+    return Step::error;
+  }
+  before_table(b, e, line);
+  return Step::more;
+}
+
+std::string TableSearch::end_error() const {
+  if (!error_.empty()) return error_;
+  if (!columns_.names_by_position.empty())
+    return source_ + ": no data rows" +
+           (layout_.lines_before > 0 ? " (no line of " + std::to_string(layout_.names.size()) +
+                                           " fields whose named columns are values, as --columns says)"
+                                     : "");
+  if (any_candidate_) return best_error_;
+  return source_ + (layout_.lines_before > 0 ? ": no header row (only comment lines)" : ": empty file (no header row)");
+}
+
+void detect_time_format(Layout& lay, const char* b, const char* e) {
+  Fields fields;
+  split(b, e, lay.sep, fields);
+  for (std::size_t i = 0; i < fields.size() && i < lay.roles.size(); ++i)
+    if (lay.roles[i] & kTime) {
+      const std::string_view text = trim_field(fields[i].first, fields[i].second);
+      lay.iso_time = lay.have_epoch = parse_iso8601(text, lay.sep != ',', lay.epoch);
+      if (lay.iso_time) lay.epoch_text.assign(text);
+    }
+}
+
+std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& columns, const std::string& source) {
+  std::vector<std::string> notes;
+  if (lay.lines_before > 0)
+    notes.push_back(source + ": " + std::to_string(lay.lines_before) + " line" + (lay.lines_before == 1 ? "" : "s") +
+                    " before the " + (columns.names_by_position.empty() ? "header" : "first data row") + " (line " +
+                    std::to_string(lay.table_line) + ") left out as comments or metadata; the first, line " +
+                    std::to_string(lay.first_before_line) + ": " + quoted_text(lay.first_before));
+  if (lay.iso_time)
+    notes.push_back(source + ": time column " + quoted_text(columns.time) +
+                    " read as ISO 8601 time stamps, in seconds since the first row's " + quoted_text(lay.epoch_text) +
+                    (columns.time_scale > 0 ? " (--time-scale does not apply)" : ""));
+  return notes;
+}
+
+RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_view prev_row, Layout& lay,
+                 const CsvColumns& columns, RowRules& rules, Fields& fields, TraceSample& s) {
+  rules.count_row();
+  const std::string_view row_text(lb, static_cast<std::size_t>(le - lb));
+  // Without a time column a row like the one before is the axis at rest, not a repeat.
+  if (lay.rate_hz == 0 && !prev_row.empty() && row_text == prev_row) {  // the logger wrote the same sample twice
+    rules.repeated();
+    return RowRead::skipped;
+  }
+  split(lb, le, lay.sep, fields);
+  const std::size_t ncols = lay.names.size();
+  if (fields.size() != ncols)
+    return rules.bad(rules.at(line) + "expected " + std::to_string(ncols) + " fields, found " + std::to_string(fields.size()))
+               ? RowRead::skipped
+               : RowRead::stop;
+  s = TraceSample{};
+  std::string_view time_text;
+  std::string row_time;  // the time a --rate log's row is at, for messages
+  if (lay.rate_hz > 0) {
+    s.t_s = static_cast<double>(rules.rows() - 1) / lay.rate_hz;
+    row_time = std::to_string(s.t_s);
+    time_text = row_time;
+  }
+  for (std::size_t i = 0; i < ncols; ++i) {
+    const unsigned r = lay.roles[i];
+    if (r == 0u) continue;
+    const std::string_view text = trim_field(fields[i].first, fields[i].second);
+    double value = 0.0;
+    std::string why;
+    IsoTime stamp;
+    const bool iso = (r & kTime) && lay.iso_time;  // in seconds whatever the column's name says
+    if (iso) {
+      if (!parse_iso8601(text, lay.sep != ',', stamp))
+        why = ": " + quoted_text(text) + " is not an ISO 8601 time stamp like the first row's";
+      else
+        value = seconds_between(lay.epoch, stamp);
+    } else {
+      switch (read_number(text, lay.sep != ',', value)) {
+        case Number::ok: break;
+        case Number::empty: why = ": empty value"; break;
+        case Number::not_number: why = ": " + quoted_text(text) + " is not a number"; break;
+        case Number::out_of_range: why = ": " + quoted_text(text) + " is out of range for a double"; break;
+        case Number::not_finite: why = ": value is NaN/Inf"; break;
+      }
+    }
+    if (!why.empty())
+      return rules.bad(rules.at(line) + "column " + quoted_text(lay.names[i]) + why) ? RowRead::skipped : RowRead::stop;
+    if (r & kTime) {
+      s.t_s = iso ? value : value * lay.time_scale;
+      time_text = text;
+    }
+    if (r & kPosition) s.x_m = value * columns.position_scale;
+    if (r & kVelocity) s.v_m_s = value * columns.position_scale;
+    if (r & kForce) s.u_N = value * columns.force_scale;
+  }
+  return rules.take(s, time_text, line) ? RowRead::kept : RowRead::stop;
+}
+
+}  // namespace feedid::host::csv
