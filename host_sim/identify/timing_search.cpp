@@ -228,32 +228,23 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   FilterChoice best;
   best.cutoff_hz = s.velocity_filter_hz;
   Signals work = s;
-  // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where
-  // the filter all but passes the position difference through), scanned
-  // from the top down. Below the least residual, each half octave rounds
-  // the motion more (the band points and the mass windows see a velocity
-  // that lags at every change of speed), so the residual only grows: the
-  // scan stops when two cut-offs in a row have risen, each beyond a
-  // standard error of the least so far (neither can be chosen or a rival,
-  // nor can any below them). From the top, because the smoothest cut-offs
-  // are the ones a fine encoder's log rules out by the most (606 against
-  // 12 N^2 at 100 Hz on the default 2 kHz trace), and each one tried is a
-  // derivative, a core pass and a block observation. The rule stops the
-  // scan from above the same way on a coarse encoder, whose least is low.
+  // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where the filter all but
+  // passes the position difference through), lowest first.
+  // Past the least residual, each half octave passes more of the count
+  // noise into the bands, so the residual only grows: the scan stops when
+  // two cut-offs in a row have risen, each beyond a standard error of the
+  // least so far (neither can be chosen or a rival, nor can any above them).
   const double top = 0.4 * s.sample_rate_hz;
-  std::vector<double> grid;
-  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9); fc *= std::sqrt(2.0)) grid.push_back(fc);
   std::vector<std::pair<double, LagCost>> tried;
   int risen = 0;
-  for (auto fc = grid.rbegin(); fc != grid.rend() && risen < 2; ++fc) {
-    derive_velocity(work, *fc);
+  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
+    derive_velocity(work, fc);
     const LagCost cost = fit_cost(work, cfg);
     const bool rose = !tried.empty() && cost.ssr > tried.back().second.ssr && !within_one_se(cost, least_of(tried));
     risen = rose ? risen + 1 : 0;
-    tried.emplace_back(*fc, cost);
+    tried.emplace_back(fc, cost);
     ++best.candidates;
   }
-  std::reverse(tried.begin(), tried.end());  // smoothest first, for the rule below
   if (tried.empty()) return best;
   const LagCost least = least_of(tried);
   if (!std::isfinite(least.ssr)) return best;  // nothing identifies: keep the cut-off as it is
