@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "timing_search.hpp"
 #include "signals/filters.hpp"
@@ -459,7 +460,7 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   acc.reserve(s.v.size());
   for (std::size_t k = 1; k < s.v.size(); ++k)
     if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
-  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
+  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(std::move(acc), 0.999));
   c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
   // From the data, so that it scales with the force's unit (force_outliers.hpp):
   // identify has bridged what lay beyond it; a streamed log's core rejects it.

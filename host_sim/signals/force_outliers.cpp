@@ -12,6 +12,8 @@ namespace feedid::host {
 
 double force_outlier_limit(const std::vector<double>& x, const std::vector<double>& u) {
   std::vector<double> moving, all;
+  moving.reserve(u.size());
+  all.reserve(u.size());
   for (std::size_t k = 0; k < u.size(); ++k) {
     if (!std::isfinite(u[k])) continue;
     all.push_back(std::fabs(u[k]));
