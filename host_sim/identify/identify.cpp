@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "timing_search.hpp"
 #include "signals/filters.hpp"
@@ -163,22 +164,32 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     moment_impulse = Integrands{};
     moment_dv = 0.0;
   };
-  for (std::size_t k = 1; k < s.t.size(); ++k) {
+  // The stretch around k, tracked as k advances rather than searched for
+  // at every sample (Signals::stretch_start and the lead's reach): the
+  // same first and last samples, in one pass.
+  const std::size_t n = s.t.size();
+  const double max_step = s.max_step_s();
+  auto gap_before = [&](std::size_t k) { return s.t[k] - s.t[k - 1] > max_step; };
+  std::size_t stretch_first = 0, stretch_last = 0;
+  constexpr auto reach = static_cast<std::size_t>(feedid::ForcePairing<double>::history);
+  for (std::size_t k = 1; k < n; ++k) {
     const double dt = s.t[k] - s.t[k - 1];
-    if (s.gap_before(k)) {  // another run or a cut: no block, no pair, no force tap spans it
+    if (gap_before(k)) {  // another run or a cut: no block, no pair, no force tap spans it
       if (cur.dir != 0) close(k - 1, false);
       prev = BlockSums{};
+      stretch_first = k;
       continue;
     }
+    if (k > stretch_last)
+      for (stretch_last = k; stretch_last + 1 < n && !gap_before(stretch_last + 1);) ++stretch_last;
     const double vm = 0.5 * (s.v[k] + s.v[k - 1]);
     const int d = std::fabs(vm) < v_min ? 0 : (vm > 0 ? 1 : -1);
     if (cur.dir != 0 && d != cur.dir) close(k - 1, false);
     if (d == 0) continue;
     if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
     g.friction = stribeck_friction(p, vm);
-    std::size_t last = k;  // the stretch's end, as far as a lead can reach
-    while (last + 1 < s.t.size() && last - k < static_cast<std::size_t>(kForceLead) && !s.gap_before(last + 1)) ++last;
-    g.force = force_ages(s.u, k, s.stretch_start(k), last);
+    const std::size_t last = std::min(stretch_last, k + static_cast<std::size_t>(kForceLead));
+    g.force = force_ages(s.u, k, std::max(stretch_first, k > reach ? k - reach : 0), last);
     const double dv = s.v[k] - s.v[k - 1];
     const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
     cur.impulse.add(g, dt);
@@ -188,7 +199,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     cur.tau += dt;
     if (cur.tau >= block_s) close(k, true);
   }
-  if (cur.dir != 0) close(s.t.size() - 1, false);  // the last block, as at a gap
+  if (cur.dir != 0) close(n - 1, false);  // the last block, as at a gap
 }
 }  // namespace
 
@@ -449,7 +460,7 @@ feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt)
   acc.reserve(s.v.size());
   for (std::size_t k = 1; k < s.v.size(); ++k)
     if (s.t[k] - s.t[k - 1] <= 1.5 * dt) acc.push_back((s.v[k] - s.v[k - 1]) / (s.t[k] - s.t[k - 1]));
-  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(acc, 0.999));
+  c.max_acceleration_m_s2 = std::max(200.0, 5.0 * quantile_abs(std::move(acc), 0.999));
   c.max_speed_m_s = std::max(20.0, 2.0 * v_top);
   // From the data, so that it scales with the force's unit (force_outliers.hpp):
   // identify has bridged what lay beyond it; a streamed log's core rejects it.
@@ -546,7 +557,11 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
     return r;
   }
   r.residual_block_s = block_length_s(s);
-  r.residual_rms_N = block_residual(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s).rms();
+  // One observation of the blocks serves the residual and the mass refit:
+  // the standard errors below change no parameter the friction is read from.
+  const std::vector<BlockPair> pairs =
+      block_pairs(s, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
+  r.residual_rms_N = block_residual(pairs, s.pairing(), r.estimate.mass_kg).rms();
   if (opt.honest_standard_errors && r.status == feedid::Status::ok) {
     const Uncertainty u = widen_standard_errors(r, opt);
     r.jackknife_chunks = u.chunks_used;
@@ -555,7 +570,7 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
     r.se_timing = u.timing_se;
     r.se_cutoff = u.cutoff_se;
   }
-  refit_mass_on_blocks(r);
+  refit_mass_on_blocks(r, pairs);
   r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(n);
   return r;
 }
@@ -588,7 +603,7 @@ double block_mass_cutoff_spread(const IdentifyResult& r, double mass_kg) {
 }
 }  // namespace
 
-void refit_mass_on_blocks(IdentifyResult& r) {
+void refit_mass_on_blocks(IdentifyResult& r, const std::vector<BlockPair>& pairs) {
   r.mass_from_windows_kg = r.estimate.mass_kg;
   // Only an identified mass is refitted: the blocks remove the windows'
   // attenuation by velocity quantisation from a mass the data pin down;
@@ -598,8 +613,6 @@ void refit_mass_on_blocks(IdentifyResult& r) {
   // lowest cut-off tried was 20 Hz).
   if (r.status != feedid::Status::ok || !r.estimate.mass_identified()) return;
   // One observation of the blocks serves both pairings (BlockPair).
-  const std::vector<BlockPair> pairs =
-      block_pairs(r.signals, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
   const BlockMass b = block_mass(pairs, r.signals.pairing());
   if (!b.ok) return;
   r.estimate.mass_kg = b.mass_kg;

@@ -223,7 +223,10 @@ IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
 /// 8 kHz and 100 nm) by block_mass() on triangle-weighted pairs of 10 ms
 /// blocks, with its jackknife and the timing term as its standard error. Friction is
 /// held at the core's. Host only: the firmware keeps the windows' mass.
-void refit_mass_on_blocks(IdentifyResult& r);
+struct BlockPair;
+/// `pairs`: block_pairs of r.signals under r.estimate's friction at
+/// r.config's velocity_min_m_s and r.residual_block_s.
+void refit_mass_on_blocks(IdentifyResult& r, const std::vector<BlockPair>& pairs);
 /// "estimated", "option", "convention" or the reason a held force was assumed.
 const char* lag_origin_name(Signals::LagOrigin o);
 

@@ -11,7 +11,12 @@ namespace feedid::host {
 
 double sliding_friction(const DirectionFriction& f, double direction, double v_m_s) {
   const double r = v_m_s / f.stribeck_velocity_m_s;
-  return direction * (f.coulomb_N + f.breakaway_N * std::exp(-r * r)) + f.viscous_Ns_m * v_m_s;
+  // Beyond kExpUnderflow, exp(-r^2) is exactly 0 in double: skipping it
+  // changes no bit, and the block observations call this per sample, most
+  // of them far above vs, where exp took its slow underflow path.
+  constexpr double kExpUnderflow = 750.0;
+  const double dip = f.breakaway_N * (r * r > kExpUnderflow ? 0.0 : std::exp(-r * r));
+  return direction * (f.coulomb_N + dip) + f.viscous_Ns_m * v_m_s;
 }
 
 double stribeck_friction(const DriveParams& p, double v_m_s) {

@@ -39,13 +39,20 @@ Biquad lowpass(double cutoff_hz, double rate_hz, double q) {
   return b;
 }
 
-void run(std::vector<double>& y, double cutoff_hz, double rate_hz) {
+/// The filter over y in place, first to last, or last to first (the same
+/// arithmetic as reversing y, filtering and reversing back, without the
+/// two passes that reverse it).
+void run(std::vector<double>& y, double cutoff_hz, double rate_hz, bool backwards = false) {
   // Butterworth order 4 = two sections with Q = 1/(2 cos(pi/8)), 1/(2 cos(3pi/8)).
   Biquad s1 = lowpass(cutoff_hz, rate_hz, 1.0 / (2.0 * std::cos(M_PI / 8.0)));
   Biquad s2 = lowpass(cutoff_hz, rate_hz, 1.0 / (2.0 * std::cos(3.0 * M_PI / 8.0)));
-  s1.settle(y.front());
-  s2.settle(y.front());
-  for (double& v : y) v = s2.step(s1.step(v));
+  const double start = backwards ? y.back() : y.front();
+  s1.settle(start);
+  s2.settle(start);
+  if (backwards)
+    for (auto v = y.rbegin(); v != y.rend(); ++v) *v = s2.step(s1.step(*v));
+  else
+    for (double& v : y) v = s2.step(s1.step(v));
 }
 
 }  // namespace
@@ -62,11 +69,10 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
   y.insert(y.end(), x.begin(), x.end());
   for (std::size_t i = 1; i <= pad; ++i) y.push_back(2.0 * x.back() - x[n - 1 - i]);
   run(y, cutoff_hz, rate_hz);
-  std::reverse(y.begin(), y.end());
-  run(y, cutoff_hz, rate_hz);
-  std::reverse(y.begin(), y.end());
-  return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(pad),
-                             y.begin() + static_cast<std::ptrdiff_t>(pad + n));
+  run(y, cutoff_hz, rate_hz, true);
+  y.erase(y.begin() + static_cast<std::ptrdiff_t>(pad + n), y.end());
+  y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(pad));  // in place: no second buffer
+  return y;
 }
 
 std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t) {

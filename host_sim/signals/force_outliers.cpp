@@ -12,6 +12,8 @@ namespace feedid::host {
 
 double force_outlier_limit(const std::vector<double>& x, const std::vector<double>& u) {
   std::vector<double> moving, all;
+  moving.reserve(u.size());
+  all.reserve(u.size());
   for (std::size_t k = 0; k < u.size(); ++k) {
     if (!std::isfinite(u[k])) continue;
     all.push_back(std::fabs(u[k]));
@@ -101,7 +103,7 @@ bool clip_level(const std::vector<double>& u, double sign, double& level) {
 }
 }  // namespace
 
-Trace leave_out_force_saturation(const Trace& logged, ForceSaturation& found) {
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found) {
   found = ForceSaturation{};
   std::vector<double> u, t;
   for (const TraceSample& s : logged.samples) {
@@ -154,7 +156,7 @@ std::string PositionSpikes::describe(const std::string& position_unit) const {
   return buf;
 }
 
-Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found) {
+Trace bridge_position_spikes(Trace logged, PositionSpikes& found) {
   found = PositionSpikes{};
   const std::size_t n = logged.samples.size();
   if (!logged.has_position || n < 3) return logged;
@@ -166,10 +168,12 @@ Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found) {
   const double scale = quantile_abs(steps, kForceScaleQuantile);
   if (!(scale > 0.0)) return logged;
   found.limit_m = kForceOutlierFactor * scale;
-  Trace out = logged;
+  // In place: sample k reads its bridged predecessor and its own and its
+  // successor's values as logged (neither is bridged yet).
+  std::vector<TraceSample>& out = logged.samples;
   for (std::size_t k = 1; k + 1 < n; ++k) {
     if (t[k] - t[k - 1] > gap_s || t[k + 1] - t[k] > gap_s) continue;  // a run's end: no neighbour to judge by
-    const double before = out.samples[k - 1].x_m, here = logged.samples[k].x_m, after = logged.samples[k + 1].x_m;
+    const double before = out[k - 1].x_m, here = out[k].x_m, after = out[k + 1].x_m;
     if (!(std::fabs(here - before) > found.limit_m && std::fabs(after - here) > found.limit_m &&
           std::fabs(after - before) <= found.limit_m))
       continue;
@@ -177,26 +181,24 @@ Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found) {
     char value[96];
     std::snprintf(value, sizeof value, ": position %.9g", here);
     if (found.first.size() < kNamedOutliers) found.first.push_back(where(logged, k) + value);
-    out.samples[k].x_m = before + (after - before) * (t[k] - t[k - 1]) / (t[k + 1] - t[k - 1]);
+    out[k].x_m = before + (after - before) * (t[k] - t[k - 1]) / (t[k + 1] - t[k - 1]);
   }
-  return out;
+  return logged;
 }
 
 Trace bridge_force_outliers(const Trace& spiky, const std::string& force_unit, ForceOutliers& found) {
   PositionSpikes spikes;
-  const Trace clipped = bridge_position_spikes(spiky, spikes);
   ForceSaturation saturation;
-  const Trace logged = leave_out_force_saturation(clipped, saturation);
+  Trace out = leave_out_force_saturation(bridge_position_spikes(spiky, spikes), saturation);  // the one copy
   std::vector<double> u, t;
-  for (const TraceSample& s : logged.samples) {
+  for (const TraceSample& s : out.samples) {
     u.push_back(s.u_N);
     t.push_back(s.t_s);
   }
   found = ForceOutliers{};
   found.saturation = saturation;
   found.position_spikes = spikes;
-  found.limit = force_outlier_limit(travel_of(logged), u);
-  Trace out = logged;
+  found.limit = force_outlier_limit(travel_of(out), u);
   const double gap_s = t.size() > 1 ? max_step_s(median_step(t)) : 0.0;
   auto good = [&](std::size_t k) { return !(std::fabs(u[k]) > found.limit); };
   for (std::size_t k = 0; k < u.size(); ++k) {
@@ -205,7 +207,7 @@ Trace bridge_force_outliers(const Trace& spiky, const std::string& force_unit, F
     char value[160];
     std::snprintf(value, sizeof value, ": force %.6g %s is beyond the outlier limit +-%.4g %s", u[k], force_unit.c_str(),
                   found.limit, force_unit.c_str());
-    if (found.first.size() < kNamedOutliers) found.first.push_back(where(logged, k) + value);
+    if (found.first.size() < kNamedOutliers) found.first.push_back(where(out, k) + value);  // times and runs as logged
     // The nearest good forces on either side within the same stretch of samples.
     std::size_t a = k, b = k;
     while (a > 0 && !(t[a] - t[a - 1] > gap_s) && !good(--a)) {}

@@ -72,8 +72,10 @@ struct PositionSpikes {
   std::string describe(const std::string& position_unit) const;
 };
 
-/// The trace with its position spikes bridged (the rule above).
-Trace bridge_position_spikes(const Trace& logged, PositionSpikes& found);
+/// The trace with its position spikes bridged (the rule above). Taken by
+/// value and bridged in place: bridge_force_outliers moves the trace
+/// through its stages instead of copying it at each.
+Trace bridge_position_spikes(Trace logged, PositionSpikes& found);
 
 /// Force rows beyond the limit, and what became of them.
 struct ForceOutliers {
@@ -106,6 +108,6 @@ struct ForceOutliers {
 Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, ForceOutliers& found);
 
 /// The trace without its clipped rows (the rule above); `found` says what was left out.
-Trace leave_out_force_saturation(const Trace& logged, ForceSaturation& found);
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found);
 
 }  // namespace feedid::host
