@@ -9,6 +9,7 @@
 #include <iostream>
 #include <memory>
 
+#include "identify/gravity.hpp"
 #include "io/progress.hpp"
 #include "io/output_file.hpp"
 #include "report/report.hpp"
@@ -16,6 +17,8 @@
 #include "signals/filters.hpp"
 
 #include "cli_common.hpp"
+
+#include "identify/gravity.hpp"
 
 namespace feedid::host::cli {
 
@@ -204,6 +207,13 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
 
 void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method) {
   add_input_options(c, cols, units);
+  c->add_option_function<std::string>(
+       "--gravity",
+       [&o](const std::string& v) { (void)gravity_from_name(v, o.gravity); },
+       "a load that does not reverse with the motion, fitted and taken off the force first: none (default); constant "
+       "(a vertical axis: G, with Coulomb friction the same both ways); angle (a rotary arm: G cos(q - q0), q in rad); "
+       "auto (angle where the axis is rotary and the data show it)")
+      ->check(CLI::IsMember({"none", "constant", "angle", "auto"}));
   const std::size_t before_advanced = c->get_options().size();
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();

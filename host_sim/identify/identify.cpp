@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "timing_search.hpp"
+#include "gravity.hpp"
 #include "signals/filters.hpp"
 #include "io/number_format.hpp"
 #include "uncertainty.hpp"
@@ -508,6 +509,7 @@ std::vector<feedid::Diagnostics> per_run(const std::vector<feedid::Diagnostics>&
 }  // namespace
 
 IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
+  if (opt.gravity != GravityTerm::none) return identify_with_gravity(logged, opt);
   IdentifyResult r;
   r.units = opt.units;
   // Every stage sees the trace with its force outliers bridged (force_outliers.hpp).
@@ -913,6 +915,25 @@ std::string not_physical_cause(const IdentifyResult& r) {
          "friction: the force carries no signal";
 }
 
+namespace {
+nlohmann::json gravity_json(const IdentifyResult& r) {
+  const GravityFit& g = r.gravity;
+  nlohmann::json j = {{"form", gravity_name(g.form)}, {"note", g.note}};
+  if (g.form == GravityTerm::none) return j;
+  j["G"] = g.G;
+  j["G_se"] = g.G_se;
+  j["units"] = {{"G", r.units.force}};
+  if (g.form == GravityTerm::angle) {
+    j["angle0_rad"] = g.angle0_rad;
+    j["angle0_se_rad"] = g.angle0_se_rad;
+    j["rule"] = "u = m a + F(v) + G cos(q - angle0): taken off the force before the friction fit";
+  } else {
+    j["rule"] = "u = m a + F(v) + G: taken off the force before the friction fit";
+  }
+  return j;
+}
+}  // namespace
+
 nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
@@ -934,6 +955,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["neg"] = direction_json(e.neg);
   j["model"] = friction_model_json(r);
   j["sysid"] = sysid_json(r);
+  if (r.gravity.form != GravityTerm::none || !r.gravity.note.empty()) j["gravity"] = gravity_json(r);
   j["warnings"] = implausible_magnitudes(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
@@ -1043,6 +1065,15 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";
   if (r.signals.force_sign.sign < 0 || !r.signals.force_sign.conclusive)
     o << "  force " << r.signals.force_sign.describe() << "\n";
+  if (r.gravity.form != GravityTerm::none) {
+    const Rounded G = round_to_se(r.gravity.G, r.gravity.G_se), q0 = round_to_se(r.gravity.angle0_rad, r.gravity.angle0_se_rad);
+    o << "  gravity " << (r.gravity.form == GravityTerm::angle ? "G cos(q - q0)" : "G") << ": G " << G.value << " +- " << G.se
+      << " " << r.units.force;
+    if (r.gravity.form == GravityTerm::angle) o << ", q0 " << q0.value << " +- " << q0.se << " rad";
+    o << " (taken off the force before the friction fit)\n";
+  } else if (!r.gravity.note.empty()) {
+    o << "  gravity " << r.gravity.note << "\n";
+  }
   const Units& u = r.units;
   auto line = [&](const char* name, const std::string& unit_text, double v, double se, double t, bool ok) {
     const char* unit = unit_text.c_str();

@@ -40,6 +40,25 @@ enum class VelocitySource {
   given,
 };
 
+/// A load that is not friction and does not reverse with the motion
+/// (gravity.hpp). Unmodelled, it shifts each direction's Coulomb term by
+/// opposite amounts: arms that carry gravity came out with Coulomb friction
+/// of -327 to -2230 N m.
+enum class GravityTerm {
+  none,       ///< no such term
+  constant,   ///< G: a vertical linear axis; assumes Coulomb friction the same both ways
+  angle,      ///< G cos(q - q0): a rotary arm, q in rad
+  automatic,  ///< angle where the axis is rotary and the data show it; else none
+};
+
+/// The gravity term fitted and taken off the force before the friction fit.
+struct GravityFit {
+  GravityTerm form = GravityTerm::none;  ///< what was kept
+  double G = 0.0, G_se = 0.0;            ///< force unit
+  double angle0_rad = 0.0, angle0_se_rad = 0.0;  ///< angle form: where the load pulls hardest in +
+  std::string note;                      ///< how it was found, or why none was kept
+};
+
 struct IdentifyOptions {
   feedid::Method method = feedid::Method::bands;
   /// Cut-off (Hz) of the zero-phase Butterworth applied to position (logged,
@@ -77,6 +96,8 @@ struct IdentifyOptions {
   /// it, so that a physical delay beyond the conventions stays in the
   /// residual for its `delay` candidate instead of vanishing into the lag.
   bool lag_within_conventions = false;
+  /// A gravity term to fit and take off the force first (gravity.hpp).
+  GravityTerm gravity = GravityTerm::none;
   /// Overrides of the automatic choices (0 = from the data).
   double velocity_min_m_s = 0.0;
   double velocity_max_m_s = 0.0;
@@ -154,6 +175,7 @@ struct IdentifyResult {
   /// Streamed (identify_stream.hpp): conventions from the head, the core's
   /// own standard errors, no jackknife or block refit.
   bool streamed = false;
+  GravityFit gravity;  ///< form none unless IdentifyOptions::gravity asked for one
 };
 
 /// Velocity (measured or derived) and the pairing convention for a trace.

@@ -20,6 +20,7 @@
 #include "compensate/compensate.hpp"
 #include "diagnose/diagnose.hpp"
 #include "model/model_file.hpp"
+#include "identify/gravity.hpp"
 #include "identify/identify.hpp"
 #include "io/column_trace.hpp"
 #include "io/trace_files.hpp"
@@ -99,6 +100,7 @@ bool identify_option(const std::string& key, const py::handle& value, IdentifyOp
   else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
   else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);
   else if (key == "velocity_resolution") id.velocity_resolution_m_s = zero_or_positive(value, key);
+  else if (key == "gravity") (void)gravity_from_name(one_of(value, key, {"none", "constant", "angle", "auto"}), id.gravity);
   else return false;
   return true;
 }

@@ -1,0 +1,245 @@
+#include "gravity.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "signals/filters.hpp"
+
+namespace feedid::host {
+namespace {
+
+/// Block means of the friction fit's residual against cos q and sin q, with
+/// each direction's own level (the Coulomb terms keep the mean load of the
+/// travel in each direction). Blocks of kBlock_s within one direction:
+/// their means are close to independent, so the scatter gives the error.
+struct AngleFit {
+  bool ok = false;
+  double a = 0.0, b = 0.0;   ///< G cos q0, G sin q0
+  double cov[2][2] = {};     ///< of (a, b)
+};
+
+constexpr double kBlock_s = 0.05;
+constexpr int kMaxRounds = 6;
+
+/// Columns of the load fit: what the friction fit can still move (each
+/// direction's level and slope, the mass) beside the load's cos q and sin q,
+/// so that the load is not fitted to what correlates with them (a stroke's
+/// speed with where on the travel it runs): fitted alone, it needed a dozen
+/// alternations with the friction fit to settle.
+enum Column { kLevelPos, kLevelNeg, kSlopePos, kSlopeNeg, kMass, kCos, kSin, kColumns };
+
+/// Inverts the normal equations (Gauss-Jordan, partial pivots); false where
+/// they are singular (the travel does not separate the columns).
+bool invert(double A[kColumns][kColumns], double inv[kColumns][kColumns]) {
+  for (int i = 0; i < kColumns; ++i)
+    for (int j = 0; j < kColumns; ++j) inv[i][j] = i == j ? 1.0 : 0.0;
+  double scale = 0.0;
+  for (int i = 0; i < kColumns; ++i) scale = std::max(scale, std::fabs(A[i][i]));
+  for (int c = 0; c < kColumns; ++c) {
+    int p = c;
+    for (int r = c + 1; r < kColumns; ++r)
+      if (std::fabs(A[r][c]) > std::fabs(A[p][c])) p = r;
+    if (!(std::fabs(A[p][c]) > 1e-13 * scale)) return false;
+    std::swap(A[p], A[c]);
+    std::swap(inv[p], inv[c]);
+    const double d = A[c][c];
+    for (int j = 0; j < kColumns; ++j) { A[c][j] /= d; inv[c][j] /= d; }
+    for (int r = 0; r < kColumns; ++r) {
+      if (r == c) continue;
+      const double f = A[r][c];
+      for (int j = 0; j < kColumns; ++j) { A[r][j] -= f * A[c][j]; inv[r][j] -= f * inv[c][j]; }
+    }
+  }
+  return true;
+}
+
+struct Block {
+  double row[kColumns] = {};  ///< time means of the columns
+  double residual = 0.0;
+  double tau = 0.0;
+};
+
+std::vector<Block> residual_blocks(const IdentifyResult& r) {
+  const Signals& s = r.signals;
+  const DriveParams p = to_drive_params(r.estimate);
+  const std::vector<double> a = central_difference(s.v, s.t);
+  std::vector<Block> out;
+  Block cur;
+  int dir = 0;
+  auto close = [&]() {
+    if (cur.tau > 0.5 * kBlock_s) {
+      for (double& x : cur.row) x /= cur.tau;
+      cur.residual /= cur.tau;
+      out.push_back(cur);
+    }
+    cur = Block{};
+  };
+  for (std::size_t k = 1; k < s.t.size(); ++k) {
+    const double dt = s.t[k] - s.t[k - 1];
+    const int d = std::fabs(s.v[k]) < r.config.velocity_min_m_s ? 0 : (s.v[k] > 0 ? 1 : -1);
+    if (d != dir || s.gap_before(k)) close();
+    dir = d;
+    if (d == 0) continue;
+    const double res = s.u[k] - p.mass_kg * a[k] - stribeck_friction(p, s.v[k]);
+    cur.row[d > 0 ? kLevelPos : kLevelNeg] += dt;
+    cur.row[d > 0 ? kSlopePos : kSlopeNeg] += s.v[k] * dt;
+    cur.row[kMass] += a[k] * dt;
+    cur.row[kCos] += std::cos(s.x[k]) * dt;
+    cur.row[kSin] += std::sin(s.x[k]) * dt;
+    cur.residual += res * dt;
+    cur.tau += dt;
+    if (cur.tau >= kBlock_s) close();
+  }
+  close();
+  return out;
+}
+
+AngleFit fit_angle(const IdentifyResult& r) {
+  const std::vector<Block> blocks = residual_blocks(r);
+  AngleFit f;
+  if (blocks.size() < 4 * kColumns) return f;
+  double A[kColumns][kColumns] = {}, y[kColumns] = {}, inv[kColumns][kColumns];
+  for (const Block& b : blocks)
+    for (int i = 0; i < kColumns; ++i) {
+      y[i] += b.row[i] * b.residual;
+      for (int j = 0; j < kColumns; ++j) A[i][j] += b.row[i] * b.row[j];
+    }
+  if (!invert(A, inv)) return f;
+  double beta[kColumns] = {};
+  for (int i = 0; i < kColumns; ++i)
+    for (int j = 0; j < kColumns; ++j) beta[i] += inv[i][j] * y[j];
+  double ss = 0.0;
+  for (const Block& b : blocks) {
+    double e = b.residual;
+    for (int i = 0; i < kColumns; ++i) e -= beta[i] * b.row[i];
+    ss += e * e;
+  }
+  const double s2 = ss / static_cast<double>(blocks.size() - kColumns);
+  f.ok = true;
+  f.a = beta[kCos];
+  f.b = beta[kSin];
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) f.cov[i][j] = s2 * inv[kCos + i][kCos + j];
+  return f;
+}
+
+/// The trace with the load g(q) taken off the force as logged (in the
+/// logged force's sign, which conditioning may have found reversed).
+Trace without_load(const Trace& trace, int force_sign, double a, double b, double c) {
+  Trace out = trace;
+  for (TraceSample& s : out.samples) s.u_N -= force_sign * (a * std::cos(s.x_m) + b * std::sin(s.x_m) + c);
+  return out;
+}
+
+double travel_span(const Trace& trace) {
+  if (trace.samples.empty()) return 0.0;
+  auto [lo, hi] = std::minmax_element(trace.samples.begin(), trace.samples.end(),
+                                      [](const TraceSample& p, const TraceSample& q) { return p.x_m < q.x_m; });
+  return hi->x_m - lo->x_m;
+}
+
+/// Each direction's Coulomb term takes the load with opposite signs, and a
+/// load beyond the friction turns one negative and the fit's law with it:
+/// so G is refitted on the friction fitted without the last G until its step
+/// is a tenth of its standard error.
+IdentifyResult with_constant(const Trace& trace, IdentifyOptions base, IdentifyResult r0) {
+  auto half_difference = [](const IdentifyResult& r) { return 0.5 * (r.estimate.pos.coulomb_N - r.estimate.neg.coulomb_N); };
+  auto its_se = [](const IdentifyResult& r) { return 0.5 * std::hypot(r.estimate.pos.coulomb_se, r.estimate.neg.coulomb_se); };
+  double G = 0.0;
+  IdentifyResult r = r0;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    const double step = half_difference(r);
+    G += step;
+    IdentifyResult next = identify(without_load(trace, r0.signals.force_sign.sign, 0.0, 0.0, G), base);
+    if (!next.error.empty()) return r0;
+    r = std::move(next);
+    if (std::fabs(step) < 0.1 * its_se(r) && round > 0) break;
+  }
+  r.gravity = {GravityTerm::constant, G, its_se(r), 0.0, 0.0,
+               "G = (Fc+ - Fc-)/2, taken off the force and refitted until it settles: Coulomb friction assumed the "
+               "same both ways (the data cannot tell a constant load from their difference)"};
+  return r;
+}
+
+IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResult r0, bool automatic) {
+  const double span = travel_span(trace);
+  if (automatic && span < kGravityMinSpan_rad) {
+    r0.gravity.note = "none: the axis turns " + std::to_string(span) + " rad, too little to tell G cos(q - q0) from friction";
+    return r0;
+  }
+  double a = 0.0, b = 0.0;
+  IdentifyResult r = r0;
+  AngleFit f;
+  // The friction fit without the load took up part of it (Column); the load
+  // is refitted on what the next friction fit leaves until its step is a
+  // tenth of its standard error (the Stribeck terms are not in the columns).
+  for (int round = 0; round < kMaxRounds; ++round) {
+    f = fit_angle(r);
+    if (!f.ok) break;
+    a += f.a;
+    b += f.b;
+    const bool settled = std::hypot(f.a, f.b) < 0.1 * std::sqrt(f.cov[0][0] + f.cov[1][1]);
+    if (settled && round > 0) break;
+    IdentifyResult next = identify(without_load(trace, r0.signals.force_sign.sign, a, b, 0.0), base);
+    if (!next.error.empty()) { f.ok = false; break; }
+    r = std::move(next);
+  }
+  if (!f.ok) {
+    r0.gravity.note = "none: the travel does not separate G cos(q - q0) from each direction's friction";
+    return r0;
+  }
+  const double G = std::hypot(a, b);
+  // Delta method from (a, b) to (G, q0), with the last round's covariance.
+  const double ca = a / G, cb = b / G;
+  const double var_G = ca * ca * f.cov[0][0] + 2 * ca * cb * f.cov[0][1] + cb * cb * f.cov[1][1];
+  const double var_q = (cb * cb * f.cov[0][0] - 2 * ca * cb * f.cov[0][1] + ca * ca * f.cov[1][1]) / (G * G);
+  const double G_se = std::sqrt(std::max(var_G, 0.0));
+  const double coulomb = 0.5 * (std::fabs(r0.estimate.pos.coulomb_N) + std::fabs(r0.estimate.neg.coulomb_N));
+  if (automatic && !(G >= kGravityMinZ * G_se && G >= kGravityMinShareOfCoulomb * coulomb)) {
+    std::ostringstream o;
+    o << "none: G cos(q - q0) came out at " << G << " +- " << G_se << ", under " << kGravityMinZ
+      << " standard errors or a tenth of the Coulomb friction";
+    r0.gravity.note = o.str();
+    return r0;
+  }
+  r.gravity = {GravityTerm::angle, G, G_se, std::atan2(b, a), std::sqrt(std::max(var_q, 0.0)),
+               "G cos(q - q0) fitted to the friction fit's residual (50 ms block means, beside each direction's level "
+               "and slope and the mass), taken off the force and the friction fitted again until G settles"};
+  return r;
+}
+
+}  // namespace
+
+const char* gravity_name(GravityTerm g) {
+  switch (g) {
+    case GravityTerm::none: return "none";
+    case GravityTerm::constant: return "constant";
+    case GravityTerm::angle: return "angle";
+    case GravityTerm::automatic: return "auto";
+  }
+  return "?";
+}
+
+bool gravity_from_name(const std::string& name, GravityTerm& g) {
+  for (GravityTerm t : {GravityTerm::none, GravityTerm::constant, GravityTerm::angle, GravityTerm::automatic})
+    if (name == gravity_name(t)) { g = t; return true; }
+  return false;
+}
+
+IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& opt) {
+  IdentifyOptions base = opt;
+  base.gravity = GravityTerm::none;
+  IdentifyResult r0 = identify(trace, base);
+  if (!r0.error.empty() || opt.gravity == GravityTerm::none) return r0;
+  if (opt.gravity == GravityTerm::constant) return with_constant(trace, base, std::move(r0));
+  const bool rotary = opt.units.position == "rad";
+  if (!rotary) {
+    r0.gravity.note = opt.gravity == GravityTerm::automatic ? "none: a linear axis (a constant load is --gravity constant)" : "";
+    if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs a rotary axis (--axis rotary, position in rad)";
+    return r0;
+  }
+  return with_angle(trace, base, std::move(r0), opt.gravity == GravityTerm::automatic);
+}
+
+}  // namespace feedid::host

@@ -1,0 +1,34 @@
+// A gravity term beside the friction (issue 31): a load that does not
+// reverse with the motion. The core's model, u = m a + F(v), has no place
+// for it, so it is fitted to what the friction fit leaves and taken off the
+// force, and the friction identified again. Host only.
+#pragma once
+#include "identify/identify.hpp"
+
+namespace feedid::host {
+
+/// identify() with opt.gravity's term (identify() calls this when it is not
+/// none):
+/// - constant: G = (Fc+ - Fc-) / 2, the assumption being Coulomb friction
+///   the same both ways (the data cannot tell a constant load from
+///   asymmetric friction: SysId's kG makes the same assumption);
+/// - angle: G cos(q - q0) on a rotary axis (q in rad), fitted by least
+///   squares to the residual's block means with each direction's own
+///   level, twice (the second on the friction fitted without the first);
+/// - automatic: angle on a rotary axis that turns at least kGravityMinSpan_rad
+///   where G is at least kGravityMinZ standard errors and a tenth of the
+///   Coulomb friction; else none, said why.
+IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& opt);
+
+constexpr double kGravityMinSpan_rad = 0.5;  ///< less, and cos(q - q0) is a tilted line: Coulomb and G trade
+constexpr double kGravityMinZ = 5.0;         ///< an automatic term must stand this far above its error
+/// ... and be worth a model term: on a simulated axis without a load the
+/// fit found G = 0.19 +- 0.05 N m (its error is not yet checked for
+/// coverage: on a loaded one G was 3 errors off), against 25 N m Coulomb.
+constexpr double kGravityMinShareOfCoulomb = 0.1;
+
+const char* gravity_name(GravityTerm g);
+/// The term named none, constant, angle or auto; false for another name.
+bool gravity_from_name(const std::string& name, GravityTerm& g);
+
+}  // namespace feedid::host

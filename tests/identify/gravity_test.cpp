@@ -1,0 +1,87 @@
+// A gravity term beside the friction (host_sim/identify/gravity.hpp, issue 31).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "identify/gravity.hpp"
+#include "test_support.hpp"
+
+namespace feedid::host {
+namespace {
+using test::SimSpec;
+using test::simulate;
+
+/// The default drive's 60 s ladder as a rotary arm: its travel of 0.11 m
+/// read as 20 times as many rad (2.25 rad), with G cos(q - q0) added to the
+/// force. The friction and mass are the drive's in the arm's units.
+Trace arm(double G, double q0) {
+  SimSpec spec;
+  Trace tr = simulate(spec);
+  for (TraceSample& s : tr.samples) {
+    s.x_m *= 20.0;
+    s.v_m_s *= 20.0;
+    s.u_N += G * std::cos(s.x_m - q0);
+  }
+  return tr;
+}
+
+IdentifyOptions rotary(GravityTerm g) {
+  IdentifyOptions o;
+  o.units = units_for(Axis::rotary);
+  o.gravity = g;
+  return o;
+}
+
+TEST(Gravity, AnArmsLoadIsFittedAndTheFrictionIsTheUnloadedArms) {
+  // GIVEN an arm whose load is 30 N m at 0.4 rad, beside 25 / 26 N m Coulomb friction
+  const Trace loaded = arm(30.0, 0.4), unloaded = arm(0.0, 0.4);
+  // WHEN identified without a gravity term THEN one direction's Coulomb term takes the load
+  const IdentifyResult plain = identify(loaded, rotary(GravityTerm::none));
+  EXPECT_GT(std::fabs(plain.estimate.pos.coulomb_N - plain.estimate.neg.coulomb_N), 20.0);
+  // WHEN identified with the angle term (and automatically)
+  const IdentifyResult ref = identify(unloaded, rotary(GravityTerm::none));
+  for (GravityTerm g : {GravityTerm::angle, GravityTerm::automatic}) {
+    const IdentifyResult r = identify(loaded, rotary(g));
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    // THEN the load is found, and the friction and mass are the unloaded arm's
+    ASSERT_EQ(r.gravity.form, GravityTerm::angle) << r.gravity.note;
+    EXPECT_NEAR(r.gravity.G, 30.0, 0.3);
+    EXPECT_NEAR(r.gravity.angle0_rad, 0.4, 0.01);
+    EXPECT_NEAR(r.estimate.pos.coulomb_N, ref.estimate.pos.coulomb_N, 0.15);
+    EXPECT_NEAR(r.estimate.neg.coulomb_N, ref.estimate.neg.coulomb_N, 0.15);
+    EXPECT_NEAR(r.estimate.mass_kg, ref.estimate.mass_kg, 0.002 * ref.estimate.mass_kg);
+  }
+}
+
+TEST(Gravity, AutomaticKeepsNoTermWhereThereIsNoLoad) {
+  const IdentifyResult r = identify(arm(0.0, 0.0), rotary(GravityTerm::automatic));
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.gravity.form, GravityTerm::none);
+  EXPECT_NE(r.gravity.note.find("none"), std::string::npos) << r.gravity.note;
+}
+
+TEST(Gravity, AConstantLoadIsHalfTheCoulombDifference) {
+  // GIVEN a vertical linear axis carrying 40 N
+  SimSpec spec;
+  Trace tr = simulate(spec);
+  for (TraceSample& s : tr.samples) s.u_N += 40.0;
+  IdentifyOptions o;
+  o.gravity = GravityTerm::constant;
+  const IdentifyResult r = identify(tr, o);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.gravity.form, GravityTerm::constant);
+  // THEN G is 40 N plus half the drive's own Coulomb asymmetry (25 / 26 N:
+  // -0.5 N), which the data cannot tell from a load, and Coulomb is the same both ways
+  EXPECT_NEAR(r.gravity.G, 39.5, 0.2);
+  EXPECT_NEAR(r.estimate.pos.coulomb_N, r.estimate.neg.coulomb_N, 0.2);
+}
+
+TEST(Gravity, TheAngleFormNeedsARotaryAxis) {
+  IdentifyOptions o;
+  o.gravity = GravityTerm::angle;
+  const IdentifyResult r = identify(simulate(SimSpec{}), o);
+  EXPECT_NE(r.error.find("--axis rotary"), std::string::npos) << r.error;
+}
+
+}  // namespace
+}  // namespace feedid::host
