@@ -851,22 +851,11 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
 
   /// Pending partial sums of direction d into the compensated totals.
   void fold(int d) {
-    if constexpr (!PaperMethod) {
-      for (int j = 0; j < Bands; ++j) fold_band(d, j);
-      fold_scalars();
-      ++diag_.folds;
-      return;
-    }
-    Pending& p = pending_;
     for (int j = 0; j < Bands; ++j) {
-      if (p.time[d][j] == T(0) && p.dvel[d][j] == T(0)) continue;
-      BandSums<T>& b = stats_.band[d][j];
-      b.time_s.add(p.time[d][j]);
-      b.speed.add(p.speed[d][j]);
-      b.speed2.add(p.speed2[d][j]);
-      b.force.add(p.force[d][j]);
-      b.dvel.add(p.dvel[d][j]);
-      p.time[d][j] = p.speed[d][j] = p.speed2[d][j] = p.force[d][j] = p.dvel[d][j] = T(0);
+      // An empty band adds nothing (with the paper method, whose folds come
+      // at every section, skip it; without it its projections may not be empty).
+      if (PaperMethod && pending_.time[d][j] == T(0) && pending_.dvel[d][j] == T(0)) continue;
+      fold_band(d, j);
     }
     if constexpr (PaperMethod) paper_.dir[d].duration = T(0);
     fold_scalars();
