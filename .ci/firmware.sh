@@ -116,7 +116,7 @@ for e in "${elfs[@]}"; do
 done
 core_flash=$(( $(section_sum "${elfs[1]}" .isr_vector .text .ARM.exidx .data) - $(section_sum "${elfs[2]}" .isr_vector .text .ARM.exidx .data) ))
 core_ram=$(( $(section_sum "${elfs[1]}" .data .bss) - $(section_sum "${elfs[2]}" .data .bss) ))
-echo "core (Estimator<float,32,16>: init, push, solve bands+paper): flash $core_flash B, static RAM $core_ram B"
+echo "core (Estimator<float,32,16>: init, push, solve bands; paper method not built): flash $core_flash B, static RAM $core_ram B"
 echo "largest stack frames of the core (-fstack-usage, bytes):"
 # awk reads all of sort's output and prints the first five itself: a `head`
 # here closes the pipe early and, under pipefail, sort's SIGPIPE fails CI.

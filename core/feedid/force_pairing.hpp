@@ -64,9 +64,14 @@ template <typename T> struct ForcePairing {
   /// The interval force from a function age -> logged force (age 0 is the
   /// sample that ends the interval).
   template <typename ForceAt> T interval_force(const ForceAt& force_at) const {
-    // (1/2 - w) a + b/2 + w c, with one multiply fewer on the servo path.
-    const T a = force_at(newest_age);
-    return T(0.5) * (a + force_at(newest_age + 1)) + w_oldest * (force_at(newest_age + 2) - a);
+    return mix(force_at(newest_age), force_at(newest_age + 1), force_at(newest_age + 2));
+  }
+
+  /// The same from a contiguous history: `newest` points at the force of
+  /// age 0, newest[-k] is the one k samples back (k < history).
+  T interval_force_of(const T* newest) const {
+    const T* const tap = newest - newest_age;
+    return mix(tap[0], tap[-1], tap[-2]);
   }
 
   /// The same within a chain that began `oldest_age` samples ago: taps
@@ -74,6 +79,11 @@ template <typename T> struct ForcePairing {
   template <typename ForceAt> T interval_force_in_chain(const ForceAt& force_at, int oldest_age) const {
     return interval_force([&force_at, oldest_age](int age) { return force_at(age < oldest_age ? age : oldest_age); });
   }
+
+ private:
+  /// (1/2 - w) a + b/2 + w c for the taps a (newest), b, c, with one
+  /// multiply fewer on the servo path.
+  T mix(T a, T b, T c) const { return T(0.5) * (a + b) + w_oldest * (c - a); }
 };
 
 }  // namespace feedid

@@ -12,7 +12,8 @@
 // and re-initialises the estimator push() writes to. On a drive the servo
 // interrupt hands its samples to that task through a queue
 // (feedid_port/spsc_queue.hpp, as port/cortex_m/main.cpp does), which
-// holds the samples that arrive during the ~0.8 M-instruction close.
+// holds the samples that arrive during the close (0.3-0.65 M instructions
+// measured on the M4, docs/firmware.md).
 //
 // Time is summed with compensation (Sum), so an epoch's clock stays exact to
 // float rounding for any length; with T = float the reported times resolve
@@ -35,7 +36,7 @@ namespace feedid {
 
 /// Bands: 24 by default, not the identification default of 32, so that one
 /// axis's tracking state in float (estimator, monitor, last epoch) stays
-/// within 8 KiB (7 960 B). An epoch of ordinary motion visits a few speeds,
+/// within 8 KiB (7 936 B with the paper method, 7 680 B without). An epoch of ordinary motion visits a few speeds,
 /// which 24 log-spaced bands separate as well as 32 (docs/monitor.md).
 template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> class HealthTracker {
  public:

@@ -477,7 +477,7 @@ bool mass_equation(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
       const BandSums<T>& b = s.band[d][j];
       const T pt = b.proj_time.get(), pv = b.proj_speed.get(), pw = b.proj_speed2.get();
       friction_proj += e.coulomb_N * pt + e.viscous_Ns_m * pv +
-                       e.breakaway_N * exp_integral_about(layout.center[j], pt, pv, pw,
+                       e.breakaway_N * exp_integral_about(layout.center(j), pt, pv, pw,
                                                           e.stribeck_velocity_m_s);
     }
     num += s.dir[d].win_dv_force.get() - friction_proj;

@@ -30,7 +30,6 @@ template <typename T> struct Sum {
 template <typename T, int Bands> struct BandLayout {
   static_assert(Bands >= 8, "need at least 8 bands to fit four friction parameters");
   T edge[Bands + 1] = {};    ///< edge[j] <= |v| < edge[j+1] is band j (m/s)
-  T center[Bands] = {};      ///< geometric centre (m/s): expansion point of projections
   // Fast lookup (index()): est = ((key(|v|) - fast_base) * fast_mul + fast_add) >> 40
   // is the band or the band above it, for every |v| >= edge[0]; fast_mul == 0
   // if init() could not guarantee that (a velocity range of a few octaves only).
@@ -43,9 +42,12 @@ template <typename T, int Bands> struct BandLayout {
     edge[0] = v_min;
     for (int j = 1; j <= Bands; ++j) edge[j] = edge[j - 1] * ratio;
     edge[Bands] = v_max;
-    for (int j = 0; j < Bands; ++j) center[j] = port::sqrt(edge[j] * edge[j + 1]);
     init_fast(T(Bands) * T(0.6931471805599453) / port::log(v_max / v_min));
   }
+
+  /// Geometric centre of band j (m/s): expansion point of projections.
+  /// Computed when asked (solve() only), not stored: 4 bytes per band of RAM.
+  T center(int j) const { return port::sqrt(edge[j] * edge[j + 1]); }
 
   /// Band of a speed |v| >= edge[0]; speeds above the top edge go to the top
   /// band: the largest j < Bands with edge[j] <= speed. Context: ISR-safe.

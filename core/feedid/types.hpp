@@ -22,6 +22,7 @@ enum class Status : uint8_t {
   rejected_velocity_jump,        ///< |dv| > max_acceleration_m_s2*dt + 4*velocity_resolution
   insufficient_data,             ///< solve(): nothing identifiable yet (see estimate flags)
   numerical_error,               ///< solve(): a running sum or the result is not finite (a singular fit sets flag_fit_failed instead)
+  method_not_built,              ///< solve(Method::paper) on an Estimator built without it (FEEDID_PAPER_METHOD=0)
 };
 
 inline const char* status_name(Status s) {
@@ -35,6 +36,7 @@ inline const char* status_name(Status s) {
     case Status::rejected_velocity_jump: return "rejected_velocity_jump";
     case Status::insufficient_data: return "insufficient_data";
     case Status::numerical_error: return "numerical_error";
+    case Status::method_not_built: return "method_not_built";
   }
   return "unknown";
 }

@@ -1,5 +1,6 @@
-// Footprint probe: the smallest firmware that uses the whole core (init,
-// push, solve with both methods, estimate) and nothing else. Its size minus
+// Footprint probe: the smallest firmware that uses the whole core as the
+// drive builds it (init, push, solve with the bands method, estimate; the
+// paper method is not built, FEEDID_PAPER_METHOD=0) and nothing else. Its size minus
 // that of baseline.cpp (same start-up, empty main) is the core's flash and
 // RAM on a Cortex-M4F (docs/firmware.md). Never run; only linked and measured.
 #include "feedid/feedid.hpp"
@@ -26,8 +27,6 @@ int main() {
     (void)g_axis.push(s);
   }
   feedid::Status st = g_axis.solve();
-  g_out = g_axis.estimate().mass_kg + float(st);
-  st = g_axis.solve(feedid::Method::paper);
-  g_out = g_axis.estimate().pos.coulomb_N + float(st) + float(g_axis.diagnostics().samples_rejected);
+  g_out = g_axis.estimate().mass_kg + float(st) + float(g_axis.diagnostics().samples_rejected);
   return 0;
 }

@@ -266,7 +266,7 @@ void print_truth(Console& out) {
 struct Cost {
   uint32_t calibration = 0;
   float ipt = 0.0f;  ///< instructions per tick, measured
-  uint32_t push_max = 0, push_max_at = 0, push_total = 0, mid_solve = 0, final_solve = 0, paper_solve = 0;
+  uint32_t push_max = 0, push_max_at = 0, push_total = 0, mid_solve = 0, final_solve = 0;
   uint32_t bucket[4] = {0, 0, 0, 0};  ///< push() within 1000 / 5000 / 20000 instructions, and more
   uint32_t loop_ticks = 0, handoff_ticks = 0, feedforward_ticks = 0, feedforward_vs_ticks = 0;
   bool reproducible = false;
@@ -295,7 +295,7 @@ bool time_each_call(const feedid::Config<float>& cfg, Cost& c) {
   return true;
 }
 
-/// The final solve (bands, then paper) after time_each_call, and whether it
+/// The final solve (bands; the paper method is not built here) after time_each_call, and whether it
 /// reproduces the servo run's result bit for bit.
 void time_final_solves(const ServoRun& run, Cost& c) {
   uint32_t t0 = board::counter_now();
@@ -303,9 +303,6 @@ void time_final_solves(const ServoRun& run, Cost& c) {
   c.final_solve = board::counter_now() - t0;
   c.bands = g_axis.estimate();
   c.reproducible = st == run.final_status && same(to_result(g_axis.estimate()), run.fin);
-  t0 = board::counter_now();
-  (void)g_axis.solve(feedid::Method::paper);
-  c.paper_solve = board::counter_now() - t0;
 }
 
 /// Means without per-call timer reads: push loop, hand-off, feed-forward.
@@ -351,10 +348,9 @@ void print_costs(Console& out, const Cost& c) {
   out << "  push() per sample <= 1000 / 5000 / 20000 / more instructions: " << c.bucket[0] << " / " << c.bucket[1]
       << " / " << c.bucket[2] << " / " << c.bucket[3] << " samples\n";
   print_cost(out, "push() max", float(c.push_max), c.ipt);
-  out << "  push() max at sample " << c.push_max_at << " (a section end: paper-method point + fold)\n";
+  out << "  push() max at sample " << c.push_max_at << "\n";
   print_cost(out, "solve() mid-stream", float(c.mid_solve), c.ipt);
   print_cost(out, "solve() final (bands method)", float(c.final_solve), c.ipt);
-  print_cost(out, "solve(paper)", float(c.paper_solve), c.ipt);
   print_cost(out, "hand-off per sample (ISR offer + push_from_isr + task pop)", float(c.handoff_ticks) / n, c.ipt);
   print_cost(out, "feedforward() per call, at the trace's velocities (sample read included)",
              float(c.feedforward_ticks) / n, c.ipt);
