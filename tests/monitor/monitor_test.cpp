@@ -40,6 +40,16 @@ Estimate<double> epoch(std::mt19937_64& rng, double fc_neg = 26.0) {
   return e;
 }
 
+/// Epochs k = 0, 1, ... of 10 s from make(k) until one raises an alarm: that epoch, or -1 after n.
+template <typename T, typename F> int feed_until_alarm(ChangeMonitor<T>& m, int n, F make) {
+  int fresh = 0;
+  for (int k = 0; k < n; ++k) {
+    m.update(make(k), T(10) * T(k), T(10) * T(k + 1), fresh);
+    if (fresh > 0) return k;
+  }
+  return -1;
+}
+
 TEST(ChangeMonitor, NoAlarmOnAThousandChangeFreeEpochs) {
   ChangeMonitor<double> m;
   ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
@@ -57,8 +67,7 @@ TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThr
   ChangeMonitor<float> m;
   ASSERT_EQ(m.init(MonitorConfig<float>{}), Status::ok);
   std::mt19937_64 rng(3);
-  int fresh = 0, raised_at = -1;
-  for (int k = 0; k < 40 && raised_at < 0; ++k) {
+  const int raised_at = feed_until_alarm(m, 40, [&](int k) {
     const Estimate<double> d = epoch(rng, k >= 20 ? 26.0 * 1.05 : 26.0);
     Estimate<float> f;
     f.mass_kg = float(d.mass_kg), f.mass_se_kg = float(d.mass_se_kg);
@@ -68,9 +77,8 @@ TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThr
       b.viscous_Ns_m = float(a.viscous_Ns_m), b.coulomb_N = float(a.coulomb_N);
       b.viscous_se = float(a.viscous_se), b.coulomb_se = float(a.coulomb_se), b.flags = a.flags;
     }
-    m.update(f, 10.0f * k, 10.0f * (k + 1), fresh);
-    if (fresh > 0) raised_at = k;
-  }
+    return f;
+  });
   ASSERT_EQ(m.alarm_count(), 1);
   const ChangeAlarm<float>& a = m.alarm(0);
   EXPECT_EQ(a.parameter, Tracked::coulomb);
@@ -99,16 +107,14 @@ TEST(ChangeMonitor, OneStrayEpochCannotHideAStep) {
   ChangeMonitor<double> m;
   ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
   std::mt19937_64 rng(13);
-  int fresh = 0, raised_at = -1;
-  for (int k = 0; k < 40 && raised_at < 0; ++k) {
+  const int raised_at = feed_until_alarm(m, 40, [&](int k) {
     Estimate<double> e = epoch(rng, k >= 20 ? 26.0 * 1.10 : 26.0);
     if (k == 21) {
       e.neg.coulomb_N = 26.0 * 0.95;
       e.neg.coulomb_se = 0.0005;
     }
-    m.update(e, 10.0 * k, 10.0 * (k + 1), fresh);
-    if (fresh > 0) raised_at = k;
-  }
+    return e;
+  });
   // THEN the step is still named, its change not pulled by the stray epoch
   ASSERT_EQ(m.alarm_count(), 1);
   EXPECT_EQ(m.alarm(0).direction, -1);
