@@ -178,11 +178,17 @@ SimConfig production(std::uint64_t seed) {
   return c;
 }
 
-TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
+/// Production motion with Fc- 5 % up from 123 s.
+SimConfig negative_coulomb_step() {
   SimConfig c = production(4);
   c.change.time_s = 123.0;
   c.change.coulomb_fraction = 0.05;
   c.change.direction = -1;
+  return c;
+}
+
+TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
+  const SimConfig c = negative_coulomb_step();
   const MonitorResult r = monitor_simulated(c, "feedid_monitor_step.csv");
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.epochs.size(), 24u);
@@ -244,10 +250,7 @@ TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
 }
 
 TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
-  SimConfig c = production(4);
-  c.change.time_s = 123.0;
-  c.change.coulomb_fraction = 0.05;
-  c.change.direction = -1;
+  const SimConfig c = negative_coulomb_step();
   const MonitorResult r = monitor_simulated(c, "feedid_monitor_jsonl.csv");
   ASSERT_EQ(r.alarms.size(), 1u) << trend_table(r);
   std::istringstream lines(jsonl_lines(r, "log.csv"));
