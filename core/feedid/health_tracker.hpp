@@ -36,7 +36,7 @@ namespace feedid {
 
 /// Bands: 24 by default, not the identification default of 32, so that one
 /// axis's tracking state in float (estimator, monitor, last epoch) stays
-/// within 8 KiB (7 936 B with the paper method, 7 680 B without). An epoch of ordinary motion visits a few speeds,
+/// within 8 KiB (the firmware check prints the figure: docs/firmware.md). An epoch of ordinary motion visits a few speeds,
 /// which 24 log-spaced bands separate as well as 32 (docs/monitor.md).
 template <typename T, int Bands = 24, int Candidates = 16, int MaxAlarms = 16> class HealthTracker {
  public:

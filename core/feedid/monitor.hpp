@@ -22,6 +22,15 @@
 // epoch: neither compared nor accumulated. After an alarm the parameter
 // takes a new reference from the next epochs.
 //
+// Persistence: what enters the reference and the CUSUM is not each epoch
+// but the median of the last three epochs that carried the parameter (with
+// that epoch's standard error). One epoch that went astray, however small
+// its standard error, is never the median of three: it can neither raise
+// an alarm nor pull a reference, a run's mean or the CUSUM away from a real
+// change (a fit that came out Coulomb 81 N +- 0.02 N between epochs of 58
+// and 66 N hid a 12.5 % step, issue 32). A step is followed from the second
+// epoch after it.
+//
 //   feedid::ChangeMonitor<float> health;
 //   if (health.init(feedid::MonitorConfig<float>{}) != feedid::Status::ok) ...
 //   // each epoch: axis.init(cfg); push its samples; axis.solve();
@@ -76,7 +85,10 @@ template <typename T> bool tracked_value(const Estimate<T>& e, int i, T& value, 
 }
 
 template <typename T> struct MonitorConfig {
-  int reference_epochs = 6;  ///< epochs pooled into a reference (3 .. kMaxReferenceEpochs)
+  /// Medians (of three carrying epochs) pooled into a reference (3 ..
+  /// kMaxReferenceEpochs): 4 medians take six carrying epochs, as six epochs
+  /// did before the medians.
+  int reference_epochs = 4;
   T allowance = T(1);        ///< CUSUM k: shifts below k standard deviations are not pursued
   T threshold = T(6);        ///< CUSUM h (docs/monitor.md gives its false-alarm rate)
   /// Floor of each difference's standard deviation, as a share of the
@@ -150,22 +162,44 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
  private:
   struct Run {  // epochs since the CUSUM last left zero on one side
     T t0 = T(0), w = T(0), wx = T(0);
-    int n = 0;
+  };
+  /// The last three epochs that carried a parameter (ring, newest at
+  /// `head`; the counters live in Track's flag word, 216 B for nine tracks).
+  struct Window {
+    T x[3] = {T(0), T(0), T(0)}, se[3] = {T(0), T(0), T(0)}, t0[3] = {T(0), T(0), T(0)};
+    void push(T xi, T sei, T ti, uint8_t& n, uint8_t& head) {
+      head = static_cast<uint8_t>((head + 1) % 3);
+      x[head] = xi, se[head] = sei, t0[head] = ti;
+      if (n < 3) ++n;
+    }
+    /// Index of the median value (n == 3).
+    int median() const {
+      if ((x[0] <= x[1]) == (x[1] <= x[2])) return 1;
+      if ((x[1] <= x[0]) == (x[0] <= x[2])) return 0;
+      return 2;
+    }
   };
   struct Track {
+    Window window;
     int ref_n = 0;
+    bool referenced = false;
+    int8_t last_side = 0;  ///< which side crossed
+    uint8_t window_n = 0, window_head = 0;
     // The reference epochs as inverse-variance sums about the first one's
     // value (the shift keeps the float sum of squares from cancelling).
     T shift = T(0), sw = T(0), swx = T(0), swxx = T(0);
-    bool referenced = false;
     T ref = T(0), ref_se = T(0), scale = T(1);
     T up = T(0), down = T(0);
     Run run_up, run_down;
-    int8_t last_side = 0;  ///< which side crossed
   };
 
-  /// Reference first; then the CUSUM. True when it crosses.
-  bool step(Track& t, T x, T se, T t0) {
+  /// The median of the last three carrying epochs; then the reference
+  /// first, then the CUSUM. True when it crosses.
+  bool step(Track& t, T x_epoch, T se_epoch, T t_epoch) {
+    t.window.push(x_epoch, se_epoch, t_epoch, t.window_n, t.window_head);
+    if (t.window_n < 3) return false;
+    const int mi = t.window.median();
+    const T x = t.window.x[mi], se = t.window.se[mi];
     if (!t.referenced) {
       if (t.ref_n == 0) t.shift = x;
       const T w = T(1) / (se * se), d = x - t.shift;
@@ -182,8 +216,8 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     // strong ones do (1.2 h).
     const T z_max = cfg_.allowance + T(0.6) * cfg_.threshold;
     const T z = port::clamp((x - t.ref) / s, -z_max, z_max);
-    advance(t.up, t.run_up, z - cfg_.allowance, x, se, t0);
-    advance(t.down, t.run_down, -z - cfg_.allowance, x, se, t0);
+    advance(t.up, t.run_up, z - cfg_.allowance, x, se, run_start(t, s, 1));
+    advance(t.down, t.run_down, -z - cfg_.allowance, x, se, run_start(t, s, -1));
     return crossed(t, t.up, t.run_up, 1) || crossed(t, t.down, t.run_down, -1);
   }
 
@@ -205,13 +239,22 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     return false;
   }
 
+  /// When a run on `side` that starts now began: the earliest epoch in the
+  /// window beyond the allowance on that side (the median lags a step by an
+  /// epoch), else the newest.
+  T run_start(const Track& t, T s, int side) const {
+    T start = t.window.t0[t.window_head];
+    for (int i = 0; i < 3; ++i)
+      if (T(side) * (t.window.x[i] - t.ref) / s > cfg_.allowance && t.window.t0[i] < start) start = t.window.t0[i];
+    return start;
+  }
+
   static void advance(T& cusum, Run& run, T increment, T x, T se, T t0) {
-    if (cusum <= T(0)) run = Run{t0, T(0), T(0), 0};  // a fresh run starts with this epoch
+    if (cusum <= T(0)) run = Run{t0, T(0), T(0)};  // a fresh run starts with this epoch
     cusum = port::max(T(0), cusum + increment);
     const T w = T(1) / (se * se);
     run.w += w;
     run.wx += w * x;
-    ++run.n;
   }
 
   /// Inverse-variance mean of the reference epochs, and their

@@ -250,7 +250,7 @@ std::string output_over_input(const CLI::App& sub) {
     return v;
   };
   const auto inputs = values({"--in", "--model", "--in-list", "--controller"});
-  for (const std::string& out : values({"--json", "--out", "--plot", "--truth", "--friction-plot", "--markdown"}))
+  for (const std::string& out : values({"--json", "--jsonl", "--out", "--plot", "--truth", "--friction-plot", "--markdown"}))
     for (const std::string& in : inputs)
       if (same_file(out, in)) return out + ": refusing to write an output over the input " + in;
   return "";
@@ -308,7 +308,7 @@ bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool
 }
 
 int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
-                const std::string& plot_path, MonitorOptions opt) {
+                const std::string& plot_path, const std::string& jsonl_path, MonitorOptions opt) {
   if (!in.in_list.empty()) {
     std::fprintf(stderr, "error: monitor reads one log (--in); --in-list is for identify, validate and diagnose\n");
     return 2;
@@ -325,9 +325,15 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
   const MonitorResult r = monitor(stream, opt);
   progress.done();
   note_skipped_rows(path, r.rows_skipped, r.rows_repeated, r.skipped_rows);
-  std::cout << trend_table(r);
+  if (jsonl_path != "-") std::cout << trend_table(r);  // stdout is the time series then
   if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
   std::string err;
+  if (jsonl_path == "-") std::cout << jsonl_lines(r, path);
+  else if (!jsonl_path.empty()) err = write_whole_file(jsonl_path, jsonl_lines(r, path), {path});
+  if (!err.empty()) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
   if (!plot_path.empty() && !write_trend_svg(r, plot_path, err)) {
     std::fprintf(stderr, "error: %s\n", err.c_str());
     return 1;

@@ -74,7 +74,7 @@ bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool
 
 /// `feedid monitor` on one log, streamed; the exit code.
 int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
-                const std::string& plot_path, MonitorOptions opt);
+                const std::string& plot_path, const std::string& jsonl_path, MonitorOptions opt);
 
 /// The diagnosis page, if a folder was given; the exit code.
 int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source);

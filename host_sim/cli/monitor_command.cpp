@@ -18,11 +18,13 @@ struct MonitorCommand : Command {
   MonitorOptions opt;
   CsvColumns cols;
   InputOptions input;
-  std::string in_path, json_path, plot_path;
+  std::string in_path, json_path, plot_path, jsonl_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
     app->add_option("--in", in_path, "log: a CSV, read row by row, or a .mat, read whole")->required();
     app->add_option("--json", json_path, "write epochs and alarms as JSON");
+    app->add_option("--jsonl", jsonl_path,
+                    "write one JSON line per epoch and per alarm, a time series for a database (docs/monitor.md); - for stdout");
     app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
     app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
     app->add_option("--reference-epochs", opt.detector.reference_epochs, "epochs pooled into each parameter's reference")
@@ -31,7 +33,7 @@ struct MonitorCommand : Command {
         ->capture_default_str();
     add_input_options(app, cols, input);
   }
-  int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, opt); }
+  int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, jsonl_path, opt); }
 };
 
 }  // namespace

@@ -66,6 +66,7 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   const IdentifyResult r = identify(t, searching ? opt.identify : epoch_options(opt, conv));
   e.error = r.error;
   if (r.error.empty()) e.estimate = r.estimate;
+  for (int d = 0; d < 2; ++d) e.stribeck[static_cast<std::size_t>(d)] = r.friction_model[static_cast<std::size_t>(d)].stribeck;
   if (r.error.empty() && searching) {
     LogConventions found = conventions_of(r, epoch);
     found.times_found = conv.times_found + 1;
@@ -85,9 +86,58 @@ struct Reading {
 };
 Reading reading(const MonitorEpoch& ep, int i) {
   Reading x;
-  // Not identified at all: nothing it can carry; else the core's rule.
-  if (ep.error.empty()) x.identifiable = feedid::tracked_value(ep.estimate, i, x.value, x.se);
+  if (ep.error.empty()) (void)feedid::tracked_value(ep.estimate, i, x.value, x.se);
+  x.identifiable = carried(ep, i);
   return x;
+}
+
+/// The epoch's estimate as the change monitor sees it: what it does not
+/// carry has no standard error, so the core's rule (tracked_value) skips it.
+feedid::Estimate<double> as_compared(const MonitorEpoch& ep) {
+  feedid::Estimate<double> e = ep.estimate;
+  for (int d = 0; d < 2; ++d) {
+    if (!ep.law_differs[static_cast<std::size_t>(d)]) continue;
+    feedid::DirectionEstimate<double>& de = d == 0 ? e.pos : e.neg;
+    de.viscous_se = de.coulomb_se = de.breakaway_se = de.stribeck_velocity_se = 0.0;
+  }
+  return e;
+}
+
+void fix_law(LogLaw& law, std::size_t d) {
+  law.fixed[d] = true;
+  law.stribeck[d] = law.votes_stribeck[d] >= law.votes_cv[d];
+}
+
+/// One identified epoch's vote for each direction's law, while it is open.
+void vote(LogLaw& law, const MonitorEpoch& ep, int needed) {
+  if (!ep.error.empty()) return;
+  for (std::size_t d = 0; d < 2; ++d) {
+    const feedid::DirectionEstimate<double>& de = d == 0 ? ep.estimate.pos : ep.estimate.neg;
+    if (law.fixed[d] || !de.friction_identified()) continue;
+    (ep.stribeck[d] ? law.votes_stribeck[d] : law.votes_cv[d]) += 1;
+    if (law.votes_stribeck[d] + law.votes_cv[d] >= needed) fix_law(law, d);
+  }
+}
+
+/// Counts of what each tracked parameter's epochs carried, and its reference.
+void count_tracked(MonitorResult& out, const Monitor& health) {
+  for (const MonitorEpoch& ep : out.epochs) {
+    out.epochs_skipped += !ep.error.empty();
+    if (!ep.error.empty()) continue;
+    for (int i = 0; i < feedid::kTrackedCount; ++i) {
+      double v = 0.0, se = 0.0;
+      TrackedCount& c = out.tracked[static_cast<std::size_t>(i)];
+      const bool core_rule = feedid::tracked_value(ep.estimate, i, v, se);
+      if (carried(ep, i)) ++c.carried;
+      else if (core_rule) ++c.law_differs;
+      else ++c.flagged;
+    }
+  }
+  for (int i = 0; i < feedid::kTrackedCount; ++i) {
+    double v = 0.0, se = 0.0;
+    out.tracked[static_cast<std::size_t>(i)].referenced = health.reference(i, v, se);
+    out.referenced = out.referenced || out.tracked[static_cast<std::size_t>(i)].referenced;
+  }
 }
 
 std::string unit_of(feedid::Tracked p, const Units& u) {
@@ -101,7 +151,28 @@ std::string unit_of(feedid::Tracked p, const Units& u) {
 
 std::string direction_name(int8_t d) { return d > 0 ? "pos" : d < 0 ? "neg" : ""; }
 
+/// The tracked indices a report shows: m, sigma+, sigma-, Fc+, Fc-.
+constexpr int kShown[5] = {0, 1, 5, 2, 6};
+
+std::string tracked_label(int i) {
+  const feedid::Tracked p = Monitor::parameter_of(i);
+  const std::string d = direction_name(Monitor::direction_of(i));
+  return std::string(feedid::tracked_name(p)) + (d.empty() ? "" : " " + d);
+}
+
 }  // namespace
+
+bool carried(const MonitorEpoch& ep, int i) {
+  double v = 0.0, se = 0.0;
+  if (!ep.error.empty() || !feedid::tracked_value(ep.estimate, i, v, se)) return false;
+  return i == 0 || !ep.law_differs[i <= 4 ? 0 : 1];
+}
+
+std::string watch_status(const MonitorResult& r) {
+  int referenced = 0;
+  for (int i : kShown) referenced += r.tracked[static_cast<std::size_t>(i)].referenced;
+  return referenced == 5 ? "watching" : r.referenced ? "partly_watching" : "not_watching";
+}
 
 MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   MonitorResult out;
@@ -113,23 +184,34 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   }
   std::vector<TraceSample> buf;
   TraceSample s;
+  std::size_t compared = 0;  // epochs handed to the change monitor; the rest wait for the log's law
+  auto compare_up_to = [&](std::size_t end) {
+    for (; compared < end; ++compared) {
+      MonitorEpoch& ep = out.epochs[compared];
+      if (!ep.error.empty()) continue;
+      for (std::size_t d = 0; d < 2; ++d) ep.law_differs[d] = ep.stribeck[d] != out.law.stribeck[d];
+      int fresh = 0;
+      (void)health.update(as_compared(ep), ep.t_start_s, ep.t_end_s, fresh);
+      for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));
+    }
+  };
   auto close_epoch = [&] {
     if (buf.size() < 2) return buf.clear();
     out.epochs.push_back(identify_epoch(buf, in, opt, static_cast<int>(out.epochs.size()), out.conventions));
-    const MonitorEpoch& ep = out.epochs.back();
-    int fresh = 0;
-    if (ep.error.empty()) health.update(ep.estimate, ep.t_start_s, ep.t_end_s, fresh);
-    for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));
-    if (opt.progress) opt.progress(ep.t_end_s);
+    vote(out.law, out.epochs.back(), opt.detector.reference_epochs);
+    if (out.law.fixed[0] && out.law.fixed[1]) compare_up_to(out.epochs.size());
+    if (opt.progress) opt.progress(out.epochs.back().t_end_s);
   };
   while (in.next(s)) {
     if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch();
     buf.push_back(s);
   }
   close_epoch();
+  for (std::size_t d = 0; d < 2; ++d)
+    if (!out.law.fixed[d]) fix_law(out.law, d);  // the log ended first: the votes there are
+  compare_up_to(out.epochs.size());
   out.error = in.error();
-  double v = 0.0, se = 0.0;
-  for (int i = 0; i < feedid::kTrackedCount; ++i) out.referenced = out.referenced || health.reference(i, v, se);
+  count_tracked(out, health);
   if (out.error.empty() && !out.referenced) {
     std::size_t identified = 0;
     for (const MonitorEpoch& ep : out.epochs) identified += ep.error.empty();
@@ -144,40 +226,77 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   return out;
 }
 
+namespace {
+/// An epoch's parameters with their standard errors and whether each was
+/// compared (`identifiable`), as `--json` and `--jsonl` write it.
+nlohmann::json epoch_json(const MonitorEpoch& ep) {
+  nlohmann::json j = {{"t_start_s", ep.t_start_s}, {"t_end_s", ep.t_end_s}, {"samples", ep.samples}};
+  if (!ep.error.empty()) j["error"] = ep.error;
+  const Reading m = reading(ep, 0);
+  j["m"] = m.value;
+  j["m_se"] = m.se;
+  j["m_identifiable"] = m.identifiable;
+  for (int d = 0; d < 2; ++d) {
+    nlohmann::json side;
+    const char* names[4] = {"sigma", "fc", "fs", "vs"};
+    nlohmann::json ident;
+    for (int k = 0; k < 4; ++k) {
+      const Reading x = reading(ep, 1 + 4 * d + k);
+      side[names[k]] = x.value;
+      side[std::string(names[k]) + "_se"] = x.se;
+      ident[names[k]] = x.identifiable;
+    }
+    side["identifiable"] = ident;
+    side["law"] = ep.stribeck[static_cast<std::size_t>(d)] ? "stribeck" : "coulomb_viscous";
+    side["law_differs"] = ep.law_differs[static_cast<std::size_t>(d)];
+    j[d == 0 ? "pos" : "neg"] = side;
+  }
+  return j;
+}
+
+nlohmann::json alarm_json(const feedid::ChangeAlarm<double>& a) {
+  return {{"t_s", a.t_s},
+          {"raised_t_s", a.raised_t_s},
+          {"parameter", feedid::tracked_name(a.parameter)},
+          {"direction", a.direction == 0 ? nlohmann::json(nullptr) : nlohmann::json(direction_name(a.direction))},
+          {"change", a.change},
+          {"change_se", a.change_se},
+          {"change_pct", a.reference != 0 ? 100.0 * a.change / a.reference : 0.0},
+          {"reference", a.reference}};
+}
+}  // namespace
+
+std::string jsonl_lines(const MonitorResult& r, const std::string& source) {
+  std::string out;
+  std::size_t next_alarm = 0;
+  // Alarms in time order among the epochs: after the epoch that raised them.
+  auto alarms_until = [&](double t) {
+    for (; next_alarm < r.alarms.size() && r.alarms[next_alarm].raised_t_s <= t; ++next_alarm) {
+      nlohmann::json a = alarm_json(r.alarms[next_alarm]);
+      a["type"] = "alarm";
+      a["source"] = source;
+      out += a.dump() + "\n";
+    }
+  };
+  for (const MonitorEpoch& ep : r.epochs) {
+    nlohmann::json j = epoch_json(ep);
+    j["type"] = "epoch";
+    j["source"] = source;
+    j["skipped"] = !ep.error.empty();
+    j["temperature"] = nullptr;  // no temperature or load column is read yet (docs/monitor.md)
+    j["load"] = nullptr;
+    out += j.dump() + "\n";
+    alarms_until(ep.t_end_s);
+  }
+  alarms_until(INFINITY);
+  return out;
+}
+
 nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
   nlohmann::json epochs = nlohmann::json::array();
-  for (const auto& ep : r.epochs) {
-    nlohmann::json j = {{"t_start_s", ep.t_start_s}, {"t_end_s", ep.t_end_s}, {"samples", ep.samples}};
-    if (!ep.error.empty()) j["error"] = ep.error;
-    const Reading m = reading(ep, 0);
-    j["m"] = m.value;
-    j["m_se"] = m.se;
-    j["m_identifiable"] = m.identifiable;
-    for (int d = 0; d < 2; ++d) {
-      nlohmann::json side;
-      const char* names[4] = {"sigma", "fc", "fs", "vs"};
-      nlohmann::json ident;
-      for (int k = 0; k < 4; ++k) {
-        const Reading x = reading(ep, 1 + 4 * d + k);
-        side[names[k]] = x.value;
-        side[std::string(names[k]) + "_se"] = x.se;
-        ident[names[k]] = x.identifiable;
-      }
-      side["identifiable"] = ident;
-      j[d == 0 ? "pos" : "neg"] = side;
-    }
-    epochs.push_back(j);
-  }
+  for (const auto& ep : r.epochs) epochs.push_back(epoch_json(ep));
   nlohmann::json alarms = nlohmann::json::array();
-  for (const auto& a : r.alarms)
-    alarms.push_back({{"t_s", a.t_s},
-                      {"raised_t_s", a.raised_t_s},
-                      {"parameter", feedid::tracked_name(a.parameter)},
-                      {"direction", a.direction == 0 ? nlohmann::json(nullptr) : nlohmann::json(direction_name(a.direction))},
-                      {"change", a.change},
-                      {"change_se", a.change_se},
-                      {"change_pct", a.reference != 0 ? 100.0 * a.change / a.reference : 0.0},
-                      {"reference", a.reference}});
+  for (const auto& a : r.alarms) alarms.push_back(alarm_json(a));
   const LogConventions& c = r.conventions;
   nlohmann::json conventions = {{"fixed", c.fixed},
                                 {"force_sign", c.force_sign},
@@ -197,10 +316,42 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                    {"rule", "each epoch identified alone; the first reference_epochs epochs a parameter can carry are "
                             "its reference; two-sided CUSUM of (epoch - reference) / (c sqrt(se^2 + se_ref^2)), c the "
                             "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference"}};
+  j["status"] = watch_status(r);
+  j["epochs_skipped"] = r.epochs_skipped;
+  nlohmann::json tracked;
+  for (int i = 0; i < feedid::kTrackedCount; ++i) {
+    const TrackedCount& c = r.tracked[static_cast<std::size_t>(i)];
+    tracked[tracked_label(i)] = {{"compared", c.carried}, {"flagged", c.flagged}, {"law_differs", c.law_differs},
+                                 {"referenced", c.referenced}};
+  }
+  j["tracked"] = tracked;
+  j["friction_law"] = {{"pos", r.law.stribeck[0] ? "stribeck" : "coulomb_viscous"},
+                       {"neg", r.law.stribeck[1] ? "stribeck" : "coulomb_viscous"},
+                       {"rule", "fixed once per log: the law most of the first reference_epochs epochs that identified "
+                                "the direction's friction kept (Stribeck on a tie); an epoch with the other law "
+                                "does not compare that direction's Fc and sigma"}};
   j["input"] = {{"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
   if (!r.error.empty()) j["error"] = r.error;
   return j;
 }
+
+namespace {
+/// Which epochs were skipped and which parameters were watched, in words:
+/// silence means nothing unless something was watched.
+std::string watch_summary(const MonitorResult& r) {
+  std::ostringstream o;
+  o << "epochs: " << r.epochs.size() << ", " << r.epochs_skipped << " skipped (not identified)\n";
+  for (int i : kShown) {
+    const TrackedCount& c = r.tracked[static_cast<std::size_t>(i)];
+    o << "  " << tracked_label(i) << ": " << c.carried << " compared, " << c.flagged << " not carried (flagged), "
+      << c.law_differs << " with another friction law; "
+      << (c.referenced ? "watched" : "NOT WATCHED (no reference formed)") << "\n";
+  }
+  const std::string status = watch_status(r);
+  if (status != "watching") o << "status: " << status << (status == "not_watching" ? ": no alarm means nothing here\n" : "\n");
+  return o.str();
+}
+}  // namespace
 
 std::string trend_table(const MonitorResult& r) {
   std::ostringstream o;
@@ -225,7 +376,8 @@ std::string trend_table(const MonitorResult& r) {
     }
     o << "\n";
   }
-  if (r.alarms.empty() && r.referenced) o << "no alarms\n";
+  o << watch_summary(r);
+  if (r.alarms.empty() && watch_status(r) != "not_watching") o << "no alarms in what was watched\n";
   for (const auto& a : r.alarms) {
     const Rounded c = round_to_se(a.change, a.change_se);
     std::snprintf(buf, sizeof buf, "ALARM at %.1f s (raised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, a.raised_t_s,

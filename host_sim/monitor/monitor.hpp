@@ -4,6 +4,7 @@
 // (core/feedid/monitor.hpp) compares it with a reference and raises
 // alarms. Host only.
 #pragma once
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -29,8 +30,29 @@ struct MonitorOptions {
 struct MonitorEpoch {
   double t_start_s = 0.0, t_end_s = 0.0;
   std::size_t samples = 0;
-  std::string error;             ///< set when the epoch could not be identified
+  std::string error;             ///< set when the epoch could not be identified (the epoch is skipped)
   feedid::Estimate<double> estimate{};
+  std::array<bool, 2> stribeck{};  ///< [pos, neg]: model selection kept the Stribeck law in this epoch
+  /// [pos, neg]: the epoch's law is not the log's (LogLaw), so its Fc and
+  /// sigma are not compared: a Coulomb + viscous fit of a drive with a
+  /// Stribeck dip puts part of the dip into Fc (20 % on a sine log).
+  std::array<bool, 2> law_differs{};
+};
+
+/// Each direction's friction law, fixed once per log like the conventions:
+/// the law most of the first reference epochs that identified the
+/// direction's friction chose (Stribeck on a tie).
+struct LogLaw {
+  std::array<bool, 2> fixed{}, stribeck{};
+  std::array<int, 2> votes_stribeck{}, votes_cv{};
+};
+
+/// How many epochs carried a tracked parameter, and why the others did not.
+struct TrackedCount {
+  int carried = 0;       ///< compared with the reference (or forming it)
+  int flagged = 0;       ///< identified, but flagged (standard error over a quarter, negative, ...)
+  int law_differs = 0;   ///< the epoch's friction law was not the log's
+  bool referenced = false;
 };
 
 /// A log's conventions as the epochs are told them (IdentifyOptions).
@@ -48,6 +70,9 @@ struct MonitorResult {
   std::vector<MonitorEpoch> epochs;
   std::vector<feedid::ChangeAlarm<double>> alarms;
   LogConventions conventions;
+  LogLaw law;
+  std::size_t epochs_skipped = 0;   ///< epochs that could not be identified at all
+  std::array<TrackedCount, feedid::kTrackedCount> tracked{};
   /// Every tracked parameter that got a reference (false: the log never
   /// carried enough identified epochs to watch anything; error says so).
   bool referenced = false;
@@ -58,6 +83,16 @@ struct MonitorResult {
 
 /// Reads the stream to its end, epoch by epoch.
 MonitorResult monitor(CsvStream& in, const MonitorOptions& opt);
+/// What the monitor watched: "watching" (m, sigma+-, Fc+- all have a
+/// reference), "partly_watching" (some do) or "not_watching" (none: the
+/// absence of alarms means nothing).
+std::string watch_status(const MonitorResult& r);
+/// Whether tracked index i of an epoch was compared (the core's rule, the
+/// epoch identified, and its law the log's).
+bool carried(const MonitorEpoch& ep, int i);
+/// One JSON object per line: each epoch ("type": "epoch") and each alarm
+/// ("type": "alarm"), in time order (docs/monitor.md, "Time series").
+std::string jsonl_lines(const MonitorResult& r, const std::string& source);
 nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt);
 /// Each parameter's trend with +-2 se bands and the alarm times, stacked panels in one SVG.
 bool write_trend_svg(const MonitorResult& r, const std::string& path, std::string& error);

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,16 @@ Estimate<double> epoch(std::mt19937_64& rng, double fc_neg = 26.0) {
   return e;
 }
 
+/// Epochs k = 0, 1, ... of 10 s from make(k) until one raises an alarm: that epoch, or -1 after n.
+template <typename T, typename F> int feed_until_alarm(ChangeMonitor<T>& m, int n, F make) {
+  int fresh = 0;
+  for (int k = 0; k < n; ++k) {
+    m.update(make(k), T(10) * T(k), T(10) * T(k + 1), fresh);
+    if (fresh > 0) return k;
+  }
+  return -1;
+}
+
 TEST(ChangeMonitor, NoAlarmOnAThousandChangeFreeEpochs) {
   ChangeMonitor<double> m;
   ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
@@ -56,8 +67,7 @@ TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThr
   ChangeMonitor<float> m;
   ASSERT_EQ(m.init(MonitorConfig<float>{}), Status::ok);
   std::mt19937_64 rng(3);
-  int fresh = 0, raised_at = -1;
-  for (int k = 0; k < 40 && raised_at < 0; ++k) {
+  const int raised_at = feed_until_alarm(m, 40, [&](int k) {
     const Estimate<double> d = epoch(rng, k >= 20 ? 26.0 * 1.05 : 26.0);
     Estimate<float> f;
     f.mass_kg = float(d.mass_kg), f.mass_se_kg = float(d.mass_se_kg);
@@ -67,9 +77,8 @@ TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThr
       b.viscous_Ns_m = float(a.viscous_Ns_m), b.coulomb_N = float(a.coulomb_N);
       b.viscous_se = float(a.viscous_se), b.coulomb_se = float(a.coulomb_se), b.flags = a.flags;
     }
-    m.update(f, 10.0f * k, 10.0f * (k + 1), fresh);
-    if (fresh > 0) raised_at = k;
-  }
+    return f;
+  });
   ASSERT_EQ(m.alarm_count(), 1);
   const ChangeAlarm<float>& a = m.alarm(0);
   EXPECT_EQ(a.parameter, Tracked::coulomb);
@@ -90,6 +99,27 @@ TEST(ChangeMonitor, OneStrayEpochCannotRaiseAnAlarm) {
     m.update(e, 10.0 * k, 10.0 * (k + 1), fresh);
   }
   EXPECT_EQ(m.alarm_count(), 0);
+}
+
+TEST(ChangeMonitor, OneStrayEpochCannotHideAStep) {
+  // GIVEN a 10 % step in Fc- at epoch 20 and, right after it, one epoch
+  // that went astray back to the old value with a tiny standard error
+  ChangeMonitor<double> m;
+  ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
+  std::mt19937_64 rng(13);
+  const int raised_at = feed_until_alarm(m, 40, [&](int k) {
+    Estimate<double> e = epoch(rng, k >= 20 ? 26.0 * 1.10 : 26.0);
+    if (k == 21) {
+      e.neg.coulomb_N = 26.0 * 0.95;
+      e.neg.coulomb_se = 0.0005;
+    }
+    return e;
+  });
+  // THEN the step is still named, its change not pulled by the stray epoch
+  ASSERT_EQ(m.alarm_count(), 1);
+  EXPECT_EQ(m.alarm(0).direction, -1);
+  EXPECT_NEAR(m.alarm(0).change, 2.6, 0.1);
+  EXPECT_LE(raised_at, 24);
 }
 
 TEST(ChangeMonitor, TwoStrayEpochsWithoutAChangeInTheirRunRaiseNone) {
@@ -148,11 +178,17 @@ SimConfig production(std::uint64_t seed) {
   return c;
 }
 
-TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
+/// Production motion with Fc- 5 % up from 123 s.
+SimConfig negative_coulomb_step() {
   SimConfig c = production(4);
   c.change.time_s = 123.0;
   c.change.coulomb_fraction = 0.05;
   c.change.direction = -1;
+  return c;
+}
+
+TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
+  const SimConfig c = negative_coulomb_step();
   const MonitorResult r = monitor_simulated(c, "feedid_monitor_step.csv");
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.epochs.size(), 24u);
@@ -208,6 +244,41 @@ TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
   EXPECT_FALSE(r.referenced);
   EXPECT_NE(r.error.find("nothing was monitored"), std::string::npos) << r.error;
   EXPECT_EQ(trend_table(r).find("no alarms"), std::string::npos) << trend_table(r);
+  EXPECT_EQ(watch_status(r), "not_watching");
+  EXPECT_NE(trend_table(r).find("NOT WATCHED"), std::string::npos);
+  EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "not_watching");
+}
+
+TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
+  const SimConfig c = negative_coulomb_step();
+  const MonitorResult r = monitor_simulated(c, "feedid_monitor_jsonl.csv");
+  ASSERT_EQ(r.alarms.size(), 1u) << trend_table(r);
+  std::istringstream lines(jsonl_lines(r, "log.csv"));
+  std::string line;
+  std::size_t epochs = 0, alarms = 0;
+  double last_t = -1.0;
+  while (std::getline(lines, line)) {
+    const nlohmann::json j = nlohmann::json::parse(line);
+    EXPECT_EQ(j["source"], "log.csv");
+    if (j["type"] == "epoch") {
+      ++epochs;
+      EXPECT_GT(j["t_end_s"].get<double>(), last_t);
+      last_t = j["t_end_s"].get<double>();
+      EXPECT_TRUE(j.contains("m_se") && j["neg"].contains("fc_se") && j.contains("temperature") && j.contains("load"));
+    } else {
+      ASSERT_EQ(j["type"], "alarm");
+      ++alarms;
+      EXPECT_EQ(j["parameter"], "fc");
+      EXPECT_LE(j["raised_t_s"].get<double>(), last_t + 1e-9) << "after the epoch that raised it";
+    }
+  }
+  EXPECT_EQ(epochs, r.epochs.size());
+  EXPECT_EQ(alarms, 1u);
+  // After its alarm Fc- takes a new reference, which the 117 s left do not
+  // complete: the log ends partly watched, and says so.
+  EXPECT_EQ(watch_status(r), "partly_watching");
+  EXPECT_FALSE(r.tracked[6].referenced);
+  EXPECT_TRUE(r.tracked[2].referenced);
 }
 
 /// Every sample of a simulated trace through a HealthTracker<double> with
