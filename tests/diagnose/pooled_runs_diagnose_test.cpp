@@ -149,6 +149,40 @@ TEST(DiagnosePooledRuns, FrictionThatDiffersBetweenRunsIsNotADrift) {
   EXPECT_TRUE(reported) << r.ambiguities.dump();
 }
 
+// The same days with a given model (`diagnose --model`, the first run's
+// friction): the file states one day's friction, and the levels of the
+// runs after it were left to the effects; the gap between days read as
+// `unexplained` (gap ratio 1.73 on EMPS with DATA_EMPS and PULSES pooled).
+// Each run gets its own level as the refitted base does, and nothing is left.
+TEST(DiagnosePooledRuns, AGivenModelGetsEachRunsLevelToo) {
+  const double coulomb_scale[] = {1.28, 1.08, 0.88}, viscous_scale[] = {1.21, 1.09, 0.94};
+  host::DriveParams first{};
+  const host::Trace trace = pooled_each("given_days", kRuns, [&](host::SimConfig& c, std::size_t i) {
+    for (host::DirectionFriction* f : {&c.drive.pos, &c.drive.neg}) {
+      f->coulomb_N *= coulomb_scale[i];
+      f->viscous_Ns_m *= viscous_scale[i];
+    }
+    if (i == 0) first = c.drive;
+  });
+  host::DiagnoseOptions opt;
+  opt.model = host::ModelFile{};
+  opt.model->drive = first;
+  opt.model->source = "run 1's model";
+  const host::DiagnoseResult r = host::diagnose(trace, opt);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(r.model_given);
+  EXPECT_EQ(r.effect, "none") << host::summary(r);
+  EXPECT_FALSE(r.gap_remains) << host::summary(r);
+  bool reported = false;
+  for (const auto& a : r.ambiguities)
+    for (const auto& l : a.value("levels", nlohmann::json::array()))
+      if (l.value("run", 0) == 3 && l.value("term", "") == "coulomb" && l.value("direction", "") == "positive") {
+        reported = true;
+        EXPECT_NEAR(l.value("change", 0.0), 22.0 - 32.0, 1.0) << l.dump();
+      }
+  EXPECT_TRUE(reported) << r.ambiguities.dump();
+}
+
 /// Runs long enough to show a warm-up of 8 s in each.
 const std::vector<Run> kWarmRuns = {{30.0, 3}, {14.0, 1}, {20.0, 2}};
 
