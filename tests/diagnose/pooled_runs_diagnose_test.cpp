@@ -119,6 +119,18 @@ TEST(DiagnosePooledRuns, PositionFrictionInEveryRunIsNamed) {
   EXPECT_NEAR(r.effect_parameters.value("delta_N", 0.0), 6.0, 0.6) << r.effect_parameters.dump();
 }
 
+/// Run 3's positive Coulomb level is reported, 10 N below run 1's (32 against 22 N).
+static void expect_run3_coulomb_10N_below_run1(const host::DiagnoseResult& r) {
+  bool reported = false;
+  for (const auto& a : r.ambiguities)
+    for (const auto& l : a.value("levels", nlohmann::json::array()))
+      if (l.value("run", 0) == 3 && l.value("term", "") == "coulomb" && l.value("direction", "") == "positive") {
+        reported = true;
+        EXPECT_NEAR(l.value("change", 0.0), 22.0 - 32.0, 1.0) << l.dump();
+      }
+  EXPECT_TRUE(reported) << r.ambiguities.dump();
+}
+
 // A machine recorded on different days: each run's friction is constant,
 // but lower from one run to the next (Coulomb 32, 27 and 22 N, viscous
 // 850, 760 and 660 N s/m). On the pooled clock the drift's decay spanned
@@ -139,14 +151,7 @@ TEST(DiagnosePooledRuns, FrictionThatDiffersBetweenRunsIsNotADrift) {
   EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "thermal_drift"), 0) << host::summary(r);
   EXPECT_EQ(r.effect, "none") << host::summary(r);
   // The level is reported, not hidden: run 3's Coulomb force is 10 N below run 1's.
-  bool reported = false;
-  for (const auto& a : r.ambiguities)
-    for (const auto& l : a.value("levels", nlohmann::json::array()))
-      if (l.value("run", 0) == 3 && l.value("term", "") == "coulomb" && l.value("direction", "") == "positive") {
-        reported = true;
-        EXPECT_NEAR(l.value("change", 0.0), 22.0 - 32.0, 1.0) << l.dump();
-      }
-  EXPECT_TRUE(reported) << r.ambiguities.dump();
+  expect_run3_coulomb_10N_below_run1(r);
 }
 
 // The same days with a given model (`diagnose --model`, the first run's
@@ -173,14 +178,7 @@ TEST(DiagnosePooledRuns, AGivenModelGetsEachRunsLevelToo) {
   ASSERT_TRUE(r.model_given);
   EXPECT_EQ(r.effect, "none") << host::summary(r);
   EXPECT_FALSE(r.gap_remains) << host::summary(r);
-  bool reported = false;
-  for (const auto& a : r.ambiguities)
-    for (const auto& l : a.value("levels", nlohmann::json::array()))
-      if (l.value("run", 0) == 3 && l.value("term", "") == "coulomb" && l.value("direction", "") == "positive") {
-        reported = true;
-        EXPECT_NEAR(l.value("change", 0.0), 22.0 - 32.0, 1.0) << l.dump();
-      }
-  EXPECT_TRUE(reported) << r.ambiguities.dump();
+  expect_run3_coulomb_10N_below_run1(r);
 }
 
 /// Runs long enough to show a warm-up of 8 s in each.
