@@ -518,6 +518,19 @@ std::string figure_text(double v) {
   return b;
 }
 
+/// A table of replay figures: a labelled row each (label HTML), a column per signal.
+std::string figures_table(const std::string& corner, const std::vector<std::pair<std::string, const ReplayFigures*>>& rows) {
+  std::ostringstream o;
+  o << "<table><tr><th>" << corner << "</th>";
+  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
+  for (const auto& [label, f] : rows) {
+    o << "</tr>\n<tr><td>" << label << "</td>";
+    for (const ReplaySignal& s : kReplaySignals) o << "<td>" << figure_text((*f).*s.figure) << "</td>";
+  }
+  o << "</tr></table>\n";
+  return o.str();
+}
+
 }  // namespace
 
 PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std::string& title) {
@@ -570,17 +583,10 @@ bool write_replay_report(const ReplayResult& r, const std::string& dir, const st
   o << page_head("feedid replay: " + source);
   o << "<h1>Closed-loop replay</h1>\n<p>Run <code>" << html(source) << "</code>, made by <code>" << html(command)
     << "</code>. docs/reference.md (\"replay\") defines every figure.</p>\n";
-  o << "<table><tr><th>relative error (%)</th>";
-  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
-  const std::pair<const char*, const ReplayFigures*> rows[] = {
-      {"measured processed, simulated from the plant's state (published comparison)", &r.error_pct},
-      {"both sides processed alike", &r.same_processing_pct},
-      {"the processing alone (simulated state against simulated processed)", &r.processing_pct}};
-  for (const auto& [label, f] : rows) {
-    o << "</tr>\n<tr><td>" << label << "</td>";
-    for (const ReplaySignal& s : kReplaySignals) o << "<td>" << figure_text((*f).*s.figure) << "</td>";
-  }
-  o << "</tr></table>\n";
+  o << figures_table("relative error (%)",
+                      {{"measured processed, simulated from the plant's state (published comparison)", &r.error_pct},
+                       {"both sides processed alike", &r.same_processing_pct},
+                       {"the processing alone (simulated state against simulated processed)", &r.processing_pct}});
   for (const ReplaySignal& s : kReplaySignals)
     o << "<h2>" << s.name << "</h2>\n" << render_svg(replay_plot(r, s.name, std::string("Replay: ") + s.name))
       << render_svg(replay_residual_plot({&r}, {"measured - simulated"}, s.name, std::string("Residual: ") + s.name));
@@ -596,20 +602,14 @@ std::string model_gap_replay_table(const ModelGap& g) {
   std::ostringstream o;
   o << "<h2>Replay in the drive's loop, held-out time</h2>\n<p>" << g.heldout_samples << " of "
     << g.before.samples_compared << " compared samples lie in held-out folds; the effects were fitted on the others. "
-       "Relative error 100 &Vert;y &minus; y<sub>sim</sub>&Vert; / &Vert;y&Vert; (%).</p>\n<table><tr><th></th>";
-  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
-  const std::pair<const char*, const ReplayFigures*> rows[] = {
-      {"before (the model as given)", &g.before_pct},
-      {"&nbsp;&nbsp;both sides processed alike", &g.before_same_pct},
-      {"&nbsp;&nbsp;the processing alone", &g.processing_pct},
-      {"with the named effects in the plant", &g.after_effects_pct},
-      {"&nbsp;&nbsp;both sides processed alike", &g.after_same_pct},
-      {"<b>after</b> (every named cause)", &g.after_pct}};
-  for (const auto& [label, f] : rows) {
-    o << "</tr>\n<tr><td>" << label << "</td>";
-    for (const ReplaySignal& s : kReplaySignals) o << "<td>" << figure_text((*f).*s.figure) << "</td>";
-  }
-  o << "</tr></table>\n<p>The comparison (the measurement is processed, the simulation is not) "
+       "Relative error 100 &Vert;y &minus; y<sub>sim</sub>&Vert; / &Vert;y&Vert; (%).</p>\n"
+    << figures_table("", {{"before (the model as given)", &g.before_pct},
+                          {"&nbsp;&nbsp;both sides processed alike", &g.before_same_pct},
+                          {"&nbsp;&nbsp;the processing alone", &g.processing_pct},
+                          {"with the named effects in the plant", &g.after_effects_pct},
+                          {"&nbsp;&nbsp;both sides processed alike", &g.after_same_pct},
+                          {"<b>after</b> (every named cause)", &g.after_pct}})
+    << "<p>The comparison (the measurement is processed, the simulation is not) "
     << (g.comparison_named ? "<b>is named a cause</b>" : "is not a cause here") << ": processing the simulation alike removes "
     << pct0(g.comparison_share[0]) << " % of the velocity's and " << pct0(g.comparison_share[1])
     << " % of the acceleration's held-out error energy, z " << z_text(g.comparison_z[0]) << " and "
