@@ -35,6 +35,7 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
+  for (const std::string& w : c.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const CompensationTable& t = c.table;
   if (c.force_negated)
     std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "

@@ -62,7 +62,17 @@ struct DiagnoseCommand : Command {
     if (!g.diagnosis.error.empty()) { std::fprintf(stderr, "error: %s\n", g.diagnosis.error.c_str()); return 2; }
     note_force_outliers(g.diagnosis.force_outliers, opt.identify.units);
     std::cout << summary(g);
-    return write_report(g.diagnosis, report_dir, csv.trace.source);
+    if (report_dir.empty()) return 0;
+    std::string command = "feedid diagnose --model " + model_path;
+    if (!controller_path.empty()) command += " --controller " + controller_path;
+    for (const auto& in : in_path) command += " --in " + in;
+    std::string err;
+    if (!write_model_gap_report(g, report_dir, csv.trace.source, command + " --report " + report_dir, err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::printf("report: %s/report.html\n", report_dir.c_str());
+    return 0;
   }
   int run() override {
     if (method != "bands") {

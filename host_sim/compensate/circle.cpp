@@ -10,6 +10,7 @@
 
 #include "feedid/feedforward.hpp"
 #include "identify/identify.hpp"
+#include "model/model_file.hpp"
 #include "io/svg_plot.hpp"
 #include "sim/drive_sim.hpp"
 
@@ -151,7 +152,7 @@ CircleResult run_circle(const CircleOptions& opt) {
       out.models[a] = identified_on_the_spot(opt.drives[a], opt.rate_hz);
       continue;
     }
-    out.models[a] = model_from_json(read_json_file(opt.model_paths[a]));
+    out.models[a] = read_model_file(opt.model_paths[a]).drive;
   }
   const std::array<DriveParams, 2> plus = {scaled_friction(out.models[0], 1.0 + opt.wrong_fraction),
                                            scaled_friction(out.models[1], 1.0 + opt.wrong_fraction)};

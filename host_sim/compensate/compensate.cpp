@@ -12,6 +12,7 @@
 
 #include "feedid/feedforward.hpp"
 #include "identify/identify.hpp"
+#include "model/model_file.hpp"
 
 namespace feedid::host {
 namespace {
@@ -180,24 +181,40 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
   return o.str();
 }
 
-std::string unusable_model(const nlohmann::json& mj) {
+namespace {
+
+/// The model of mj through the one model reader (model/model_file.hpp), or
+/// invalid_argument naming `source` and why no table can be made from it:
+/// identify did not solve it, a key is missing, or it is not physical.
+ModelFile compensable_model(const nlohmann::json& mj, const std::string& source) {
+  const auto refuse = [&](const std::string& why) {
+    throw std::invalid_argument(source + ": " + why + ": no compensation written");
+  };
   if (mj.contains("status") && mj["status"] != "ok")
-    return "identify did not solve it (status " + mj["status"].dump() +
-           (mj.contains("error") && mj["error"].is_string() ? ": " + mj["error"].get<std::string>() : std::string()) + ")";
-  const std::string unphysical = non_physical_parameters(model_from_json(mj));
-  if (!unphysical.empty())
-    return "the model is not physical: " + unphysical + " (a compensation from it would push with the motion)";
-  return "";
+    refuse("identify did not solve it (status " + mj["status"].dump() +
+           (mj.contains("error") && mj["error"].is_string() ? ": " + mj["error"].get<std::string>() : std::string()) + ")");
+  ModelFile file;
+  try {
+    file = model_file_from_json(mj, source);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string(e.what()) + ": no compensation written");  // e names the source
+  }
+  return file;  // the reader refuses a model that is not physical (it would push with the motion)
+}
+
+}  // namespace
+
+std::string unusable_model(const nlohmann::json& mj) {
+  try {
+    compensable_model(mj, "model");
+    return "";
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
 }
 
 ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions opt, const std::string& source) {
-  std::string unusable;
-  try {
-    unusable = unusable_model(mj);
-  } catch (const std::exception& e) {
-    unusable = e.what();
-  }
-  if (!unusable.empty()) throw std::invalid_argument(source + ": " + unusable + ": no compensation written");
+  const ModelFile file = compensable_model(mj, source);
   if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
     opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
   if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
@@ -208,7 +225,8 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   if (opt.max_speed_m_s <= 0)
     throw std::invalid_argument(source + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
   ModelCompensation c;
-  c.table = make_compensation_table(model_from_json(mj), opt.max_speed_m_s, opt.points);
+  c.table = make_compensation_table(file.drive, opt.max_speed_m_s, opt.points);
+  c.warnings = file.warnings;
   c.json = to_json(c.table, opt);
   if (mj.contains("units")) c.json["model_units"] = mj["units"];  // the table's speeds and forces are in these
   c.force_negated = mj.contains("input") && mj["input"].value("force_sign", 1) < 0;

@@ -51,8 +51,8 @@ double table_error(const CompensationTable& t, int dir, int n = 20000);
 nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt);
 std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
 /// Why a model JSON cannot be compensated with: identify's status is not
-/// ok, or a parameter breaks the model's sign rule (non_physical_parameters);
-/// empty when it can. Throws as model_from_json on a malformed model.
+/// ok, the model reader (model/model_file.hpp) refuses it (a key missing,
+/// a parameter breaking the sign rule); empty when it can.
 std::string unusable_model(const nlohmann::json& model);
 
 /// A model JSON's compensation: the table and its JSON (with the model's
@@ -63,6 +63,7 @@ struct ModelCompensation {
   CompensationTable table;
   nlohmann::json json;
   bool force_negated = false;
+  std::vector<std::string> warnings;  ///< the model reader's (an unknown key in a hand-written file)
 };
 
 /// The table for a model JSON (identify's): up to opt.max_speed_m_s, or

@@ -337,33 +337,13 @@ Gap measure_gap(const Vec& r, const Observations& obs, double sampling_floor_N) 
   return {heldout_rms(r, obs), std::hypot(noise_floor(r, obs), sampling_floor_N)};
 }
 
-/// Held-out improvement of a candidate over its noise-only spread. With
-/// delta = r_current - r_new (the candidate's predicted change, fitted on
-/// the identification folds), the improvement is sum(2 r_new delta +
-/// delta^2); where the candidate is wrong, r_new is noise and the sum's
-/// spread is that of 2 r_new delta. That spread is taken from 20
-/// contiguous groups of held-out observations (robust to correlation
-/// within a group). The spread of the improvement itself (the old t
-/// statistic) grows with the effect, so a strong effect scored t = 2.7.
+/// Held-out improvement of a candidate over its noise-only spread
+/// (diag::improvement_z on the held-out observations).
 double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs) {
-  std::vector<std::size_t> ho;
+  std::vector<Eigen::Index> ho;
   for (std::size_t i = 0; i < obs.size(); ++i)
-    if (obs.obs()[i].heldout) ho.push_back(i);
-  const std::size_t groups = std::min<std::size_t>(20, ho.size() / 10);
-  if (groups < 3) return 0.0;
-  double gain = 0.0;
-  std::vector<double> spread(groups, 0.0);
-  for (std::size_t k = 0; k < ho.size(); ++k) {
-    const auto i = static_cast<Eigen::Index>(ho[k]);
-    const double delta = r_cur(i) - r_new(i);
-    gain += r_cur(i) * r_cur(i) - r_new(i) * r_new(i);
-    spread[k * groups / ho.size()] += 2.0 * r_new(i) * delta;
-  }
-  double mean = 0.0, var = 0.0;
-  for (double s : spread) mean += s / static_cast<double>(groups);
-  for (double s : spread) var += (s - mean) * (s - mean);
-  var *= static_cast<double>(groups) / static_cast<double>(groups - 1);
-  return var > 0 ? gain / std::sqrt(var) : 0.0;
+    if (obs.obs()[i].heldout) ho.push_back(static_cast<Eigen::Index>(i));
+  return diag::improvement_z(ho.size(), [&](std::size_t k) { return std::make_pair(r_cur(ho[k]), r_new(ho[k])); });
 }
 
 // ---------------------------------------------------------------------------
@@ -905,6 +885,15 @@ std::vector<double> run_starts(const Trace& trace) {
   return t;
 }
 
+/// Each pooled run's fitted level change (add_run_levels) added to f's per-run friction.
+void add_level_changes(const BaseColumns& b, const Model& base, diag::MeasuredFriction& f) {
+  const std::vector<double> change = run_level_changes(b, base);
+  for (std::size_t i = 0; i < b.run_levels.size(); ++i) {
+    const auto& l = b.run_levels[i];
+    (l.viscous ? f.viscous_Ns_m : f.coulomb_N)[2 * l.run + static_cast<std::size_t>(l.direction)] += change[i];
+  }
+}
+
 /// theta: m, Fc+, Fc-, sigma+, sigma-: the friction the trace shows without any effect.
 /// Plus each run's own level (add_run_levels) for pooled runs.
 diag::MeasuredFriction measured_friction(const BaseColumns& b, const Model& base, std::size_t runs) {
@@ -914,21 +903,19 @@ diag::MeasuredFriction measured_friction(const BaseColumns& b, const Model& base
     f.coulomb_N.insert(f.coulomb_N.end(), {th(1), th(2)});
     f.viscous_Ns_m.insert(f.viscous_Ns_m.end(), {th(3), th(4)});
   }
-  const std::vector<double> change = run_level_changes(b, base);
-  for (std::size_t i = 0; i < b.run_levels.size(); ++i) {
-    const auto& l = b.run_levels[i];
-    (l.viscous ? f.viscous_Ns_m : f.coulomb_N)[2 * l.run + static_cast<std::size_t>(l.direction)] += change[i];
-  }
+  add_level_changes(b, base, f);
   return f;
 }
 
-/// The friction a given model states, for every run (the drift's plausibility test).
-diag::MeasuredFriction given_friction(const DriveParams& d, std::size_t runs) {
+/// The friction a given model states, for every run (the drift's
+/// plausibility test), plus each pooled run's own level.
+diag::MeasuredFriction given_friction(const DriveParams& d, const BaseColumns& b, const Model& base, std::size_t runs) {
   diag::MeasuredFriction f;
   for (std::size_t r = 0; r < runs; ++r) {
     f.coulomb_N.insert(f.coulomb_N.end(), {d.pos.coulomb_N, d.neg.coulomb_N});
     f.viscous_Ns_m.insert(f.viscous_Ns_m.end(), {d.pos.viscous_Ns_m, d.neg.viscous_Ns_m});
   }
+  add_level_changes(b, base, f);
   return f;
 }
 
@@ -987,15 +974,15 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.obs()[i].heldout ? 0 : 1;
   Vec force = obs.sample_column([&](std::size_t j) { return obs.interval_force(j); });
   // A given model: its force is taken off and nothing of it is refitted
-  // (no base columns, no run levels), so the effects explain what it leaves.
+  // (no base columns), so the effects explain what it leaves. Pooled runs
+  // still get their own levels: the file states one day's friction, and a
+  // level between recordings is no effect of the model (add_run_levels).
   if (opt.model) force -= given_prediction(obs, *opt.model);
   ColumnBank bank(force, id);
   const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
   BaseColumns base_cols;
-  if (!opt.model) {
-    base_cols = add_base_columns(obs, bank, out.base);
-    add_run_levels(obs, bank, extent.run_starts, base_cols);
-  }
+  if (!opt.model) base_cols = add_base_columns(obs, bank, out.base);
+  add_run_levels(obs, bank, extent.run_starts, base_cols);
   const Model base = fit_base(bank, base_cols, out.base);
   // A given model has no fit whose reach the held-out folds could exceed.
   if (!opt.model) out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
@@ -1006,7 +993,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const double mass_kg = opt.model ? opt.model->drive.mass_kg : out.base.estimate.mass_kg;
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(
       obs, extent, out.lag_beyond_conventions_s,
-      opt.model ? given_friction(opt.model->drive, runs) : measured_friction(base_cols, base, runs));
+      opt.model ? given_friction(opt.model->drive, base_cols, base, runs) : measured_friction(base_cols, base, runs));
   const Stage st{obs, bank, base_cols, catalogue,
                  point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
                  opt.model ? mass_kg : 0.0};

@@ -1,6 +1,8 @@
 // The gap of a given model on a new run (model_gap.hpp).
 #include "model_gap.hpp"
 
+#include "diagnose/diagnose_fit.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -112,6 +114,29 @@ std::vector<char> heldout_samples(const std::vector<double>& t, const std::vecto
 /// 1 - (b/a)^2: the share of a's error energy that b no longer has.
 double energy_removed(double a, double b) { return a > 0 && std::isfinite(b) ? 1.0 - (b / a) * (b / a) : 0.0; }
 
+/// How surely processing the simulation alike lowers a signal's error on
+/// held-out time: the z the effects are judged by (diag::improvement_z),
+/// with the raw comparison's error as the current residual and the error
+/// processed alike as the candidate's.
+double comparison_z(const std::vector<char>& keep, const std::vector<double>& y, const std::vector<double>& raw,
+                    const std::vector<double>& processed) {
+  std::vector<std::size_t> ho;
+  for (std::size_t k = 0; k < keep.size() && k < y.size(); ++k)
+    if (keep[k] && std::isfinite(y[k] - raw[k]) && std::isfinite(y[k] - processed[k])) ho.push_back(k);
+  return diag::improvement_z(ho.size(), [&](std::size_t k) { return std::make_pair(y[ho[k]] - raw[ho[k]], y[ho[k]] - processed[ho[k]]); });
+}
+
+/// The comparison as a cause: velocity's and acceleration's (the signals
+/// the processing touches) energy share and fold-wise z.
+void judge_comparison(const ReplayResult& r, const std::vector<char>& keep, double significance_z, ModelGap& g) {
+  g.comparison_share[0] = energy_removed(g.before_pct.velocity, g.before_same_pct.velocity);
+  g.comparison_share[1] = energy_removed(g.before_pct.acceleration, g.before_same_pct.acceleration);
+  g.comparison_z[0] = comparison_z(keep, r.v, r.v_sim, r.v_sim_processed);
+  g.comparison_z[1] = comparison_z(keep, r.a, r.a_sim, r.a_sim_processed);
+  g.comparison_significance_z = significance_z;
+  g.comparison_named = g.comparison_z[0] >= significance_z || g.comparison_z[1] >= significance_z;
+}
+
 void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const LoggedRun& run, const ReplayOptions& ropt,
                          ModelGap& g) {
   g.before = replay(*opt.model, c, run, ropt);
@@ -129,9 +154,7 @@ void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const 
   g.processing_pct = processing_where(g.before, keep);
   g.after_effects_pct = figures_where(g.after, keep, false);
   g.after_same_pct = figures_where(g.after, keep, true);
-  // Velocity and acceleration are the signals the processing touches.
-  g.comparison_named = energy_removed(g.before_pct.velocity, g.before_same_pct.velocity) >= kComparisonEnergyShare ||
-                       energy_removed(g.before_pct.acceleration, g.before_same_pct.acceleration) >= kComparisonEnergyShare;
+  judge_comparison(g.before, keep, opt.significance_z, g);
   g.after_pct = g.comparison_named ? g.after_same_pct : g.after_effects_pct;
   g.replayed = true;
 }
@@ -190,10 +213,14 @@ nlohmann::json to_json(const ModelGap& g) {
       {"after_same_processing_pct", figures_json(g.after_same_pct)},
       {"processing_alone_pct", figures_json(g.processing_pct)},
       {"comparison_named", g.comparison_named},
-      {"comparison_rule", "the comparison is a cause when processing the simulation as the measurement removes at least " +
-                              std::to_string(kComparisonEnergyShare) +
-                              " of the held-out error energy of velocity or acceleration; after_pct then compares both "
-                              "sides processed alike"},
+      {"comparison_energy_share", {{"velocity", g.comparison_share[0]}, {"acceleration", g.comparison_share[1]}}},
+      {"comparison_z", {{"velocity", g.comparison_z[0]}, {"acceleration", g.comparison_z[1]}}},
+      {"comparison_rule", "the comparison is a cause when processing the simulation as the measurement lowers the "
+                          "error energy of velocity or acceleration significantly on held-out time: the decrease over "
+                          "its noise-only spread in 20 contiguous groups (comparison_z, the statistic effects are "
+                          "judged by) at least " +
+                              std::to_string(g.comparison_significance_z).substr(0, 4) +
+                              "; after_pct then compares both sides processed alike"},
       {"plant_effects", plant},
       {"heldout_samples", g.heldout_samples},
       {"samples_compared", g.before.samples_compared},
@@ -218,9 +245,13 @@ std::string summary(const ModelGap& g) {
   print_figures(o, "  both sides processed alike", g.after_same_pct);
   print_figures(o, "after (every named cause)", g.after_pct);
   for (const PlantEffect& p : g.plant) o << "  " << p.kind << ": " << p.note << "\n";
-  o << (g.comparison_named ? "  cause: the comparison (the measurement is processed, the simulation is not): processed "
-                             "alike it removes at least a quarter of the held-out error energy\n"
-                           : "  the comparison's processing is not a cause here\n");
+  std::snprintf(buf, sizeof buf, "energy processing alike removes: velocity %.0f %% (z %.1f), acceleration %.0f %% (z %.1f); "
+                "a cause at z >= %.3g on held-out time",
+                100 * g.comparison_share[0], g.comparison_z[0], 100 * g.comparison_share[1], g.comparison_z[1],
+                g.comparison_significance_z);
+  o << (g.comparison_named ? "  cause: the comparison (the measurement is processed, the simulation is not): "
+                           : "  the comparison's processing is not a cause here: ")
+    << buf << "\n";
   return o.str();
 }
 

@@ -6,10 +6,10 @@
 // A cause is a catalogue effect the diagnosis names, added to the replay's
 // plant where the plant draws it (plant_effects), or the comparison itself:
 // the protocol compares a processed measurement with the plant's raw state,
-// and when processing the simulation alike removes at least
-// kComparisonEnergyShare of a signal's held-out error energy, the
-// processing is named a cause and the figures after are taken with both
-// sides processed alike. Host only.
+// and when processing the simulation alike lowers a signal's error energy
+// significantly across the held-out folds (a z test, as the effects are
+// judged), the processing is named a cause and the figures after are taken
+// with both sides processed alike. Host only.
 #pragma once
 #include <string>
 #include <vector>
@@ -20,10 +20,6 @@
 #include "replay/replay.hpp"
 
 namespace feedid::host {
-
-/// Share of a signal's held-out error energy, 1 - (e_alike / e)^2, that
-/// processing alike must remove for the comparison to be named a cause.
-constexpr double kComparisonEnergyShare = 0.25;
 
 /// A named effect and whether the replay's plant simulates it.
 struct PlantEffect {
@@ -52,6 +48,11 @@ struct ModelGap {
   /// processing: the processing's own share (before).
   ReplayFigures before_pct, after_pct, after_effects_pct, before_same_pct, after_same_pct, processing_pct;
   bool comparison_named = false;
+  /// Velocity [0] and acceleration [1]: the share of held-out error energy
+  /// processing alike removes, 1 - (e_alike / e)^2, and its fold-wise z
+  /// (named when either z reaches comparison_significance_z, the diagnosis's significance_z).
+  double comparison_share[2] = {0.0, 0.0}, comparison_z[2] = {0.0, 0.0};
+  double comparison_significance_z = 0.0;
   std::vector<PlantEffect> plant;
   ReplayResult before, after;  ///< the whole replays (series for plots)
 };

@@ -148,6 +148,23 @@ void write_canvas(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
       << escape(p.title) << "</text>\n";
 }
 
+/// The shaded x ranges, clipped to the plot area, with their labels.
+void write_bands(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
+  for (const PlotBand& b : p.x_bands) {
+    if (!usable(b.x0, p.x.log) || !usable(b.x1, p.x.log)) continue;
+    const double a = std::clamp(f.px(f.sx.to_axis(b.x0)), f.left, f.left + f.pw);
+    const double z = std::clamp(f.px(f.sx.to_axis(b.x1)), f.left, f.left + f.pw);
+    if (z <= a) continue;
+    o << "<rect x=\"" << num(a, 6) << "\" y=\"" << f.top << "\" width=\"" << num(z - a, 6) << "\" height=\"" << f.ph
+      << "\" fill=\"#ffd54f\" fill-opacity=\"0.35\"/>\n";
+    // A band in the right half is labelled from its right edge, so the text stays inside the plot.
+    const bool right = a > f.left + f.pw / 2;
+    if (!b.label.empty())
+      o << "<text x=\"" << num(right ? z - 3 : a + 3, 6) << "\" y=\"" << f.top + 12 << "\" font-size=\"10\" fill=\"#7a5c00\""
+        << (right ? " text-anchor=\"end\"" : "") << ">" << escape(b.label) << "</text>\n";
+  }
+}
+
 /// Grid, frame, tick labels, axis labels and the note.
 void write_axes(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
   const double left = f.left, top = f.top, pw = f.pw, ph = f.ph;
@@ -239,10 +256,27 @@ void write_legend(std::ostringstream& o, const PlotSpec& p, const Frame& f) {
 
 }  // namespace
 
-std::string render_svg(const PlotSpec& p) {
+std::size_t points_outside(const PlotSpec& p) {
+  auto out = [](double v, const PlotAxis& ax) {
+    return usable(v, ax.log) && ((usable(ax.min, ax.log) && v < ax.min) || (usable(ax.max, ax.log) && v > ax.max));
+  };
+  std::size_t n = 0;
+  for (const PlotSeries& s : p.series)
+    for (std::size_t k = 0; k < s.x.size() && k < s.y.size(); ++k)
+      if (usable(s.x[k], p.x.log) && usable(s.y[k], p.y.log) && (out(s.x[k], p.x) || out(s.y[k], p.y))) ++n;
+  return n;
+}
+
+std::string render_svg(const PlotSpec& spec) {
+  PlotSpec p = spec;
+  if (const std::size_t n = points_outside(spec); n > 0)
+    p.note += (p.note.empty() ? "" : "; ") + std::to_string(n) +
+              (n == 1 ? " point lies outside the axis range and is not drawn"
+                      : " points lie outside the axis range and are not drawn");
   const Frame f = make_frame(p);
   std::ostringstream o;
   write_canvas(o, p, f);
+  write_bands(o, p, f);
   write_axes(o, p, f);
   write_series(o, p, f);
   write_legend(o, p, f);

@@ -34,6 +34,12 @@ struct PlotAxis {
   double max = std::numeric_limits<double>::quiet_NaN();
 };
 
+/// A shaded range of x (e.g. where a residual's energy lies), drawn under the series.
+struct PlotBand {
+  double x0 = 0.0, x1 = 0.0;
+  std::string label;  ///< small text at the band's top (may be empty)
+};
+
 struct PlotSpec {
   std::string title;
   PlotAxis x, y;
@@ -47,7 +53,13 @@ struct PlotSpec {
   /// need different ones.
   std::string id = "plot";
   std::string note;  ///< optional small text under the plot (e.g. the machine)
+  std::vector<PlotBand> x_bands;
 };
+
+/// Points of the spec's series that lie outside an axis range the spec
+/// fixes (PlotAxis min/max): render_svg does not draw them and says how many
+/// in the note, so that no point is clipped silently.
+std::size_t points_outside(const PlotSpec& spec);
 
 /// The plot as a standalone SVG document.
 std::string render_svg(const PlotSpec& spec);

@@ -115,23 +115,4 @@ nlohmann::json read_json_file(const std::string& path) {
   }
 }
 
-DriveParams model_from_json(const nlohmann::json& j) {
-  auto num = [](const nlohmann::json& o, const char* key, const std::string& where) {
-    if (!o.contains(key) || !o.at(key).is_number())
-      throw std::runtime_error("model JSON: missing number '" + where + key + "'");
-    return o.at(key).get<double>();
-  };
-  auto dir = [&](const char* name) {
-    if (!j.contains(name) || !j.at(name).is_object()) throw std::runtime_error(std::string("model JSON: missing object '") + name + "'");
-    const auto& o = j.at(name);
-    const std::string w = std::string(name) + ".";
-    return DirectionFriction{num(o, "sigma", w), num(o, "fc", w), num(o, "fs", w), num(o, "vs", w)};
-  };
-  DriveParams p;
-  p.mass_kg = num(j, "m", "");
-  p.pos = dir("pos");
-  p.neg = dir("neg");
-  return p;
-}
-
 }  // namespace feedid::host

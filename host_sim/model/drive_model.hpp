@@ -64,7 +64,4 @@ nlohmann::json model_json(const DriveParams& p, const Units& units = {});
 /// file when it cannot be opened or parsed.
 nlohmann::json read_json_file(const std::string& path);
 
-/// Reads a model written by to_json or model_json; throws std::runtime_error naming the key.
-DriveParams model_from_json(const nlohmann::json& j);
-
 }  // namespace feedid::host

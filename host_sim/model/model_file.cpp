@@ -65,7 +65,7 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   if (j.contains("offset_N")) out.offset_N = number_at(j, "offset_N", "", source);
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
-  if (!unphysical.empty()) fail(source, "not a physical model: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
+  if (!unphysical.empty()) fail(source, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
   if (!from_identify) warn_unknown(j, {"m", "pos", "neg", "offset_N", "units", "comment"}, "", out);
   return out;
 }

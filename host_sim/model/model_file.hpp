@@ -4,10 +4,10 @@
 //     {"m": 95.1, "pos": {"sigma": 203.5, "fc": 20.4[, "fs": 0, "vs": 1e-3]},
 //                 "neg": {...}[, "offset_N": -3.16]}
 //
-// (the drive model of NOTES.md plus a constant load force). One reader for
-// every stage that takes a model; the stricter model_from_json stays for
-// files feedid wrote itself. A "comment" key (a citation, say) and
-// "units" are allowed. Host only.
+// (the drive model of NOTES.md plus a constant load force). The one reader
+// for every stage that takes a model (validate, replay, diagnose,
+// compensate, circle). A "comment" key (a citation, say) and "units" are
+// allowed. Host only.
 #pragma once
 #include <string>
 #include <vector>

@@ -11,7 +11,11 @@
 #include <pybind11/stl.h>
 
 #include <climits>
+#include <functional>
+#include <optional>
+#include <utility>
 #include <cmath>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -19,6 +23,7 @@
 
 #include "compensate/compensate.hpp"
 #include "diagnose/diagnose.hpp"
+#include "gap/model_gap.hpp"
 #include "model/model_file.hpp"
 #include "identify/gravity.hpp"
 #include "identify/identify.hpp"
@@ -27,6 +32,8 @@
 #include "io/units.hpp"
 #include "model/drive_model.hpp"
 #include "monitor/monitor.hpp"
+#include "replay/controller.hpp"
+#include "replay/replay.hpp"
 #include "validate/validate.hpp"
 
 namespace py = pybind11;
@@ -211,6 +218,95 @@ std::string run_files(const std::string& name, const std::vector<std::string>& p
   return run(command, read_trace_files(paths, o.columns), o, model_text);
 }
 
+/// diagnose's given model and controller (`diagnose --model M [--controller
+/// C]`): each the JSON text of the CLI's file and the name its messages use.
+struct GivenFiles {
+  std::string model_text, model_source, controller_text, controller_source;
+};
+
+using JsonAndWarnings = std::pair<std::string, std::vector<std::string>>;
+
+/// `diagnose --model [--controller]` (gap/model_gap.hpp) on a read trace;
+/// `logged` gives the run the replay reads for the controller. The JSON text
+/// of its --json, and the warnings and notes the CLI prints on stderr.
+JsonAndWarnings run_model_gap(const CsvResult& read, const CallOptions& o, const GivenFiles& g,
+                              const std::function<LoggedRun(const Controller&)>& logged) {
+  if (!read.ok) throw std::invalid_argument(read.error);
+  DiagnoseOptions opt = o.diagnose;
+  const nlohmann::json model_json = nlohmann::json::parse(g.model_text);
+  if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
+    throw std::invalid_argument(g.model_source + ": " + why);
+  opt.model = model_file_from_json(model_json, g.model_source);
+  std::vector<std::string> notes = opt.model->warnings;
+  std::optional<Controller> c;
+  std::optional<LoggedRun> run;
+  ReplayOptions ropt;
+  ropt.units = o.units;
+  if (!g.controller_text.empty()) {
+    c = controller_from_json(nlohmann::json::parse(g.controller_text), g.controller_source);
+    notes.insert(notes.end(), c->warnings.begin(), c->warnings.end());
+    run = logged(*c);
+    notes.insert(notes.end(), run->notes.begin(), run->notes.end());
+  }
+  const ModelGap gap = model_gap(read.trace, opt, c ? &*c : nullptr, run ? &*run : nullptr, ropt);
+  return {to_json(gap).dump(), notes};
+}
+
+/// The run a replay reads from arrays: the trace's own rows (none may be
+/// skipped: the reference pairs with them by index) and the reference and
+/// extra command the controller names, from `columns` (name -> array; the
+/// reference scaled like the position, as the file reader does).
+LoggedRun run_from_arrays(const Trace& trace, std::size_t rows, const std::map<std::string, std::vector<double>>& columns,
+                          const CsvColumns& cols, const Controller& c) {
+  if (trace.samples.size() != rows)
+    throw std::invalid_argument("arrays: a replay pairs the reference with every row, and " +
+                                std::to_string(rows - trace.samples.size()) + " rows were left out (bad or repeated)");
+  LoggedRun run;
+  run.source = "arrays";
+  for (const TraceSample& s : trace.samples) {
+    run.t.push_back(s.t_s);
+    run.x.push_back(s.x_m);
+    run.u.push_back(s.u_N);
+  }
+  const auto column = [&](const std::string& name, const char* what) -> const std::vector<double>* {
+    const auto it = columns.find(name);
+    if (it == columns.end()) return nullptr;
+    if (it->second.size() != rows)
+      throw std::invalid_argument(std::string("arrays: the ") + what + " '" + name + "' has " +
+                                  std::to_string(it->second.size()) + " values for " + std::to_string(rows) + " rows");
+    return &it->second;
+  };
+  const std::vector<double>* r = column(c.reference, "reference");
+  if (!r) throw std::invalid_argument("arrays: no reference column '" + c.reference + "' (the controller's reference; give it in columns)");
+  for (double q : *r) run.reference.push_back(q * cols.position_scale);
+  if (c.extra_command.empty()) return run;
+  if (const std::vector<double>* e = column(c.extra_command, "extra command")) run.extra = *e;
+  else run.notes.push_back("arrays have no extra command column '" + c.extra_command + "': none is added");
+  return run;
+}
+
+JsonAndWarnings model_gap_arrays(const py::object& t, const py::object& x, const py::object& v, const py::object& u,
+                                 const py::dict& kw, const GivenFiles& g, const py::dict& columns) {
+  const CallOptions o = call_options(kw, Command::diagnose);
+  TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
+  if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
+  std::map<std::string, std::vector<double>> named;
+  for (const auto& [k, a] : columns) named[py::cast<std::string>(k)] = to_vector(py::reinterpret_borrow<py::object>(a));
+  py::gil_scoped_release release;
+  const CsvResult read = trace_from_columns(c, o.columns, "arrays", 0);
+  return run_model_gap(read, o, g, [&](const Controller& ctl) { return run_from_arrays(read.trace, c.t.size(), named, o.columns, ctl); });
+}
+
+JsonAndWarnings model_gap_files(const std::vector<std::string>& paths, const py::dict& kw, const GivenFiles& g) {
+  const CallOptions o = call_options(kw, Command::diagnose);
+  if (paths.empty()) throw py::value_error("no recording: give one path or several to pool");
+  if (!g.controller_text.empty() && paths.size() != 1)
+    throw py::value_error("controller: a replay takes one continuous recording (one path)");
+  py::gil_scoped_release release;
+  return run_model_gap(read_trace_files(paths, o.columns), o, g,
+                       [&](const Controller& ctl) { return read_logged_run(paths.front(), o.columns, ctl); });
+}
+
 /// `feedid monitor` on one CSV log, read row by row in constant memory; the
 /// JSON text of its --json (its error, where reading stopped, inside).
 std::string monitor_file(const std::string& path, const py::dict& kw) {
@@ -278,6 +374,14 @@ PYBIND11_MODULE(_feedid, m) {
         "identify, diagnose or validate on signals in memory; the JSON text of the CLI's --json");
   m.def("run_files", &run_files, py::arg("command"), py::arg("paths"), py::arg("options"), py::arg("model") = "",
         "the same on one trace file, or several pooled as runs");
+  py::class_<GivenFiles>(m, "GivenFiles")
+      .def(py::init<std::string, std::string, std::string, std::string>(), py::arg("model_text"), py::arg("model_source"),
+           py::arg("controller_text"), py::arg("controller_source"));
+  m.def("model_gap_arrays", &model_gap_arrays, py::arg("t"), py::arg("x"), py::arg("v"), py::arg("u"), py::arg("options"),
+        py::arg("given"), py::arg("columns"),
+        "diagnose --model [--controller] on signals in memory; (JSON text of --json, warnings)");
+  m.def("model_gap_files", &model_gap_files, py::arg("paths"), py::arg("options"), py::arg("given"),
+        "the same on trace files (one with a controller)");
   m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
         "friction health of one CSV log, streamed; the JSON text of monitor --json");
   m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),

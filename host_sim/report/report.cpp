@@ -13,6 +13,7 @@
 
 #include "compensate/circle.hpp"
 #include "compensate/compensate.hpp"
+#include "gap/model_gap.hpp"
 #include "io/number_format.hpp"
 #include "io/svg_plot.hpp"
 
@@ -41,6 +42,34 @@ std::string html(const std::string& t) {
 std::string sig3(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+
+/// A percentage to whole percent: the shares and closed fractions come
+/// from held-out RMS figures whose relative standard error is about
+/// 1/sqrt(2 n) (a few percent for a few hundred observations), so digits
+/// below one percent are noise (no "closes 7.84e-13 %").
+std::string pct0(double share) {
+  char b[32];
+  const double v = 100.0 * share;
+  std::snprintf(b, sizeof b, "%.0f", std::fabs(v) < 0.5 ? 0.0 : v);
+  return b;
+}
+
+/// A held-out RMS over n observations with the digits its standard error
+/// rms / sqrt(2 n) justifies (round_to_se; the error itself is not shown).
+std::string rms_text(double rms, std::size_t n) {
+  const double se = rms / std::sqrt(2.0 * static_cast<double>(n));
+  if (n == 0 || !(se > 0) || !std::isfinite(se)) return sig3(rms);
+  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(se))));  // to se's first digit
+  char b[32];
+  std::snprintf(b, sizeof b, "%.*f", decimals, rms);
+  return b;
+}
+
+std::string z_text(double z) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f", z);
   return b;
 }
 
@@ -73,11 +102,21 @@ std::string parameters_html(const nlohmann::json& p, const Units& u) {
   return o;
 }
 
-/// Side-by-side panels of the held-out residual against one block quantity:
-/// the base model, and (if effects were named) the model with them, on one
-/// y range so the two compare at a glance and neither hides the other.
+/// The "where" entries of one domain as shaded x ranges, labelled with
+/// their share of the residual energy against their share of time.
+std::vector<PlotBand> where_bands(const std::vector<WhereEntry>& where, const std::string& domain) {
+  std::vector<PlotBand> out;
+  for (const WhereEntry& w : where)
+    if (w.domain == domain) out.push_back({w.lo, w.hi, pct0(w.share) + " % of energy in " + pct0(w.time_share) + " % of time"});
+  return out;
+}
+
+/// Panels of the held-out residual against one block quantity, one above
+/// the other at the page's width: the base model with the "where" windows
+/// of its residual shaded, and (if effects were named) the model with them
+/// and the windows of what they leave, on one y range so the two compare.
 std::string residual_panels(const DiagnoseResult& r, const std::vector<double>& q, const std::string& xlabel,
-                            const std::string& id) {
+                            const std::string& id, const std::string& domain) {
   std::vector<double> x, before, after;
   for (std::size_t i = 0; i < q.size(); ++i)
     if (r.block_heldout[i]) {
@@ -91,20 +130,21 @@ std::string residual_panels(const DiagnoseResult& r, const std::vector<double>& 
   for (double v : after) lo = std::min(lo, v), hi = std::max(hi, v);
   std::string effects;
   for (const auto& e : r.effects) effects += (effects.empty() ? "" : " + ") + e.kind;
-  std::string o = "<div class=\"row\">";
+  std::string o;
   for (int panel = 0; panel < (named ? 2 : 1); ++panel) {
     PlotSpec p;
     p.id = id + std::to_string(panel);
     p.title = panel == 0 ? "base model" : "with " + effects;
     p.x = {xlabel, false};
-    p.y = {"residual, 5 ms observation mean (" + r.base.units.force + ")", false, lo, hi};
+    p.y = {"residual, observation mean (" + r.base.units.force + ")", false, lo, hi};
     p.series.push_back(scatter("", x, panel == 0 ? before : after, panel == 0 ? "#7f7f7f" : "#d62728"));
-    p.width_px = 470;
-    p.height_px = 330;
-    p.note = "held-out observations only";
+    p.x_bands = where_bands(panel == 0 ? r.where : r.where_left, domain);
+    p.width_px = 1000;
+    p.height_px = 360;
+    p.note = "held-out observations only; shaded: where the residual's energy lies (the \"where\" table)";
     o += render_svg(p);
   }
-  return o + "</div>\n";
+  return o;
 }
 
 std::string verdict_html(const DiagnoseResult& r) {
@@ -114,14 +154,14 @@ std::string verdict_html(const DiagnoseResult& r) {
   o << "<table>\n<tr><th>verdict</th><td><b>" << html(r.effect) << "</b></td></tr>\n";
   for (const auto& e : r.effects)
     o << "<tr><th>" << html(e.kind) << "</th><td>" << parameters_html(e.parameters, u) << "<br>held-out RMS after adding it "
-      << sig3(e.heldout_rms_N) << N << "; closes " << sig3(100 * e.closed_fraction) << " % of the excess; z " << sig3(e.z_statistic)
-      << "</td></tr>\n";
+      << rms_text(e.heldout_rms_N, r.blocks_heldout) << N << "; closes " << pct0(e.closed_fraction) << " % of the excess; z "
+      << z_text(e.z_statistic) << "</td></tr>\n";
   if (r.gap_remains && !r.effects.empty())
-    o << "<tr><th>unexplained</th><td>a gap of " << sig3(r.rms_augmented_N) << N << " RMS remains"
+    o << "<tr><th>unexplained</th><td>a gap of " << rms_text(r.rms_augmented_N, r.blocks_heldout) << N << " RMS remains"
       << (r.where_left.empty() ? "" : ", most in " + html(r.where_left.front().domain + " " + r.where_left.front().range))
       << "</td></tr>\n";
   for (const auto& a : r.ambiguities) o << "<tr><th>ambiguous</th><td>" << html(a.value("note", std::string())) << "</td></tr>\n";
-  o << "<tr><th>held-out RMS, base model</th><td>" << sig3(r.rms_base_N) << N << "</td></tr>\n";
+  o << "<tr><th>held-out RMS, base model</th><td>" << rms_text(r.rms_base_N, r.blocks_heldout) << N << "</td></tr>\n";
   o << "<tr><th>noise floor</th><td>" << sig3(r.noise_floor_N) << N << " white";
   if (r.sampling_floor_N > 0) o << ", " << sig3(r.sampling_floor_N) << N << " from point-sampled force at acceleration steps";
   o << "</td></tr>\n<tr><th>observations</th><td>" << r.blocks_identification << " identification, " << r.blocks_heldout
@@ -138,20 +178,25 @@ std::string where_and_candidates_html(const DiagnoseResult& r) {
   o << "<h2>Where the base model's residual lies</h2>\n<p>Share of the held-out residual energy against share of "
        "held-out time.</p>\n<table>\n<tr><th>domain</th><th>range</th><th>energy</th><th>time</th></tr>\n";
   for (const auto& w : r.where)
-    o << "<tr><td>" << html(w.domain) << "</td><td>" << html(w.range) << "</td><td>" << sig3(100 * w.share)
-      << " %</td><td>" << sig3(100 * w.time_share) << " %</td></tr>\n";
+    o << "<tr><td>" << html(w.domain) << "</td><td>" << html(w.range) << "</td><td>" << pct0(w.share)
+      << " %</td><td>" << pct0(w.time_share) << " %</td></tr>\n";
   o << "</table>\n<h2>Candidates at the first step</h2>\n<p>Each fitted with the base model on the identification "
        "folds and judged on the held-out folds.</p>\n<table>\n<tr><th>effect</th><th>held-out RMS</th><th>closes</th>"
        "<th>z</th><th>judgement</th><th>parameters</th></tr>\n";
   for (const auto& c : r.candidates)
-    o << "<tr><td>" << html(c.kind) << "</td><td>" << sig3(c.heldout_rms_N) << " " << html(u.force) << "</td><td>" << sig3(100 * c.closed_fraction)
-      << " %</td><td>" << sig3(c.z_statistic) << "</td><td>"
+    o << "<tr><td>" << html(c.kind) << "</td><td>" << rms_text(c.heldout_rms_N, r.blocks_heldout) << " " << html(u.force)
+      << "</td><td>" << pct0(c.closed_fraction) << " %</td><td>" << z_text(c.z_statistic) << "</td><td>"
       << (c.indistinguishable ? "indistinguishable" : c.significant ? "significant" : "not significant")
       << (c.note.empty() ? "" : "<br><small>" + html(c.note) + "</small>") << "</td><td>" << parameters_html(c.parameters, u)
       << "</td></tr>\n";
   o << "</table>\n";
   return o.str();
 }
+
+/// One direction's Stribeck term, or "not in the model" where it has none
+/// (Fs 0: model selection kept Coulomb and viscous only; its standard
+/// error then belongs to a term that is not there, not shown as 0 &plusmn; 540).
+bool has_stribeck(const feedid::DirectionEstimate<double>& d) { return d.friction_identified() && d.breakaway_N > 0; }
 
 std::string base_model_html(const IdentifyResult& b) {
   const auto& e = b.estimate;
@@ -161,16 +206,88 @@ std::string base_model_html(const IdentifyResult& b) {
        "<th>unit</th></tr>\n";
   o << "<tr><td>mass m</td><td colspan=\"2\">" << with_se(e.mass_kg, e.mass_se_kg) << "</td><td>" << html(u.mass())
     << "</td></tr>\n";
-  auto row = [&](const char* name, const std::string& unit, auto value, auto se) {
-    o << "<tr><td>" << name << "</td><td>" << with_se(value(e.pos), se(e.pos)) << "</td><td>"
-      << with_se(value(e.neg), se(e.neg)) << "</td><td>" << html(unit) << "</td></tr>\n";
-  };
   using D = feedid::DirectionEstimate<double>;
-  row("viscous &sigma;", u.viscous(), [](const D& d) { return d.viscous_Ns_m; }, [](const D& d) { return d.viscous_se; });
-  row("Coulomb F<sub>c</sub>", u.force, [](const D& d) { return d.coulomb_N; }, [](const D& d) { return d.coulomb_se; });
-  row("break-away F<sub>s</sub>", u.force, [](const D& d) { return d.breakaway_N; }, [](const D& d) { return d.breakaway_se; });
-  row("Stribeck v<sub>s</sub>", u.velocity(), [](const D& d) { return d.stribeck_velocity_m_s; },
+  auto row = [&](const char* name, const std::string& unit, bool stribeck, auto value, auto se) {
+    auto cell = [&](const D& d) { return stribeck && !has_stribeck(d) ? std::string("not in the model") : with_se(value(d), se(d)); };
+    o << "<tr><td>" << name << "</td><td>" << cell(e.pos) << "</td><td>" << cell(e.neg) << "</td><td>" << html(unit)
+      << "</td></tr>\n";
+  };
+  row("viscous &sigma;", u.viscous(), false, [](const D& d) { return d.viscous_Ns_m; }, [](const D& d) { return d.viscous_se; });
+  row("Coulomb F<sub>c</sub>", u.force, false, [](const D& d) { return d.coulomb_N; }, [](const D& d) { return d.coulomb_se; });
+  row("break-away F<sub>s</sub>", u.force, true, [](const D& d) { return d.breakaway_N; }, [](const D& d) { return d.breakaway_se; });
+  row("Stribeck v<sub>s</sub>", u.velocity(), true, [](const D& d) { return d.stribeck_velocity_m_s; },
       [](const D& d) { return d.stribeck_velocity_se; });
+  o << "</table>\n";
+  return o.str();
+}
+
+/// A value a model file states, as it states it (six significant digits).
+std::string stated(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+/// A given model as the file states it (no standard errors: it is not fitted here).
+std::string given_model_html(const ModelFile& m, const Units& u) {
+  const DriveParams& d = m.drive;
+  std::ostringstream o;
+  o << "<h2>Base model (given: " << html(m.source) << ", not refitted)</h2>\n<table>\n<tr><th>parameter</th>"
+       "<th>v &gt; 0</th><th>v &lt; 0</th><th>unit</th></tr>\n<tr><td>mass m</td><td colspan=\"2\">"
+    << stated(d.mass_kg) << "</td><td>" << html(u.mass()) << "</td></tr>\n";
+  auto row = [&](const char* name, const std::string& unit, double pos, double neg, bool present) {
+    o << "<tr><td>" << name << "</td><td>" << (present ? stated(pos) : "not in the model") << "</td><td>"
+      << (present ? stated(neg) : "not in the model") << "</td><td>" << html(unit) << "</td></tr>\n";
+  };
+  const bool dip = d.pos.breakaway_N > 0 || d.neg.breakaway_N > 0;
+  row("viscous &sigma;", u.viscous(), d.pos.viscous_Ns_m, d.neg.viscous_Ns_m, true);
+  row("Coulomb F<sub>c</sub>", u.force, d.pos.coulomb_N, d.neg.coulomb_N, true);
+  row("break-away F<sub>s</sub>", u.force, d.pos.breakaway_N, d.neg.breakaway_N, dip);
+  row("Stribeck v<sub>s</sub>", u.velocity(), d.pos.stribeck_velocity_m_s, d.neg.stribeck_velocity_m_s, dip);
+  o << "<tr><td>offset</td><td colspan=\"2\">" << (m.offset_N != 0 ? stated(m.offset_N) : "not in the model") << "</td><td>"
+    << html(u.force) << "</td></tr>\n</table>\n";
+  return o.str();
+}
+
+/// The held-out gap before and after each effect forward selection added
+/// (a step chart against the noise floor) and the same as a table.
+std::string gap_steps_html(const DiagnoseResult& r) {
+  const Units& u = r.base.units;
+  PlotSpec p;
+  p.id = "steps";
+  p.title = "Held-out gap as effects are added";
+  const double last = static_cast<double>(r.effects.size()) + 0.25;
+  p.x = {"effects added (0: the base model; the table names each)", false, -0.25, last};
+  p.y = {"held-out RMS force residual (" + u.force + ")", false, 0.0};
+  PlotSeries gap = scatter("held-out RMS", {0.0}, {r.rms_base_N}, "#d62728");
+  gap.line = true;
+  for (std::size_t k = 0; k < r.effects.size(); ++k) {
+    gap.x.push_back(static_cast<double>(k + 1));
+    gap.y.push_back(r.effects[k].heldout_rms_N);
+  }
+  PlotSeries floor;
+  floor.label = "noise floor";
+  floor.x = {-0.25, last};
+  floor.y = {r.noise_floor_N, r.noise_floor_N};
+  floor.color = "#1f77b4";
+  floor.markers = false;
+  floor.dashed = true;
+  p.series = {gap, floor};
+  p.width_px = 1000;
+  p.height_px = 320;
+  p.legend = "below";
+  std::ostringstream o;
+  o << "<h2>The gap before and after each added effect</h2>\n" << render_svg(p)
+    << "<table>\n<tr><th>step</th><th>model</th><th>held-out RMS (" << html(u.force) << ")</th><th>closes (of the excess "
+       "over the noise floor)</th><th>z when added</th></tr>\n<tr><td>0</td><td>base model</td><td>"
+    << rms_text(r.rms_base_N, r.blocks_heldout) << "</td><td>&ndash;</td><td>&ndash;</td></tr>\n";
+  std::string model = "base";
+  for (std::size_t k = 0; k < r.effects.size(); ++k) {
+    const NamedEffect& e = r.effects[k];
+    model += " + " + e.kind;
+    o << "<tr><td>" << k + 1 << "</td><td>" << html(model) << "</td><td>" << rms_text(e.heldout_rms_N, r.blocks_heldout)
+      << "</td><td>" << pct0(e.closed_fraction) << " %</td><td>" << z_text(e.z_statistic) << "</td></tr>\n";
+  }
   o << "</table>\n";
   return o.str();
 }
@@ -257,26 +374,53 @@ std::string compensation_html(const IdentifyResult& b) {
 }
 }  // namespace
 
-bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
-                            std::string& error) {
+namespace {
+/// The page's head: every figure takes the page's width (the SVGs scale
+/// with their viewBox), tables as the diagnosis's.
+std::string page_head(const std::string& title) {
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + html(title) +
+         "</title>\n<style>\nbody{font-family:Helvetica,Arial,sans-serif;max-width:1000px;margin:2em auto;color:#222}\n"
+         "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:4px 8px;text-align:left;"
+         "vertical-align:top}th{background:#f4f4f4}\nsvg{display:block;width:100%;height:auto;margin:0.5em 0}\n"
+         "</style>\n</head>\n<body>\n";
+}
+
+bool create_dir(const std::string& dir, std::string& error) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) { error = dir + ": cannot create: " + ec.message(); return false; }
-  PlotSpec curve = friction_curve_plot(r.base);
-  curve.id = "curve";
+  if (ec) error = dir + ": cannot create: " + ec.message();
+  return !ec;
+}
+
+/// The diagnosis's sections: verdict, where, the gap step by step, the
+/// candidates, the held-out residual with the "where" windows, the base model.
+std::string diagnosis_sections(const DiagnoseResult& r) {
   std::ostringstream o;
-  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>feedid diagnosis: " << html(source)
-    << "</title>\n<style>\nbody{font-family:Helvetica,Arial,sans-serif;max-width:1000px;margin:2em auto;color:#222}\n"
-       "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:4px 8px;text-align:left;"
-       "vertical-align:top}th{background:#f4f4f4}\n.row{display:flex;gap:12px;flex-wrap:wrap}\n</style>\n</head>\n<body>\n";
+  o << "<h2>Verdict</h2>\n" << verdict_html(r) << where_and_candidates_html(r) << gap_steps_html(r);
+  if (!r.model_given) {
+    PlotSpec curve = friction_curve_plot(r.base);
+    curve.id = "curve";
+    curve.width_px = 1000;
+    o << "<h2>Friction curve</h2>\n" << render_svg(curve);
+  }
+  o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t", "time");
+  o << "<h2>Held-out residual over velocity</h2>\n"
+    << residual_panels(r, r.block_v, "velocity (" + r.base.units.velocity() + ")", "v", "velocity");
+  o << "<h2>Held-out residual over position</h2>\n"
+    << residual_panels(r, r.block_x, "position (" + r.base.units.position + ")", "x", "position");
+  if (r.model_given) return o.str() + given_model_html(r.given_model, r.base.units);
+  return o.str() + base_model_html(r.base) + compensation_html(r.base);
+}
+}  // namespace
+
+bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
+                            std::string& error) {
+  if (!create_dir(dir, error)) return false;
+  std::ostringstream o;
+  o << page_head("feedid diagnosis: " + source);
   o << "<h1>Sim-to-real gap diagnosis</h1>\n<p>Trace <code>" << html(source) << "</code>, made by <code>feedid diagnose --in "
     << html(source) << " --report " << html(dir) << "</code>. docs/diagnosis.md explains every quantity.</p>\n";
-  o << "<h2>Verdict</h2>\n" << verdict_html(r) << where_and_candidates_html(r);
-  o << "<h2>Friction curve</h2>\n" << render_svg(curve);
-  o << "<h2>Held-out residual over velocity</h2>\n" << residual_panels(r, r.block_v, "velocity (" + r.base.units.velocity() + ")", "v");
-  o << "<h2>Held-out residual over position</h2>\n" << residual_panels(r, r.block_x, "position (" + r.base.units.position + ")", "x");
-  o << "<h2>Held-out residual over time</h2>\n" << residual_panels(r, r.block_t, "time (s)", "t");
-  o << base_model_html(r.base) << compensation_html(r.base) << "</body>\n</html>\n";
+  o << diagnosis_sections(r) << "</body>\n</html>\n";
   error = write_whole_file(dir + "/report.html", o.str());
   return error.empty();
 }
@@ -355,64 +499,157 @@ PlotSeries line_series(const std::string& label, const std::string& color, bool 
 
 }  // namespace
 
+namespace {
+
+/// Every `every`-th compared sample of y (at most about 4000 points).
+std::vector<double> thinned(const std::vector<double>& y, std::size_t every) {
+  std::vector<double> out;
+  for (std::size_t k = 0; k < y.size(); k += every) out.push_back(y[k]);
+  return out;
+}
+
+std::size_t thinning(const ReplayResult& r) { return std::max<std::size_t>(1, r.t.size() / 4000); }
+
+/// A replay figure (%) to three significant digits.
+std::string figure_text(double v) {
+  if (!std::isfinite(v)) return "&ndash;";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+
+/// A table of replay figures: a labelled row each (label HTML), a column per signal.
+std::string figures_table(const std::string& corner, const std::vector<std::pair<std::string, const ReplayFigures*>>& rows) {
+  std::ostringstream o;
+  o << "<table><tr><th>" << corner << "</th>";
+  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
+  for (const auto& [label, f] : rows) {
+    o << "</tr>\n<tr><td>" << label << "</td>";
+    for (const ReplaySignal& s : kReplaySignals) o << "<td>" << figure_text((*f).*s.figure) << "</td>";
+  }
+  o << "</tr></table>\n";
+  return o.str();
+}
+
+}  // namespace
+
 PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std::string& title) {
   const ReplaySignal& s = replay_signal(signal);
-  const std::vector<double>& y = r.*s.measured;
-  const std::vector<double>& y_sim = r.*s.simulated;
-  PlotSeries meas = line_series("measured", "#1f77b4", false), sim = line_series("simulated", "#d62728", true),
-             diff = line_series("measured - simulated", "#7f7f7f", false);
-  const std::size_t every = std::max<std::size_t>(1, r.t.size() / 4000);
-  for (std::size_t k = 0; k < r.t.size(); k += every) {
-    for (PlotSeries* p : {&meas, &sim, &diff}) p->x.push_back(r.t[k]);
-    meas.y.push_back(y[k]);
-    sim.y.push_back(y_sim[k]);
-    diff.y.push_back(y[k] - y_sim[k]);
-  }
+  const std::size_t every = thinning(r);
+  PlotSeries meas = line_series("measured", "#1f77b4", false), sim = line_series("simulated", "#d62728", true);
+  meas.x = sim.x = thinned(r.t, every);
+  meas.y = thinned(r.*s.measured, every);
+  sim.y = thinned(r.*s.simulated, every);
   PlotSpec p;
   p.title = title;
   p.id = signal;
   p.x = {"time (s)", false};
   p.y = {std::string(s.name) + " (" + s.unit(r.units) + ")", false};
-  p.series = {meas, sim, diff};
+  p.series = {meas, sim};
   p.width_px = 1000;
   p.legend = "below";
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "relative error %.4g %% (both sides processed alike: %.4g %%)", r.error_pct.*s.figure,
-                r.same_processing_pct.*s.figure);
-  p.note = buf;
+  p.note = "relative error " + figure_text(r.error_pct.*s.figure) + " % (both sides processed alike: " +
+           figure_text(r.same_processing_pct.*s.figure) + " %)";
+  return p;
+}
+
+PlotSpec replay_residual_plot(const std::vector<const ReplayResult*>& runs, const std::vector<std::string>& labels,
+                              const std::string& signal, const std::string& title) {
+  const ReplaySignal& s = replay_signal(signal);
+  const char* colors[] = {"#7f7f7f", "#d62728", "#2ca02c"};
+  PlotSpec p;
+  p.title = title;
+  p.id = signal + "_residual";
+  p.x = {"time (s)", false};
+  p.y = {"measured - simulated " + std::string(s.name) + " (" + s.unit(runs.front()->units) + ")", false};
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const ReplayResult& r = *runs[i];
+    const std::size_t every = thinning(r);
+    PlotSeries d = line_series(labels[i], colors[i % 3], false);
+    d.x = thinned(r.t, every);
+    for (std::size_t k = 0; k < r.t.size(); k += every) d.y.push_back((r.*s.measured)[k] - (r.*s.simulated)[k]);
+    p.series.push_back(d);
+  }
+  p.width_px = 1000;
+  p.height_px = 320;
+  p.legend = "below";
   return p;
 }
 
 bool write_replay_report(const ReplayResult& r, const std::string& dir, const std::string& source,
                          const std::string& command, std::string& error) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) { error = dir + ": cannot create: " + ec.message(); return false; }
+  if (!create_dir(dir, error)) return false;
   std::ostringstream o;
-  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>feedid replay: " << html(source)
-    << "</title>\n<style>\nbody{font-family:Helvetica,Arial,sans-serif;max-width:1000px;margin:2em auto;color:#222}\n"
-       "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}"
-       "th{background:#f4f4f4}\n</style>\n</head>\n<body>\n";
+  o << page_head("feedid replay: " + source);
   o << "<h1>Closed-loop replay</h1>\n<p>Run <code>" << html(source) << "</code>, made by <code>" << html(command)
     << "</code>. docs/reference.md (\"replay\") defines every figure.</p>\n";
-  o << "<table><tr><th>relative error (%)</th>";
-  for (const ReplaySignal& s : kReplaySignals) o << "<th>" << s.name << "</th>";
-  const std::pair<const char*, const ReplayFigures*> rows[] = {
-      {"measured processed, simulated from the plant's state (published comparison)", &r.error_pct},
-      {"both sides processed alike", &r.same_processing_pct},
-      {"the processing alone (simulated state against simulated processed)", &r.processing_pct}};
-  for (const auto& [label, f] : rows) {
-    o << "</tr>\n<tr><td style=\"text-align:left\">" << label << "</td>";
-    char buf[32];
-    for (const ReplaySignal& s : kReplaySignals) {
-      std::snprintf(buf, sizeof buf, "%.4g", (*f).*s.figure);
-      o << "<td>" << buf << "</td>";
-    }
-  }
-  o << "</tr></table>\n";
+  o << figures_table("relative error (%)",
+                      {{"measured processed, simulated from the plant's state (published comparison)", &r.error_pct},
+                       {"both sides processed alike", &r.same_processing_pct},
+                       {"the processing alone (simulated state against simulated processed)", &r.processing_pct}});
   for (const ReplaySignal& s : kReplaySignals)
-    o << "<h2>" << s.name << "</h2>\n" << render_svg(replay_plot(r, s.name, std::string("Replay: ") + s.name));
+    o << "<h2>" << s.name << "</h2>\n" << render_svg(replay_plot(r, s.name, std::string("Replay: ") + s.name))
+      << render_svg(replay_residual_plot({&r}, {"measured - simulated"}, s.name, std::string("Residual: ") + s.name));
   o << "</body>\n</html>\n";
+  error = write_whole_file(dir + "/report.html", o.str());
+  return error.empty();
+}
+
+namespace {
+
+/// The replay's held-out figures before and after the causes, and how the comparison was judged.
+std::string model_gap_replay_table(const ModelGap& g) {
+  std::ostringstream o;
+  o << "<h2>Replay in the drive's loop, held-out time</h2>\n<p>" << g.heldout_samples << " of "
+    << g.before.samples_compared << " compared samples lie in held-out folds; the effects were fitted on the others. "
+       "Relative error 100 &Vert;y &minus; y<sub>sim</sub>&Vert; / &Vert;y&Vert; (%).</p>\n"
+    << figures_table("", {{"before (the model as given)", &g.before_pct},
+                          {"&nbsp;&nbsp;both sides processed alike", &g.before_same_pct},
+                          {"&nbsp;&nbsp;the processing alone", &g.processing_pct},
+                          {"with the named effects in the plant", &g.after_effects_pct},
+                          {"&nbsp;&nbsp;both sides processed alike", &g.after_same_pct},
+                          {"<b>after</b> (every named cause)", &g.after_pct}})
+    << "<p>The comparison (the measurement is processed, the simulation is not) "
+    << (g.comparison_named ? "<b>is named a cause</b>" : "is not a cause here") << ": processing the simulation alike removes "
+    << pct0(g.comparison_share[0]) << " % of the velocity's and " << pct0(g.comparison_share[1])
+    << " % of the acceleration's held-out error energy, z " << z_text(g.comparison_z[0]) << " and "
+    << z_text(g.comparison_z[1]) << " against " << z_text(g.comparison_significance_z) << " needed.</p>\n<ul>\n";
+  for (const PlantEffect& p : g.plant) o << "<li>" << html(p.kind) << ": " << html(p.note) << "</li>\n";
+  return o.str() + "</ul>\n";
+}
+
+/// Measured against the simulation before and after the causes, and both residuals, for each signal.
+std::string model_gap_replay_figures(const ModelGap& g) {
+  std::ostringstream o;
+  for (const ReplaySignal& s : kReplaySignals) {
+    PlotSpec p = replay_plot(g.before, s.name, std::string("Replay: ") + s.name);
+    p.series[1].label = "simulated, the model as given";
+    PlotSeries after = line_series("simulated, with the named effects", "#2ca02c", true);
+    const std::size_t every = thinning(g.after);
+    after.x = thinned(g.after.t, every);
+    after.y = thinned(g.after.*s.simulated, every);
+    p.series.push_back(after);
+    p.note = "whole run; held-out figures in the table above";
+    o << "<h3>" << s.name << "</h3>\n" << render_svg(p)
+      << render_svg(replay_residual_plot({&g.before, &g.after}, {"the model as given", "with the named effects"}, s.name,
+                                         std::string("Residual: ") + s.name));
+  }
+  return o.str();
+}
+
+}  // namespace
+
+bool write_model_gap_report(const ModelGap& g, const std::string& dir, const std::string& source,
+                            const std::string& command, std::string& error) {
+  if (!create_dir(dir, error)) return false;
+  const DiagnoseResult& r = g.diagnosis;
+  std::ostringstream o;
+  o << page_head("feedid diagnose --model: " + source);
+  o << "<h1>The gap of a given model</h1>\n<p>Model <code>" << html(r.given_model.source) << "</code> on <code>"
+    << html(source) << "</code>, made by <code>" << html(command)
+    << "</code>. docs/diagnosis.md (4b) explains every quantity.</p>\n";
+  if (g.replayed) o << model_gap_replay_table(g) << "<h2>Replay overlay and residual</h2>\n" << model_gap_replay_figures(g);
+  o << diagnosis_sections(r) << "</body>\n</html>\n";
   error = write_whole_file(dir + "/report.html", o.str());
   return error.empty();
 }

@@ -4,8 +4,10 @@
 // against predicted force of a cross-test. Host only.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "diagnose/diagnose.hpp"
+#include "gap/model_gap.hpp"
 #include "io/svg_plot.hpp"
 #include "identify/identify.hpp"
 #include "replay/replay.hpp"
@@ -32,15 +34,27 @@ bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, con
 bool write_force_plot_svg(const ValidateResult& r, const std::string& path, const std::string& title,
                           std::string& error);
 
-/// One signal of a replay over time: measured, simulated and their
-/// difference (`signal`: "position", "velocity", "acceleration" or "force";
-/// at most about 4000 points, evenly thinned).
+/// One signal of a replay over time: measured and simulated (`signal`:
+/// "position", "velocity", "acceleration" or "force"; at most about 4000
+/// points, evenly thinned).
 PlotSpec replay_plot(const ReplayResult& r, const std::string& signal, const std::string& title);
+
+/// The difference measured - simulated of one replay signal over time, one
+/// series per replay (labels parallel to runs; at most about 4000 points each).
+PlotSpec replay_residual_plot(const std::vector<const ReplayResult*>& runs, const std::vector<std::string>& labels,
+                              const std::string& signal, const std::string& title);
+
+/// Writes report.html into dir (created if missing) for `diagnose --model`:
+/// with a replay, its held-out figures before and after the causes and the
+/// overlay and residual of each signal; then the diagnosis's sections (the
+/// verdict, where with its windows shaded on the residual, the gap step by
+/// step, the candidates, the given model). `command`: the command line shown.
+bool write_model_gap_report(const ModelGap& g, const std::string& dir, const std::string& source,
+                            const std::string& command, std::string& error);
 
 /// Writes report.html into dir (created if missing): the four relative
 /// errors (published comparison, same processing on both sides, and the
-/// processing's own share), the gains, and the overlay and residual of each
-/// signal over time.
+/// processing's own share), and the overlay and residual of each signal over time.
 bool write_replay_report(const ReplayResult& r, const std::string& dir, const std::string& source,
                          const std::string& command, std::string& error);
 

@@ -7,13 +7,17 @@
 // reference column (exit 2) and warns of an unknown key in the model file.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <string>
 
 #include "gap/model_gap.hpp"
+#include "report/report.hpp"
 #include "model/constants.hpp"
 #include "sim/drive_sim.hpp"
 #include "test_support.hpp"
@@ -122,24 +126,39 @@ void loop_run(const host::SimConfig& base, double duration_s, host::LoggedRun& r
   }
 }
 
-TEST(DiagnoseGivenModel, ReplayedWithTheNamedEffectTheHeldOutForceErrorShrinks) {
+/// The drive with a ripple in its own loop, its true base model given: the gap, replayed.
+struct RippleLoop {
   host::SimConfig cfg;
-  cfg.drive.mass_kg = 100.0;
-  cfg.drive.pos = {200.0, 20.0, 0.0, 1.0};
-  cfg.drive.neg = {230.0, 22.0, 0.0, 1.0};
-  cfg.sensors.encoder_resolution_m = 1e-7;
-  cfg.effects.ripple_amplitude_N = 15.0;
-  cfg.effects.ripple_period_m = 12e-3;
-  host::LoggedRun run;
-  host::Trace trace;
-  loop_run(cfg, 61.0, run, trace);
-  const host::Controller c = host::controller_from_json(
-      {{"kp", 60.0}, {"kv", 2.0 * host::kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
-       {"position_fir", {1.0}}, {"delay_samples", 0}, {"reference", "r"}},
-      "c");
-  host::DiagnoseOptions opt;
-  opt.model = model_of(cfg.drive);
-  const host::ModelGap g = host::model_gap(trace, opt, &c, &run, host::ReplayOptions{});
+  host::ModelGap g;
+};
+
+const RippleLoop& ripple_loop() {
+  static const RippleLoop once = [] {
+    RippleLoop out;
+    host::SimConfig& cfg = out.cfg;
+    cfg.drive.mass_kg = 100.0;
+    cfg.drive.pos = {200.0, 20.0, 0.0, 1.0};
+    cfg.drive.neg = {230.0, 22.0, 0.0, 1.0};
+    cfg.sensors.encoder_resolution_m = 1e-7;
+    cfg.effects.ripple_amplitude_N = 15.0;
+    cfg.effects.ripple_period_m = 12e-3;
+    host::LoggedRun run;
+    host::Trace trace;
+    loop_run(cfg, 61.0, run, trace);
+    const host::Controller c = host::controller_from_json(
+        {{"kp", 60.0}, {"kv", 2.0 * host::kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
+         {"position_fir", {1.0}}, {"delay_samples", 0}, {"reference", "r"}},
+        "c");
+    host::DiagnoseOptions opt;
+    opt.model = model_of(cfg.drive);
+    out.g = host::model_gap(trace, opt, &c, &run, host::ReplayOptions{});
+    return out;
+  }();
+  return once;
+}
+
+TEST(DiagnoseGivenModel, ReplayedWithTheNamedEffectTheHeldOutForceErrorShrinks) {
+  const host::ModelGap& g = ripple_loop().g;
   ASSERT_TRUE(g.diagnosis.error.empty()) << g.diagnosis.error;
   ASSERT_TRUE(g.replayed);
   ASSERT_FALSE(g.diagnosis.effects.empty()) << host::summary(g.diagnosis);
@@ -154,6 +173,55 @@ TEST(DiagnoseGivenModel, ReplayedWithTheNamedEffectTheHeldOutForceErrorShrinks) 
     EXPECT_TRUE(j["replay"]["before_pct"][k].is_number()) << k;
     EXPECT_TRUE(j["replay"]["after_pct"][k].is_number()) << k;
   }
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// The report page (diagnose --model --controller --report): the replay's
+// held-out table, each signal's overlay (measured, simulated before and
+// after) and residual, the gap step by step, the residual with the
+// "where" windows shaded, the given model with its absent terms named.
+TEST(DiagnoseGivenModel, ReportPageShowsReplayResidualWindowsAndTheGapStepByStep) {
+  const host::ModelGap& g = ripple_loop().g;
+  ASSERT_TRUE(g.replayed);
+  const std::string dir = ::testing::TempDir() + "given_model_report_" + std::to_string(::getpid());
+  std::string err;
+  ASSERT_TRUE(host::write_model_gap_report(g, dir, "simulated loop", "feedid diagnose ...", err)) << err;
+  std::ifstream f(dir + "/report.html");
+  const std::string page((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (const char* section : {"Replay in the drive's loop, held-out time", "Replay overlay and residual",
+                              "The gap before and after each added effect", "Held-out residual over time",
+                              "Held-out residual over velocity", "Held-out residual over position", "Base model (given"})
+    EXPECT_NE(page.find(section), std::string::npos) << section;
+  for (const char* signal : {"position", "velocity", "acceleration", "force"}) {
+    EXPECT_NE(page.find(std::string("<h3>") + signal + "</h3>"), std::string::npos) << signal;
+    EXPECT_NE(page.find(std::string("Residual: ") + signal), std::string::npos) << signal;
+  }
+  EXPECT_NE(page.find("simulated, with the named effects"), std::string::npos);
+  // 4 overlays + 4 residuals, the step chart, base and with-effect residual over time, velocity, position.
+  const std::size_t panels = g.diagnosis.effects.empty() ? 3 : 6;
+  EXPECT_EQ(count(page, "<svg "), 9 + panels);
+  // Every figure at the page's width, every "where" window shaded.
+  EXPECT_NE(page.find("svg{display:block;width:100%"), std::string::npos);
+  std::size_t windows = 0;
+  for (const auto& w : g.diagnosis.where) windows += w.domain == "time" || w.domain == "velocity" || w.domain == "position";
+  for (const auto& w : g.diagnosis.where_left) windows += w.domain == "time" || w.domain == "velocity" || w.domain == "position";
+  EXPECT_GT(windows, 0u);
+  EXPECT_EQ(count(page, "fill=\"#ffd54f\""), windows);
+  // The true model has no Stribeck dip and no offset: named absent, never "0 +- se".
+  EXPECT_GE(count(page, "not in the model"), 5u);
+  EXPECT_EQ(count(page, "&plusmn;"), 0u);
+  for (const char* bad : {"nan", "inf "}) EXPECT_EQ(count(page, bad), 0u) << bad;
+  // Shares to whole percent: a closed fraction of 1e-13 is "0 %", not "7.84e-13 %".
+  const std::regex share(R"(closes (-?[0-9.e+-]+) %)");
+  std::size_t shares = 0;
+  for (auto it = std::sregex_iterator(page.begin(), page.end(), share); it != std::sregex_iterator(); ++it, ++shares)
+    EXPECT_TRUE(std::regex_match((*it)[1].str(), std::regex("-?[0-9]+"))) << (*it)[0];
+  EXPECT_GT(shares, 0u);
 }
 
 // ---------------------------------------------------------------------------

@@ -21,7 +21,7 @@ const std::map<std::string, int>& stage_rank() {
   static const std::map<std::string, int> r = {
       {"io", 0},        {"model", 1},       {"sim", 2},      {"signals", 3},
       {"identify", 4},  {"validate", 5},    {"diagnose", 5}, {"monitor", 5},
-      {"compensate", 5}, {"replay", 5},    {"gap", 6},      {"report", 6},   {"bench", 7},
+      {"compensate", 5}, {"replay", 5},    {"gap", 6},      {"report", 7},   {"bench", 7},
       {"cli", 8},       {"python", 8},
       {"firmware_traces", 8},
   };

@@ -75,7 +75,7 @@ TEST(ModelFile, StribeckNeedsBothFsAndVs) {
 TEST(ModelFile, NonPhysicalOrNonNumericIsAnError) {
   json j = emps_reference();
   j["m"] = -1.0;
-  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("not a physical model"), std::string::npos);
+  EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("the model is not physical"), std::string::npos);
   j = emps_reference();
   j["pos"]["sigma"] = "203";
   EXPECT_NE(error_of([&] { model_file_from_json(j, "x"); }).find("'pos.sigma' must be a finite number"), std::string::npos);

@@ -23,6 +23,7 @@ BIN = os.environ.get("FEEDID_BIN_DIR", "build/bin")
 SHARED = os.environ.get("FEEDID_SHARED_DIR", "../shared")
 EMPS = os.path.join(SHARED, "data", "emps", "DATA_EMPS.csv")
 SYSID = os.path.join(SHARED, "data", "sysid_team581")
+CONTROLLER = os.path.join(os.environ.get("FEEDID_SOURCE_DIR", "."), "docs", "examples", "emps_controller.json")
 PARAMS = [("m",)] + [(d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs", "vs")]
 
 
@@ -89,6 +90,44 @@ class EmpsArrays(unittest.TestCase):
         self.assertEqual(set(dg), set(cli_dg))
         self.assertAlmostEqual(val["relative_error_pct"], cli_val["relative_error_pct"], delta=1e-9 * cli_val["relative_error_pct"])
         self.assertEqual(set(val), set(cli_val))
+
+    def test_diagnose_with_a_model_and_controller_gives_the_cli_results(self):
+        # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
+        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+        p = np.genfromtxt(pulses, delimiter=",", names=True)
+        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+            json.dump(model, f)
+            f.flush()
+            cli_dg = cli("diagnose", [pulses], "--model", f.name, "--controller", CONTROLLER, *cols)
+        # WHEN diagnosed from Python on the arrays and on the file, as diagnose --model --controller
+        columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
+        dg = feedid.diagnose(p["t_s"], p["qm_m"], p["force_N"], model=model, controller=CONTROLLER, columns=columns)
+        dg_file = feedid.diagnose_files(pulses, time="t_s", position="qm_m", force="force_N", model=model,
+                                        controller=CONTROLLER)
+        # THEN the CLI's keys, effects and held-out replay figures before and after
+        for got in (dg, dg_file):
+            self.assertEqual(set(got), set(cli_dg))
+            self.assertEqual(got["base_model"]["refitted"], False)
+            self.assertEqual([e["kind"] for e in got["effects"]], [e["kind"] for e in cli_dg["effects"]])
+            for when in ("before_pct", "after_pct"):
+                for k in ("position", "velocity", "acceleration", "force"):
+                    self.assertAlmostEqual(got["replay"][when][k], cli_dg["replay"][when][k],
+                                           delta=1e-9 * cli_dg["replay"][when][k], msg=when + " " + k)
+
+    def test_diagnose_model_errors_and_warnings_are_the_clis(self):
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        hand = {"m": 95.1, "pos": {"sigma": 203.5, "fc": 20.4}, "neg": {"sigma": 203.5, "fc": 20.4}, "ofset_N": -3}
+        # an unknown key in the model is a warning, as the CLI's on stderr
+        with self.assertWarnsRegex(UserWarning, "unknown key 'ofset_N'"):
+            feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"], model=hand)
+        # a controller without a model, and a reference column not given, are ValueErrors naming them
+        with self.assertRaisesRegex(ValueError, "controller needs model"):
+            feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"], controller=CONTROLLER)
+        with self.assertRaisesRegex(ValueError, "no reference column 'qg_m'"):
+            feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"], model=hand, controller=CONTROLLER)
 
     def test_compensate_gives_the_cli_table(self):
         # GIVEN the model identified from the EMPS arrays, and the same as a file

@@ -58,7 +58,7 @@ TEST_F(DiagnosisReport, IsOneSelfContainedPageWithEveryFigureInline) {
   EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
   // Friction curve, base + with-effect panels over velocity, position,
   // time, and the compensation's circle test.
-  EXPECT_EQ(count(page, "<svg "), 8u);
+  EXPECT_EQ(count(page, "<svg "), 9u);
   EXPECT_NE(page.find("Friction compensation"), std::string::npos);
   EXPECT_NE(page.find("largest quadrant glitch"), std::string::npos);
   EXPECT_EQ(count(page, "src=\""), 0u) << "no external resources";
@@ -77,7 +77,7 @@ TEST_F(DiagnosisReport, ChromiumLoadsAndRendersIt) {
   ASSERT_EQ(std::system(("timeout 120 chromium " + flags + " --dump-dom file://" + page + " > " + dom + " 2>/dev/null").c_str()), 0);
   const std::string rendered = read_all(dom);
   EXPECT_NE(rendered.find("Sim-to-real gap diagnosis"), std::string::npos);
-  EXPECT_EQ(count(rendered, "<svg "), 8u) << "every figure reached the DOM";
+  EXPECT_EQ(count(rendered, "<svg "), 9u) << "every figure reached the DOM";
   ASSERT_EQ(std::system(("timeout 120 chromium " + flags + " --screenshot=" + png + " file://" + page + " >/dev/null 2>&1").c_str()), 0);
   ASSERT_TRUE(std::filesystem::exists(png));
   EXPECT_GT(std::filesystem::file_size(png), 50000u) << "a blank page compresses to a few kB";

@@ -9,6 +9,7 @@ logs on a dask cluster.
 """
 import json
 import os
+import warnings
 
 from . import _feedid
 
@@ -80,13 +81,51 @@ def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **opt
     return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
 
 
-def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
+def _json_given(value, name):
+    """A model or controller as a dict (the keys of the CLI's JSON file) or
+    a path to that file: (its JSON text, the name messages use)."""
+    if value is None:
+        return "", ""
+    if isinstance(value, (str, os.PathLike)):
+        with open(value) as f:
+            return f.read(), os.fspath(value)
+    return json.dumps(value), name
+
+
+def _given(model, controller):
+    if model is None:
+        if controller is not None:
+            raise ValueError("controller needs model (the model to replay), as diagnose --controller needs --model")
+        return None
+    return _feedid.GivenFiles(*_json_given(model, "model"), *_json_given(controller, "controller"))
+
+
+def _warned(text_and_warnings):
+    """The warnings and notes the CLI prints on stderr, as Python warnings; the result dict."""
+    text, notes = text_and_warnings
+    for note in notes:
+        warnings.warn(note, stacklevel=3)
+    return _failed_on_error(text)
+
+
+def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, model=None, controller=None, columns=None,
+             **options):
     """``feedid diagnose`` on signals (as identify()'s): the gap between the
     identified model and the trace, and the effect that explains it. options:
     identify's, plus folds and block (s). The dict of ``diagnose --json``;
-    Error with the host's message where the CLI exits 2."""
+    Error with the host's message where the CLI exits 2.
+
+    model (``diagnose --model``): a dict with the keys of the CLI's model
+    file (identify's dict, or m, pos, neg and offset_N), or a path to one;
+    it is the base model, not refitted. controller (``--controller``, needs
+    model): replay's controller as a dict or a path; the arrays its
+    reference and extra_command name are given in columns (name -> array).
+    An unknown key is a Python warning, as the CLI's on stderr."""
     options.update(axis=axis, force_unit=force_unit)
-    return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options))
+    given = _given(model, controller)
+    if given is None:
+        return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options))
+    return _warned(_feedid.model_gap_arrays(*_signals(t, x, u, v), options, given, columns or {}))
 
 
 def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
@@ -114,10 +153,14 @@ def identify_files(paths, axis="linear", force_unit=None, **options):
     return _checked(_feedid.run_files("identify", _paths(paths), options))
 
 
-def diagnose_files(paths, axis="linear", force_unit=None, **options):
-    """diagnose() on trace files (as identify_files())."""
+def diagnose_files(paths, axis="linear", force_unit=None, model=None, controller=None, **options):
+    """diagnose() on trace files (as identify_files()); model and controller
+    as diagnose()'s, the controller's columns read from the one file."""
     options.update(axis=axis, force_unit=force_unit)
-    return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options))
+    given = _given(model, controller)
+    if given is None:
+        return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options))
+    return _warned(_feedid.model_gap_files(_paths(paths), options, given))
 
 
 def validate_files(model, paths, axis="linear", force_unit=None, **options):
