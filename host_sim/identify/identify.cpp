@@ -44,8 +44,9 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
 /// velocity, in which stated lags are given and the lag is reported.
 /// `found`: a search already run on these signals with another velocity
 /// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
+/// `held`: the friction shared between lag searches (estimate_force_lag).
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
-                 const LagEstimate* found = nullptr) {
+                 const LagEstimate* found = nullptr, HeldFriction* held = nullptr) {
   const double dt = s.period_s();
   double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
@@ -53,7 +54,7 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
     lag = opt.force_lag_s / dt + column_lag;
     s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
-    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt));
+    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt), held);
     s.lag_search = e;
     if (e.ok) {
       lag = e.lag_samples;
@@ -102,8 +103,9 @@ ForceAges force_ages(const std::vector<double>& u, std::size_t k, std::size_t fi
 
 double paired_force(const std::vector<double>& u, const feedid::ForcePairing<double>& p, std::size_t k,
                     std::size_t first) {
-  const ForceAges a = force_ages(u, k, first, k);
-  return p.interval_force([&a](int age) { return a[static_cast<std::size_t>(age + kForceLead)]; });
+  // force_ages' rule for the ages a pairing taps (0 and older), without the other taps.
+  const std::size_t oldest = k - first;
+  return p.interval_force([&](int age) { return u[k - std::min(static_cast<std::size_t>(age), oldest)]; });
 }
 
 namespace {
@@ -122,12 +124,25 @@ struct Integrands {
   }
 };
 
+/// The same at one pairing: the paired force alone, three taps per sample
+/// instead of eleven integrals (the scan's and the refits' observations).
+struct PairedIntegrands {
+  double friction = 0.0;  ///< F(v) (N)
+  double force = 0.0;     ///< the paired force (N)
+  PairedIntegrands& add(const PairedIntegrands& o, double w) {
+    friction += w * o.friction;
+    force += w * o.force;
+    return *this;
+  }
+};
+
 /// One block's sums; phi = (t - t_start)/tau rises from 0 to 1 across it.
+template <typename I>
 struct BlockSums {
   int dir = 0;
   double tau = 0.0;           ///< s
-  Integrands impulse;         ///< integrals over the block (N s)
-  Integrands phi_impulse;     ///< same, weighted by phi
+  I impulse;                  ///< integrals over the block (N s)
+  I phi_impulse;              ///< same, weighted by phi
   double dv = 0.0;            ///< velocity change (m/s)
   double phi_dv = 0.0;        ///< same, weighted by phi
 };
@@ -144,25 +159,29 @@ struct BlockSums {
 /// mass, and a mass fitted on the blocks was attenuated. Smoothing the end
 /// samples instead biased m by +0.1 % per half-millisecond of mean at the
 /// motion's corners; the triangle is exact. (docs/diagnosis.md uses the
-/// same observation.)
-template <typename Visit>
-void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, Visit visit) {
-  BlockSums prev, cur;
-  Integrands moment_impulse, g;
+/// same observation.) I: Integrands or PairedIntegrands; force_of(k,
+/// first, last) its force at sample k of a stretch from `first` whose
+/// force taps may reach `last`.
+template <typename I, typename ForceOf, typename Visit>
+void for_each_block(const Signals& s, const DriveParams& p, double v_min, double block_s, ForceOf force_of,
+                    Visit visit) {
+  using Sums = BlockSums<I>;
+  Sums prev, cur;
+  I moment_impulse, g;
   double t_start = 0.0, moment_dv = 0.0;
   auto close = [&](std::size_t k_end, bool adjacent_next) {
     if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
-      cur.phi_impulse = Integrands{}.add(moment_impulse, 1.0 / cur.tau);
+      cur.phi_impulse = I{}.add(moment_impulse, 1.0 / cur.tau);
       cur.phi_dv = moment_dv / cur.tau;
       if (prev.dir == cur.dir)
-        visit(Integrands{prev.phi_impulse}.add(cur.impulse, 1.0).add(cur.phi_impulse, -1.0),
+        visit(I{prev.phi_impulse}.add(cur.impulse, 1.0).add(cur.phi_impulse, -1.0),
               prev.phi_dv + cur.dv - cur.phi_dv, 0.5 * (prev.tau + cur.tau), s.t[k_end]);
-      prev = adjacent_next ? cur : BlockSums{};
+      prev = adjacent_next ? cur : Sums{};
     } else {
-      prev = BlockSums{};
+      prev = Sums{};
     }
-    cur = BlockSums{};
-    moment_impulse = Integrands{};
+    cur = Sums{};
+    moment_impulse = I{};
     moment_dv = 0.0;
   };
   // The stretch around k, tracked as k advances rather than searched for
@@ -177,7 +196,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     const double dt = s.t[k] - s.t[k - 1];
     if (gap_before(k)) {  // another run or a cut: no block, no pair, no force tap spans it
       if (cur.dir != 0) close(k - 1, false);
-      prev = BlockSums{};
+      prev = Sums{};
       stretch_first = k;
       continue;
     }
@@ -190,7 +209,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     if (cur.dir == 0) { cur.dir = d; t_start = s.t[k - 1]; }
     g.friction = stribeck_friction(p, vm);
     const std::size_t last = std::min(stretch_last, k + static_cast<std::size_t>(kForceLead));
-    g.force = force_ages(s.u, k, std::max(stretch_first, k > reach ? k - reach : 0), last);
+    g.force = force_of(k, std::max(stretch_first, k > reach ? k - reach : 0), last);
     const double dv = s.v[k] - s.v[k - 1];
     const double age = 0.5 * (s.t[k] + s.t[k - 1]) - t_start;
     cur.impulse.add(g, dt);
@@ -212,9 +231,31 @@ double BlockPair::impulse(const feedid::ForcePairing<double>& p, int lead) const
 std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, double v_min, double block_s) {
   std::vector<BlockPair> out;
   out.reserve(static_cast<std::size_t>(s.t.empty() ? 0.0 : (s.t.back() - s.t.front()) / block_s) + 1);
-  for_each_block(s, p, v_min, block_s, [&](const Integrands& w, double dv, double area, double t_end) {
+  auto taps = [&s](std::size_t k, std::size_t first, std::size_t last) { return force_ages(s.u, k, first, last); };
+  for_each_block<Integrands>(s, p, v_min, block_s, taps, [&](const Integrands& w, double dv, double area, double t_end) {
     out.push_back({w.friction, w.force, dv, area, chunk_of(s, t_end)});
   });
+  return out;
+}
+
+std::vector<PairedBlock> paired_blocks(const Signals& s, const DriveParams& p, double v_min, double block_s) {
+  std::vector<PairedBlock> out;
+  out.reserve(static_cast<std::size_t>(s.t.empty() ? 0.0 : (s.t.back() - s.t.front()) / block_s) + 1);
+  const feedid::ForcePairing<double> pairing = s.pairing();
+  // BlockPair::impulse at lead 0 taps ages 0 and older only, so `last` plays no part.
+  auto paired = [&](std::size_t k, std::size_t first, std::size_t) { return paired_force(s.u, pairing, k, first); };
+  for_each_block<PairedIntegrands>(s, p, v_min, block_s, paired,
+                                   [&](const PairedIntegrands& w, double dv, double area, double t_end) {
+                                     out.push_back({w.force - w.friction, dv, area, chunk_of(s, t_end)});
+                                   });
+  return out;
+}
+
+std::vector<PairedBlock> at_pairing(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                                    int lead) {
+  std::vector<PairedBlock> out;
+  out.reserve(pairs.size());
+  for (const BlockPair& b : pairs) out.push_back({b.impulse(pairing, lead), b.dv, b.area, b.chunk});
   return out;
 }
 
@@ -238,9 +279,13 @@ double convention_force_delay_limit() { return 0.5 + kLagAccuracy; }
 
 BlockResidual block_residual(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
                              double mass_kg, int lead) {
+  return block_residual(at_pairing(pairs, pairing, lead), mass_kg);
+}
+
+BlockResidual block_residual(const std::vector<PairedBlock>& blocks, double mass_kg) {
   BlockResidual out;
-  for (const BlockPair& b : pairs) {
-    const double r = (b.impulse(pairing, lead) - mass_kg * b.dv) / b.area;
+  for (const PairedBlock& b : blocks) {
+    const double r = (b.impulse - mass_kg * b.dv) / b.area;
     out.sum_squares += r * r;
     out.chunk_sum_squares[static_cast<std::size_t>(b.chunk)] += r * r;
     ++out.blocks;
@@ -249,17 +294,21 @@ BlockResidual block_residual(const std::vector<BlockPair>& pairs, const feedid::
 }
 
 BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s) {
-  return block_residual(block_pairs(s, p, v_min, block_s), s.pairing(), p.mass_kg);
+  return block_residual(paired_blocks(s, p, v_min, block_s), p.mass_kg);
 }
 
 BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing, int lead) {
+  return block_mass(at_pairing(pairs, pairing, lead));
+}
+
+BlockMass block_mass(const std::vector<PairedBlock>& blocks) {
   BlockMass out;
   constexpr int chunks = kJackknifeChunks;
   // Sums per contiguous stretch of time, for the delete-one jackknife.
   std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
-  for (const BlockPair& b : pairs) {
+  for (const PairedBlock& b : blocks) {
     const auto c = static_cast<std::size_t>(b.chunk);
-    num[c] += b.impulse(pairing, lead) * b.dv;
+    num[c] += b.impulse * b.dv;
     den[c] += b.dv * b.dv;
   }
   double n_all = 0.0, d_all = 0.0;
@@ -276,7 +325,7 @@ BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePai
 
 BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s) {
   if (s.t.size() < 2) return BlockMass{};
-  return block_mass(block_pairs(s, p, v_min, block_s), s.pairing());
+  return block_mass(paired_blocks(s, p, v_min, block_s));
 }
 
 double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
@@ -328,7 +377,7 @@ VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const Identi
 
 /// The core's velocity at cut-off fc_hz, then the force lag on it.
 Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
-                         double fc_hz, const LagEstimate* found = nullptr) {
+                         double fc_hz, const LagEstimate* found = nullptr, HeldFriction* held = nullptr) {
   Signals s = raw;
   derive_velocity(s, fc_hz);
   std::ostringstream o;
@@ -342,7 +391,7 @@ Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyO
       << " times the derivative of position (another unit, the other sign, or the motor side of a gear), is left out";
   s.velocity_origin = o.str();
   s.core_velocity_lag = timing.core;
-  align_force(s, opt, timing.core, timing.column, found);
+  align_force(s, opt, timing.core, timing.column, found, held);
   return s;
 }
 
@@ -354,7 +403,7 @@ constexpr double kFilteredVelocityLag = 0.6;
 /// VelocitySource::column: the column if it is a position difference, else
 /// the backward difference of position (a filter's rounding of quantised
 /// counts wrecked Fs, +3000 % on a 100 nm, 4 kHz drive).
-Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing) {
+Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing, HeldFriction* held = nullptr) {
   if (timing.column > kFilteredVelocityLag) {
     for (std::size_t k = s.v.size(); k-- > 1;) {
       const double h = s.t[k] - s.t[k - 1];
@@ -375,7 +424,7 @@ Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming t
   }
   timing.column -= timing.core;
   s.core_velocity_lag = timing.core;
-  align_force(s, opt, timing.core, timing.column);
+  align_force(s, opt, timing.core, timing.column, nullptr, held);
   return s;
 }
 
@@ -422,12 +471,16 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // if it beats the least residual of all cut-offs.
   const bool stated = opt.velocity_filter_hz > 0;
   raw.velocity_filter_origin = stated ? "stated" : "provisional";
-  Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
+  // The friction the derived velocity's lag search holds serves the
+  // column's search too: one identification for both (issue 29).
+  HeldFriction held;
+  Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz,
+                               nullptr, &held);
   if (stated) return s;
   const feedid::Config<double> edges = auto_config(s, search);
   const FilterChoice choice = choose_velocity_filter(s, edges);
   if (raw.has_velocity_column && trace.has_position) {
-    Signals column = column_and_align(raw, search, timing);
+    Signals column = column_and_align(raw, search, timing, &held);
     if (block_fit_ssr(column, edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       return column;

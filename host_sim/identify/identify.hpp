@@ -349,6 +349,24 @@ struct BlockMass {
 BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, double block_s);
 BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing, int lead = 0);
 
+/// One observation of the block rule at a single pairing of the force:
+/// what a search needs that forms the residual at one lag only. The same
+/// sums as a BlockPair's impulse at that pairing, from three force taps
+/// per sample instead of integrals of eleven (issue 29).
+struct PairedBlock {
+  double impulse = 0.0;  ///< integral w (u - F) dt (N s)
+  double dv = 0.0;       ///< integral w dv (m/s)
+  double area = 0.0;     ///< integral w (s)
+  int chunk = 0;         ///< chunk_of its end
+};
+/// The block rule's observations of s at its own pairing (s.pairing()).
+std::vector<PairedBlock> paired_blocks(const Signals& s, const DriveParams& p, double v_min, double block_s);
+/// Kept observations taken at one pairing, the force led by `lead` samples.
+std::vector<PairedBlock> at_pairing(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
+                                    int lead = 0);
+BlockResidual block_residual(const std::vector<PairedBlock>& blocks, double mass_kg);
+BlockMass block_mass(const std::vector<PairedBlock>& blocks);
+
 
 
 

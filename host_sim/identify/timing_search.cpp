@@ -19,10 +19,7 @@ struct LagCost {
 
 /// The model the core identifies on `work` as it is paired
 /// (work.force_lag_samples); not ok where nothing identifies.
-struct HeldModel {
-  bool ok = false;
-  DriveParams params;
-};
+using HeldModel = HeldFriction;
 
 HeldModel identify_model(const Signals& work, const feedid::Config<double>& cfg) {
   feedid::Config<double> c = cfg;
@@ -43,11 +40,10 @@ HeldModel identify_model(const Signals& work, const feedid::Config<double>& cfg)
 /// with a coarse quantum its jumps from lag to lag made the cost rough (the
 /// lag off by 0.3-1 period at 8 kHz and 100 nm, and m by 3 of its standard
 /// errors with it).
-LagCost block_cost(const std::vector<BlockPair>& pairs, const feedid::ForcePairing<double>& pairing,
-                   const DriveParams& model, int lead = 0) {
+LagCost block_cost(const std::vector<PairedBlock>& blocks, const DriveParams& model) {
   LagCost out;
-  const BlockMass refit = block_mass(pairs, pairing, lead);
-  const BlockResidual b = block_residual(pairs, pairing, refit.ok ? refit.mass_kg : model.mass_kg, lead);
+  const BlockMass refit = block_mass(blocks);
+  const BlockResidual b = block_residual(blocks, refit.ok ? refit.mass_kg : model.mass_kg);
   if (b.blocks == 0) return out;
   out.ssr = b.sum_squares;
   out.blocks = b.blocks;
@@ -55,9 +51,10 @@ LagCost block_cost(const std::vector<BlockPair>& pairs, const feedid::ForcePairi
   return out;
 }
 
-/// The same on `work` as it is paired; cfg's band edges hold it to one set of blocks.
+/// The same on `work` as it is paired (one pairing: paired_blocks); cfg's
+/// band edges hold it to one set of blocks.
 LagCost block_cost(const Signals& work, const DriveParams& model, const feedid::Config<double>& cfg) {
-  return block_cost(block_pairs(work, model, cfg.velocity_min_m_s, block_length_s(work)), work.pairing(), model);
+  return block_cost(paired_blocks(work, model, cfg.velocity_min_m_s, block_length_s(work)), model);
 }
 
 /// The block residual of the model the core identifies on `work` as paired.
@@ -97,7 +94,7 @@ double jackknife_vertex_se(double l, double h, const LagCost& lo, const LagCost&
 
 }  // namespace
 
-LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg) {
+LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg, HeldFriction* shared) {
   LagEstimate e;
   Signals work = s;
   work.velocity_delay_samples = 0;
@@ -130,7 +127,7 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
       ++e.evaluations;
       pts.push_back({lag, fit_cost(work, cfg)});
     } else {
-      pts.push_back({lag, block_cost(pairs, pairing, model.params, lead)});
+      pts.push_back({lag, block_cost(at_pairing(pairs, pairing, lead), model.params)});
     }
     return pts.back().c;
   };
@@ -148,14 +145,26 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   const double held = -0.5 - (std::isfinite(s.core_velocity_lag) ? s.core_velocity_lag : 0.0);
   double identified_at = std::clamp(std::round(2.0 * held) / 2.0, kForceLagMin, kForceLagMax);
   bool settled = false;
+  auto observe_and_scan = [&]() {
+    pair_at(s, work, 0.0);  // the motion as logged; a positive lag leads the force instead
+    pairs = block_pairs(work, model.params, cfg.velocity_min_m_s, block_length_s(work));
+    scan_grid();
+  };
+  if (shared && shared->ok) {
+    // The friction another search settled on, on the same motion: F(v) is
+    // the axis's, whichever velocity estimate observes it, and the lag
+    // trades against the mass, which is refitted at every lag.
+    model = *shared;
+    observe_and_scan();
+    settled = true;
+    identified_at = best_point().lag;
+  }
   for (int round = 0; round < 3 && !settled; ++round) {
     pair_at(s, work, identified_at);
     model = identify_model(work, cfg);
     ++e.evaluations;
     if (!model.ok) break;
-    pair_at(s, work, 0.0);  // the motion as logged; a positive lag leads the force instead
-    pairs = block_pairs(work, model.params, cfg.velocity_min_m_s, block_length_s(work));
-    scan_grid();
+    observe_and_scan();
     settled = std::fabs(best_point().lag - identified_at) < 1e-9;
     identified_at = best_point().lag;
   }
@@ -166,6 +175,8 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   if (!settled || identified_at <= kForceLagMin + 1e-9 || identified_at >= kForceLagMax - 1e-9) {
     each_identified = true;
     scan_grid();
+  } else if (shared && !shared->ok) {
+    *shared = model;
   }
   const Point best = best_point();
   if (!std::isfinite(best.c.ssr)) return e;

@@ -31,7 +31,18 @@ static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by who
 /// each lag; the blocks are observed once per whole delay of the motion
 /// (BlockPair): one or two passes of the core, not one per lag. `cfg` is
 /// the core configuration for the trace (its lag is ignored).
-LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg);
+///
+/// `shared`: friction to hold that another search on the same trace
+/// identified (one held friction for the derived velocity's search and the
+/// logged column's); where it is ok the search runs no identification of
+/// its own unless the grid's best lies at an end of the range. Where it is
+/// not, and this search settles inside the range, the friction it held is
+/// left there for the next search.
+struct HeldFriction {
+  bool ok = false;
+  DriveParams params;
+};
+LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg, HeldFriction* shared = nullptr);
 
 /// Cut-off of the core's velocity (the zero-phase derivative of position)
 /// before one is chosen, and the lowest tried (Hz; lower on a slow or a held

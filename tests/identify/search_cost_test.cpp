@@ -1,8 +1,10 @@
 // What identify's searches cost and what their shortcuts rest on (issue
 // 29). The lag search reads every lag from one observation of the blocks
 // (BlockPair: the force's integral at each tap, linear in the pairing
-// rule), leading the force where a positive lag delays the motion; and
-// identify counts its passes of the core (counts.core_passes).
+// rule), leading the force where a positive lag delays the motion; a
+// search at one lag observes the paired force alone (PairedBlock) for the
+// same sums; the column's lag search holds the derived velocity's
+// friction; and identify counts its passes of the core (counts.core_passes).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,7 +31,8 @@ host::IdentifyResult identified_20s() {
 // GIVEN prepared signals and a friction model, WHEN the block residual and
 // block mass are formed at a lag from the kept observations, with a
 // positive lag as a lead of the force, THEN they equal a pass over the
-// signals paired at that lag (the motion delayed by whole samples).
+// signals paired at that lag (the motion delayed by whole samples), which
+// observes the paired force alone (paired_blocks: three taps, not eleven).
 TEST(BlockPairs, EveryLagFromOneObservationMatchesAPassAtThatLag) {
   const host::IdentifyResult r = identified_20s();
   ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
@@ -58,14 +61,37 @@ TEST(BlockPairs, EveryLagFromOneObservationMatchesAPassAtThatLag) {
 
 // GIVEN a 20 s simulated trace with a velocity column, WHEN identify runs
 // with nothing stated, THEN its searches and standard errors cost at most
-// 16 passes of the core over the trace (34 when every lag of the search
-// ran the core) and counts.core_passes says so.
+// 13 passes of the core over the trace (34 when every lag of the search
+// ran the core, 14 when the column's lag search identified on its own)
+// and counts.core_passes says so.
 TEST(SearchCost, IdentifyCountsItsCorePassesAndStaysWithinBudget) {
   const host::IdentifyResult r = identified_20s();
   ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
   EXPECT_GE(r.core_passes, 3.0);  // the search's identification, the result, the jackknife's chunks
-  EXPECT_LE(r.core_passes, 16.0);
+  EXPECT_LE(r.core_passes, 13.0);
   EXPECT_DOUBLE_EQ(host::to_json(r)["counts"]["core_passes"].get<double>(), r.core_passes);
+}
+
+// GIVEN the prepared signals of a 20 s trace, WHEN the lag is searched
+// again holding friction shared from another search (HeldFriction), THEN
+// it runs no identification of its own and finds the lag its own
+// identifications find, within the search's standard error; and a search
+// with nothing shared leaves the friction it held for the next one.
+TEST(SharedFriction, LagSearchHoldingAnotherSearchsFrictionFindsTheSameLag) {
+  const host::IdentifyResult r = identified_20s();
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  host::Signals s = r.signals;
+  host::apply_force_lag(s, 0.0);
+  const feedid::Config<double> cfg = host::auto_config(s, host::IdentifyOptions{});
+  host::HeldFriction held;
+  const host::LagEstimate own = host::estimate_force_lag(s, cfg, &held);
+  ASSERT_TRUE(own.ok && held.ok);
+  EXPECT_GE(own.evaluations, 1);
+  EXPECT_NEAR(held.params.mass_kg, r.estimate.mass_kg, 0.05 * r.estimate.mass_kg);
+  const host::LagEstimate shared = host::estimate_force_lag(s, cfg, &held);
+  ASSERT_TRUE(shared.ok);
+  EXPECT_EQ(shared.evaluations, 0);
+  EXPECT_NEAR(shared.lag_samples, own.lag_samples, std::max(own.se_samples, 0.01));
 }
 
 }  // namespace
