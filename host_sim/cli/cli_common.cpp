@@ -313,6 +313,10 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
     std::fprintf(stderr, "error: monitor reads one log (--in); --in-list is for identify, validate and diagnose\n");
     return 2;
   }
+  if ((!cols.temperature.empty() || !cols.load.empty()) && is_mat_file(path)) {
+    std::fprintf(stderr, "error: %s: --temperature and --load are read from a CSV log only\n", path.c_str());
+    return 2;
+  }
   CsvStream stream = open_trace_stream(path, cols);
   if (!stream.ok()) {
     std::fprintf(stderr, "error: %s\n", stream.error().c_str());

@@ -31,6 +31,11 @@ struct MonitorCommand : Command {
         ->capture_default_str()->check(CLI::Range(3, 16));
     app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
         ->capture_default_str();
+    app->add_option("--temperature", cols.temperature,
+                    "column of the axis temperature: each reference is modelled against its epoch mean, so a warm-up "
+                    "does not alarm (docs/monitor.md)");
+    app->add_option("--load", cols.load,
+                    "column of the load (payload, process force): each reference is modelled against its epoch mean");
     add_input_options(app, cols, input);
   }
   int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, jsonl_path, opt); }

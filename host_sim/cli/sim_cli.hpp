@@ -55,6 +55,12 @@ inline void add_change_options(CLI::App* c, ServiceChange& ch) {
   c->add_option_function<std::string>("--change-direction", [&ch](const std::string& v) { ch.direction = v == "pos" ? 1 : v == "neg" ? -1 : 0; },
                                       "direction whose friction changes: pos, neg or both (default)")
       ->group(g)->check(CLI::IsMember({"pos", "neg", "both"}));
+  c->add_option("--warmup-drop", ch.warmup_drop,
+                "warm-up: Coulomb and viscous friction fall by this share as the temperature rises 20 -> 45 C "
+                "(simulate writes it as column temperature_C)")
+      ->group(g)->capture_default_str()->check(CLI::Range(0.0, 0.9));
+  c->add_option_function<double>("--warmup-minutes", [&ch](double m) { ch.warmup_s = 60.0 * m; }, "length of the warm-up (min)")
+      ->group(g)->check(CLI::PositiveNumber);
 }
 
 /// Options of `blind-bench`.

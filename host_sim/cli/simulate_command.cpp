@@ -28,7 +28,9 @@ struct SimulateCommand : Command {
   int run() override {
     const Trace t = run_simulation(sim);
     std::string err;
-    if (!write_trace_csv(out_path, t, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+    const ServiceChange& ch = sim.change;
+    const ExtraColumn temperature{"temperature_C", [&ch](double t_s) { return ch.temperature_C(t_s); }};
+    if (!write_trace_csv(out_path, t, err, ch.warms_up() ? &temperature : nullptr)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
     if (!truth_path.empty()) {
       nlohmann::json tj = model_json(sim.drive);
       tj["effects"] = effects_json(sim.effects, sim.drive);

@@ -17,6 +17,8 @@ enum Role : unsigned {
   kPosition = 1u << 1,
   kVelocity = 1u << 2,
   kForce = 1u << 3,
+  kTemperature = 1u << 4,
+  kLoad = 1u << 5,
 };
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
@@ -44,6 +46,27 @@ long find_column(const std::vector<std::string>& names, const std::string& name)
       found = static_cast<long>(i);
     }
   return found;
+}
+
+/// The optional covariate columns (--temperature, --load: monitor): a named
+/// one must be there, once.
+bool covariate_roles(const CsvColumns& columns, const std::string& at, const std::string& has, Layout& out,
+                     std::string& error) {
+  const std::pair<const std::string*, unsigned> named[2] = {{&columns.temperature, kTemperature}, {&columns.load, kLoad}};
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::string& name = *named[k].first;
+    out.has_covariate[k] = false;
+    if (name.empty()) continue;
+    const long i = find_column(out.names, name);
+    if (i < 0) {
+      error = at + (i == -2 ? "column " + quoted_text(name) + " appears more than once" : "missing column " + quoted_text(name)) +
+              (k == 0 ? " (temperature)" : " (load)") + has;
+      return false;
+    }
+    out.roles[static_cast<std::size_t>(i)] |= named[k].second;
+    out.has_covariate[k] = true;
+  }
+  return true;
 }
 
 /// The columns `names` (a header's, or --columns; `listed` says which in
@@ -97,7 +120,7 @@ bool layout_from_names(std::vector<std::string> names, const std::string& at, co
   out.roles.assign(out.names.size(), 0u);
   for (const Wanted& w : wanted)
     if (w.index >= 0) out.roles[static_cast<std::size_t>(w.index)] |= w.role;
-  return true;
+  return covariate_roles(columns, at, has, out, error);
 }
 
 std::vector<std::string> trimmed_names(const Fields& fields) {
@@ -375,6 +398,8 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
     if (r & kPosition) s.x_m = value * columns.position_scale;
     if (r & kVelocity) s.v_m_s = value * columns.position_scale;
     if (r & kForce) s.u_N = value * columns.force_scale;
+    if (r & kTemperature) lay.covariate[0] = value;
+    if (r & kLoad) lay.covariate[1] = value;
   }
   return rules.take(s, time_text, line) ? RowRead::kept : RowRead::stop;
 }

@@ -7,6 +7,7 @@
 // ISO 8601 stamps), and the reading of one row by the row rules
 // (trace_rows.hpp). Host only.
 #pragma once
+#include <array>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -35,6 +36,10 @@ struct Layout {
   std::vector<std::string> names;  ///< from the header row, or --columns
   std::vector<unsigned> roles;     ///< per column: which signals it holds (time, position, ...), 0 for none
   bool has_position = false, has_velocity = false;
+  /// The optional temperature and load columns (CsvColumns): whether read,
+  /// and the last row's values (as logged, no scale).
+  std::array<bool, 2> has_covariate{};
+  std::array<double, 2> covariate{};
   double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
   double rate_hz = 0.0;     ///< > 0: no time column, data row k is at k / rate_hz (CsvColumns::rate_hz)
   bool iso_time = false;    ///< the time column holds ISO 8601 stamps (its first data row does)

@@ -310,6 +310,10 @@ CsvStream::CsvStream(CsvStream&&) noexcept = default;
 CsvStream::~CsvStream() = default;
 
 bool CsvStream::time_unit_stated() const { return impl_->unit_stated; }
+bool CsvStream::has_temperature() const { return impl_->layout.has_covariate[0]; }
+bool CsvStream::has_load() const { return impl_->layout.has_covariate[1]; }
+double CsvStream::temperature() const { return impl_->layout.covariate[0]; }
+double CsvStream::load() const { return impl_->layout.covariate[1]; }
 const std::vector<std::string>& CsvStream::notes() const { return impl_->counts.notes; }
 
 bool CsvStream::next(TraceSample& s) {
@@ -360,7 +364,7 @@ std::size_t CsvStream::rows_skipped() const { return impl_->counts.rows_skipped;
 std::size_t CsvStream::rows_repeated() const { return impl_->counts.rows_repeated; }
 const std::vector<std::string>& CsvStream::skipped_rows() const { return impl_->counts.skipped_rows; }
 
-bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error) {
+bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error, const ExtraColumn* extra) {
   OutputFile f(path);
   // Format into a buffer and write it in large blocks. std::to_chars with
   // general format and precision 17 gives the same text as printf("%.17g")
@@ -368,7 +372,7 @@ bool write_trace_csv(const std::string& path, const Trace& trace, std::string& e
   std::string out;
   constexpr std::size_t kFlushAt = 1 << 20;
   out.reserve(kFlushAt + 256);
-  out += "t,x,v,u\n";
+  out += extra ? "t,x,v,u," + extra->name + "\n" : "t,x,v,u\n";
   auto put = [&](double v, char after) {
     char tmp[40];
     const std::to_chars_result r =
@@ -380,7 +384,8 @@ bool write_trace_csv(const std::string& path, const Trace& trace, std::string& e
     put(s.t_s, ',');
     put(s.x_m, ',');
     put(s.v_m_s, ',');
-    put(s.u_N, '\n');
+    put(s.u_N, extra ? ',' : '\n');
+    if (extra) put(extra->of_time(s.t_s), '\n');
     if (out.size() >= kFlushAt) {
       if (!f.write(out)) break;
       out.clear();

@@ -1,5 +1,6 @@
 // Reading and writing traces as CSV. Host only.
 #pragma once
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -15,6 +16,10 @@ struct CsvColumns {
   std::string position = "x";   ///< optional if velocity is present
   std::string velocity = "v";   ///< optional if position is present
   std::string force = "u";
+  /// Optional columns only the streamed reader hands on (CsvStream::
+  /// temperature(), load(); feedid monitor --temperature, --load): empty,
+  /// not read; named, the column must be there and hold a number on every row.
+  std::string temperature, load;
   /// --bad-rows: skip a row that is not finite numbers or whose time does not
   /// increase, count it and name the first few; false: the first is an error.
   bool skip_bad_rows = true;
@@ -96,6 +101,12 @@ class CsvStream {
   bool has_position() const { return has_position_; }
   bool has_velocity() const { return has_velocity_; }
   bool time_unit_stated() const;  ///< as Trace::time_unit_stated
+  /// Whether the temperature / load column (CsvColumns) is read, and its
+  /// value on the row next() returned last, as logged.
+  bool has_temperature() const;
+  bool has_load() const;
+  double temperature() const;
+  double load() const;
   /// As Trace::notes: lines left out before the table, ISO 8601 stamps.
   const std::vector<std::string>& notes() const;
   /// The next kept row; false at the end or on an error.
@@ -111,7 +122,15 @@ class CsvStream {
   bool ok_ = false, has_position_ = false, has_velocity_ = false;
 };
 
-/// Writes t,x,v,u with full precision. Returns false with `error` set on failure.
-bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error);
+/// A column written after t,x,v,u, as a function of each row's time (a
+/// simulated temperature_C).
+struct ExtraColumn {
+  std::string name;
+  std::function<double(double t_s)> of_time;
+};
+
+/// Writes t,x,v,u (and `extra` when given) with full precision. Returns
+/// false with `error` set on failure.
+bool write_trace_csv(const std::string& path, const Trace& trace, std::string& error, const ExtraColumn* extra = nullptr);
 
 }  // namespace feedid::host

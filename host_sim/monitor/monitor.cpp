@@ -10,6 +10,7 @@
 
 #include "io/number_format.hpp"
 #include "io/svg_plot.hpp"
+#include "feedid/small_matrix.hpp"
 
 namespace feedid::host {
 namespace {
@@ -119,6 +120,98 @@ void vote(LogLaw& law, const MonitorEpoch& ep, int needed) {
   }
 }
 
+/// Each tracked parameter as a linear function of the epoch's temperature
+/// and load, a + b (c - c0), fitted (inverse-variance weights) over the
+/// epochs that agree with it. What the change monitor is handed is the
+/// epoch's value less b (c - c0): a warm-up or a payload change moves the
+/// value along the slope and not the compared one, while a change at
+/// constant temperature and load is compared as it is. The slope is learnt
+/// as the log goes (the reference epochs seldom span a warm-up); an epoch
+/// more than the floor (2 % of the value, 3 se) off the fit is left out of
+/// it, so a wear step does not teach the fit a slope or an intercept.
+class CovariateModel {
+ public:
+  /// Value less the covariates' modelled effect; then the epoch joins the fit if it agrees.
+  double compensate(double x, double se, const std::array<double, 2>& c) {
+    if (!anchored_) {
+      c0_ = c;
+      anchored_ = true;
+    }
+    const feedid::Vector<double, 3> z = centred(c);
+    const feedid::Vector<double, 3> b = coefficients();
+    const double predicted = b.v[0] + b.v[1] * z.v[1] + b.v[2] * z.v[2];
+    const bool agrees = n_ == 0 || std::fabs(x - predicted) <= std::max(3.0 * se, 0.02 * std::fabs(predicted));
+    if (agrees) add(x, se, z);
+    return x - b.v[1] * z.v[1] - b.v[2] * z.v[2];
+  }
+
+ private:
+  feedid::Vector<double, 3> centred(const std::array<double, 2>& c) const {
+    feedid::Vector<double, 3> z;
+    z.v[0] = 1.0;
+    for (int k = 0; k < 2; ++k) z.v[k + 1] = std::isfinite(c[k]) && std::isfinite(c0_[k]) ? c[k] - c0_[k] : 0.0;
+    return z;
+  }
+  void add(double x, double se, const feedid::Vector<double, 3>& z) {
+    const double w = 1.0 / (se * se);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) normal_.a[i][j] += w * z.v[i] * z.v[j];
+      rhs_.v[i] += w * z.v[i] * x;
+    }
+    ++n_;
+  }
+  /// Intercept and slopes; a covariate the fitted epochs do not spread
+  /// (constant, or not read) keeps a slope of 0.
+  feedid::Vector<double, 3> coefficients() const {
+    feedid::Vector<double, 3> b;
+    if (n_ == 0) return b;
+    b.v[0] = rhs_.v[0] / normal_.a[0][0];
+    bool spread[3] = {true, false, false};
+    for (int k = 1; k < 3; ++k) {
+      const double mean = normal_.a[0][k] / normal_.a[0][0];
+      spread[k] = n_ >= 3 && normal_.a[k][k] / normal_.a[0][0] - mean * mean > 1e-12 * (1.0 + normal_.a[k][k] / normal_.a[0][0]);
+    }
+    feedid::SymMatrix<double, 3> m;
+    feedid::Vector<double, 3> r;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) m.a[i][j] = spread[i] && spread[j] ? normal_.a[i][j] : (i == j ? 1.0 : 0.0);
+      r.v[i] = spread[i] ? rhs_.v[i] : 0.0;
+    }
+    if (!feedid::cholesky(m, 1e-9)) return b;
+    b = feedid::cholesky_solve(m, r);
+    // A slope the fitted epochs do not show beyond 3 standard errors is
+    // noise, and extrapolated it raised alarms of its own (vs, Fs on a
+    // warm-up log): it stays 0.
+    const feedid::Vector<double, 3> var = feedid::cholesky_inverse_diagonal(m);
+    for (int k = 1; k < 3; ++k)
+      if (!(std::fabs(b.v[k]) > 3.0 * std::sqrt(var.v[k]))) b.v[k] = 0.0;
+    return b;
+  }
+  feedid::SymMatrix<double, 3> normal_;
+  feedid::Vector<double, 3> rhs_;
+  std::array<double, 2> c0_{NAN, NAN};
+  bool anchored_ = false;
+  int n_ = 0;
+};
+
+/// An epoch's estimate with each carried parameter's covariate effect taken out.
+feedid::Estimate<double> compensated(feedid::Estimate<double> e, const MonitorEpoch& ep,
+                                     std::array<CovariateModel, feedid::kTrackedCount>& models) {
+  if (!std::isfinite(ep.temperature) && !std::isfinite(ep.load)) return e;
+  const std::array<double, 2> c = {ep.temperature, ep.load};
+  for (int i = 0; i < feedid::kTrackedCount; ++i) {
+    double v = 0.0, se = 0.0;
+    if (!feedid::tracked_value(e, i, v, se)) continue;
+    // Temperature moves friction, not mass: a mass slope fitted on epochs
+    // whose mass is known to 7 % only extrapolated into alarms.
+    const double x = models[static_cast<std::size_t>(i)].compensate(v, se, i == 0 ? std::array<double, 2>{NAN, c[1]} : c);
+    feedid::DirectionEstimate<double>& d = i <= 4 ? e.pos : e.neg;
+    double* field[4] = {&d.viscous_Ns_m, &d.coulomb_N, &d.breakaway_N, &d.stribeck_velocity_m_s};
+    *(i == 0 ? &e.mass_kg : field[(i - 1) % 4]) = x;
+  }
+  return e;
+}
+
 /// Counts of what each tracked parameter's epochs carried, and its reference.
 void count_tracked(MonitorResult& out, const Monitor& health) {
   for (const MonitorEpoch& ep : out.epochs) {
@@ -184,20 +277,29 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   }
   std::vector<TraceSample> buf;
   TraceSample s;
+  std::array<double, 2> covariate_sum{};  // the epoch's temperature and load, summed row by row
   std::size_t compared = 0;  // epochs handed to the change monitor; the rest wait for the log's law
+  std::array<CovariateModel, feedid::kTrackedCount> covariates;
   auto compare_up_to = [&](std::size_t end) {
     for (; compared < end; ++compared) {
       MonitorEpoch& ep = out.epochs[compared];
       if (!ep.error.empty()) continue;
       for (std::size_t d = 0; d < 2; ++d) ep.law_differs[d] = ep.stribeck[d] != out.law.stribeck[d];
       int fresh = 0;
-      (void)health.update(as_compared(ep), ep.t_start_s, ep.t_end_s, fresh);
+      (void)health.update(compensated(as_compared(ep), ep, covariates), ep.t_start_s, ep.t_end_s, fresh);
       for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));
     }
   };
   auto close_epoch = [&] {
-    if (buf.size() < 2) return buf.clear();
+    if (buf.size() < 2) {
+      covariate_sum = {};
+      return buf.clear();
+    }
+    const double rows = static_cast<double>(buf.size());
     out.epochs.push_back(identify_epoch(buf, in, opt, static_cast<int>(out.epochs.size()), out.conventions));
+    if (in.has_temperature()) out.epochs.back().temperature = covariate_sum[0] / rows;
+    if (in.has_load()) out.epochs.back().load = covariate_sum[1] / rows;
+    covariate_sum = {};
     vote(out.law, out.epochs.back(), opt.detector.reference_epochs);
     if (out.law.fixed[0] && out.law.fixed[1]) compare_up_to(out.epochs.size());
     if (opt.progress) opt.progress(out.epochs.back().t_end_s);
@@ -205,6 +307,8 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   while (in.next(s)) {
     if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch();
     buf.push_back(s);
+    covariate_sum[0] += in.has_temperature() ? in.temperature() : 0.0;
+    covariate_sum[1] += in.has_load() ? in.load() : 0.0;
   }
   close_epoch();
   for (std::size_t d = 0; d < 2; ++d)
@@ -283,8 +387,8 @@ std::string jsonl_lines(const MonitorResult& r, const std::string& source) {
     j["type"] = "epoch";
     j["source"] = source;
     j["skipped"] = !ep.error.empty();
-    j["temperature"] = nullptr;  // no temperature or load column is read yet (docs/monitor.md)
-    j["load"] = nullptr;
+    j["temperature"] = std::isfinite(ep.temperature) ? nlohmann::json(ep.temperature) : nlohmann::json(nullptr);
+    j["load"] = std::isfinite(ep.load) ? nlohmann::json(ep.load) : nlohmann::json(nullptr);
     out += j.dump() + "\n";
     alarms_until(ep.t_end_s);
   }

@@ -5,6 +5,7 @@
 // alarms. Host only.
 #pragma once
 #include <array>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -37,6 +38,9 @@ struct MonitorEpoch {
   /// sigma are not compared: a Coulomb + viscous fit of a drive with a
   /// Stribeck dip puts part of the dip into Fc (20 % on a sine log).
   std::array<bool, 2> law_differs{};
+  /// Epoch means of the temperature and load columns (--temperature,
+  /// --load); NaN when the column is not read.
+  double temperature = NAN, load = NAN;
 };
 
 /// Each direction's friction law, fixed once per log like the conventions:

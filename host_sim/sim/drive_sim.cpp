@@ -120,6 +120,8 @@ void validate_effects(const SimConfig& c) {
 
 void validate_change(const SimConfig& c) {
   const ServiceChange& ch = c.change;
+  if (ch.warms_up() && c.plant != PlantKind::closed_loop)
+    throw std::invalid_argument("--warmup-drop: a warm-up is simulated by the closed-loop plant only");
   if (!ch.on()) return;
   if (c.plant != PlantKind::closed_loop)
     throw std::invalid_argument("--change-time: a change in service is simulated by the closed-loop plant only");

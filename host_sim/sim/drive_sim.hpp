@@ -5,6 +5,7 @@
 // signals carry encoder quantisation, velocity from position differences and
 // force noise. Deterministic for a given seed. Host only.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -159,6 +160,15 @@ struct ServiceChange {
   double mass_fraction = 0.0;     ///< m x (1 + this), > -1
   int direction = 0;              ///< +1: positive only, -1: negative only, 0: both
   bool on() const { return time_s >= 0.0; }
+  /// A warm-up (--warmup-drop, --warmup-minutes): from t = 0 the temperature
+  /// rises linearly from 20 to 45 °C over warmup_s and stays there, and the
+  /// Coulomb and viscous friction of both directions fall with it, by
+  /// warmup_drop at its end (friction x (1 - drop * share)).
+  double warmup_drop = 0.0;
+  double warmup_s = 1200.0;
+  double warmup_share(double t) const { return warmup_drop != 0.0 ? std::min(1.0, std::max(0.0, t / warmup_s)) : 0.0; }
+  double temperature_C(double t) const { return 20.0 + 25.0 * std::min(1.0, std::max(0.0, t / warmup_s)); }
+  bool warms_up() const { return warmup_drop != 0.0; }
 };
 
 /// Which plant makes the trace: the closed-loop drive of this file, or the

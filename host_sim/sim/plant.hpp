@@ -200,6 +200,9 @@ class DrivePlant {
       f.coulomb_N *= 1.0 + change_.coulomb_fraction;
       f.viscous_Ns_m *= 1.0 + change_.viscous_fraction;
     }
+    const double warm = 1.0 - change_.warmup_drop * change_.warmup_share(t);
+    f.coulomb_N *= warm;
+    f.viscous_Ns_m *= warm;
     return f;
   }
 

@@ -370,6 +370,34 @@ TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
   EXPECT_EQ(st.skipped_rows().front(), whole.trace.skipped_rows.front());
 }
 
+TEST(CsvStream, HandsOnTheTemperatureAndLoadColumnsItIsAskedFor) {
+  const std::string path = ::testing::TempDir() + "feedid_stream_cov.csv";
+  std::ofstream(path) << "t,x,v,u,T_C,payload_kg\n0,0,0,1,21.5,3\n0.001,0,0,2,bad,4\n0.002,0,0,3,22.5,5\n";
+  CsvColumns cols;
+  cols.temperature = "T_C";
+  cols.load = "payload_kg";
+  CsvStream st(path, cols);
+  ASSERT_TRUE(st.ok()) << st.error();
+  EXPECT_TRUE(st.has_temperature());
+  EXPECT_TRUE(st.has_load());
+  TraceSample s;
+  ASSERT_TRUE(st.next(s));
+  EXPECT_EQ(st.temperature(), 21.5);
+  EXPECT_EQ(st.load(), 3.0);
+  ASSERT_TRUE(st.next(s));  // the row with a bad temperature is skipped, named
+  EXPECT_EQ(s.u_N, 3.0);
+  EXPECT_EQ(st.temperature(), 22.5);
+  EXPECT_EQ(st.load(), 5.0);
+  EXPECT_EQ(st.rows_skipped(), 1u);
+  EXPECT_NE(st.skipped_rows().front().find("T_C"), std::string::npos) << st.skipped_rows().front();
+  CsvStream plain(path, CsvColumns{});
+  EXPECT_FALSE(plain.has_temperature());
+  cols.temperature = "temp";
+  CsvStream missing(path, cols);
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("missing column 'temp' (temperature)"), std::string::npos) << missing.error();
+}
+
 TEST(CsvStream, ErrorsAsTheReaderGivesThem) {
   const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "feedid_stream_hdr.csv") << "t,x,u\n";

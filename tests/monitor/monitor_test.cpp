@@ -215,6 +215,47 @@ TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
   EXPECT_LT(with_vs, 12);
 }
 
+/// Production motion warming up: friction 10 % down over 5 min as the
+/// logged temperature rises, then (optionally) Fc of both directions 5 % up at 450 s.
+MonitorResult monitor_warm_up(double step_fraction, bool read_temperature, const std::string& name) {
+  SimConfig c = production(5);
+  c.motion.duration_s = 540.0;
+  c.change.warmup_drop = 0.1;
+  c.change.warmup_s = 300.0;
+  if (step_fraction != 0.0) {
+    c.change.time_s = 450.0;
+    c.change.coulomb_fraction = step_fraction;
+  }
+  const std::string path = ::testing::TempDir() + name;
+  std::string err;
+  const ExtraColumn temperature{"temperature_C", [&c](double t) { return c.change.temperature_C(t); }};
+  EXPECT_TRUE(write_trace_csv(path, simulate(c), err, &temperature)) << err;
+  CsvColumns cols;
+  if (read_temperature) cols.temperature = "temperature_C";
+  CsvStream in(path, cols);
+  EXPECT_TRUE(in.ok()) << in.error();
+  return monitor(in, MonitorOptions{});
+}
+
+TEST(Monitor, AWarmUpWithItsTemperatureLoggedRaisesNoneWhileAStepAtConstantTemperatureDoes) {
+  const MonitorResult blind = monitor_warm_up(0.0, false, "feedid_monitor_warm_blind.csv");
+  EXPECT_FALSE(blind.alarms.empty()) << "a 10 % warm-up unmodelled alarms\n" << trend_table(blind);
+  const MonitorResult warm = monitor_warm_up(0.0, true, "feedid_monitor_warm.csv");
+  ASSERT_TRUE(warm.error.empty()) << warm.error;
+  EXPECT_TRUE(warm.alarms.empty()) << trend_table(warm);
+  ASSERT_FALSE(warm.epochs.empty());
+  EXPECT_NEAR(warm.epochs.front().temperature, 20.0 + 25.0 * 5.0 / 300.0, 0.1) << "the first epoch's mean";
+  EXPECT_TRUE(std::isnan(warm.epochs.front().load)) << "no load column read";
+  EXPECT_NE(jsonl_lines(warm, "log.csv").find("\"temperature\":20."), std::string::npos);
+  const MonitorResult step = monitor_warm_up(0.05, true, "feedid_monitor_warm_step.csv");
+  ASSERT_FALSE(step.alarms.empty()) << trend_table(step);
+  for (const auto& a : step.alarms) {
+    EXPECT_EQ(a.parameter, feedid::Tracked::coulomb) << trend_table(step);
+    EXPECT_GE(a.t_s, 450.0 - 10.0);
+    EXPECT_LE(a.raised_t_s, 450.0 + 60.0);
+  }
+}
+
 TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
   for (std::uint64_t seed : {1u, 2u, 3u}) {
     const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_free.csv");
