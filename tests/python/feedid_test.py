@@ -117,6 +117,34 @@ class EmpsArrays(unittest.TestCase):
                     self.assertAlmostEqual(got["replay"][when][k], cli_dg["replay"][when][k],
                                            delta=1e-9 * cli_dg["replay"][when][k], msg=when + " " + k)
 
+    def test_replay_gives_the_cli_figures(self):
+        # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
+        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
+        d = np.genfromtxt(EMPS, delimiter=",", names=True)
+        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+        p = np.genfromtxt(pulses, delimiter=",", names=True)
+        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+            json.dump(model, f)
+            f.flush()
+            cli_r = cli("replay", [pulses], "--model", f.name, "--controller", CONTROLLER, *cols)
+        # WHEN replayed from Python on the arrays and on the file
+        columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
+        on_arrays = feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"], columns=columns)
+        on_file = feedid.replay_file(model, CONTROLLER, pulses, time="t_s", position="qm_m", force="force_N")
+        # THEN the CLI's keys and its four relative errors, each way of comparing
+        for got in (on_arrays, on_file):
+            self.assertEqual(set(got), set(cli_r))
+            for figures in ("relative_error_pct", "relative_error_same_processing_pct", "processing_alone_pct"):
+                for k in ("position", "velocity", "acceleration", "force"):
+                    self.assertAlmostEqual(got[figures][k], cli_r[figures][k], delta=1e-9 * abs(cli_r[figures][k]),
+                                           msg=figures + " " + k)
+        # AND a missing reference column is a ValueError naming it, an unknown option a TypeError
+        with self.assertRaisesRegex(ValueError, "no reference column 'qg_m'"):
+            feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"])
+        with self.assertRaisesRegex(TypeError, "unknown option 'folds'"):
+            feedid.replay_file(model, CONTROLLER, pulses, folds=3)
+
     def test_diagnose_model_errors_and_warnings_are_the_clis(self):
         d = np.genfromtxt(EMPS, delimiter=",", names=True)
         hand = {"m": 95.1, "pos": {"sigma": 203.5, "fc": 20.4}, "neg": {"sigma": 203.5, "fc": 20.4}, "ofset_N": -3}
@@ -223,6 +251,18 @@ class Fleet(unittest.TestCase):
                 self.assertEqual(frame[d + "_sigma_se"][i], cli[d]["sigma_se"])
             self.assertEqual(frame["m"][i], cli["m"])
             self.assertEqual(frame["units"][i]["sigma"], "V s/rad")
+        # AND the fleet page sets every axis side by side: a table row per log with
+        # its error, and one figure per parameter (m, sigma, fc, fs, vs)
+        with tempfile.TemporaryDirectory() as tmp:
+            page = feedid.fleet.report(frame, os.path.join(tmp, "fleet"))
+            with open(page) as f:
+                text = f.read()
+        self.assertEqual(text.count("<svg"), 5)
+        self.assertEqual(text.count("<tr><td>"), 4)
+        self.assertIn("missing.csv: cannot open", text)
+        self.assertIn("pos sigma (V s/rad)", text)
+        for paths in logs:
+            self.assertIn(" + ".join(paths), text)
 
 
 class Monitor(unittest.TestCase):

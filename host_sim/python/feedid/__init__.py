@@ -14,7 +14,7 @@ import warnings
 from . import _feedid
 
 __all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
-           "validate_files", "monitor", "compensate", "read"]
+           "validate_files", "replay", "replay_file", "monitor", "compensate", "read"]
 
 
 class Error(ValueError):
@@ -136,6 +136,31 @@ def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None
     ValueError."""
     options.update(axis=axis, force_unit=force_unit)
     return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, json.dumps(model)))
+
+
+def replay(model, controller, t, x, u, *, columns=None, axis="linear", force_unit=None, **options):
+    """``feedid replay``: the model simulated inside the drive's own loop
+    (controller), driven by the logged reference, and compared with the run
+    given as arrays (t in s, x the measured position, u the force, one
+    continuous recording with no row left out). model and controller: dicts
+    with the keys of the CLI's files, or paths to them. columns: the arrays
+    the controller's reference and extra_command name (name -> array).
+    options: substeps, filter (Hz), drop_first, fit_gains and the input
+    options. The dict of ``replay --json``; the model's and controller's
+    warnings are Python warnings, as the CLI's on stderr."""
+    if model is None or controller is None:
+        raise TypeError("replay needs a model and a controller")
+    options.update(axis=axis, force_unit=force_unit)
+    return _warned(_feedid.replay_arrays(t, x, u, options, _given(model, controller), columns or {}))
+
+
+def replay_file(model, controller, path, axis="linear", force_unit=None, **options):
+    """replay() on one trace file (CSV or .mat) read by the host reader, the
+    controller's columns from it; options as replay()'s plus the column names."""
+    if model is None or controller is None:
+        raise TypeError("replay needs a model and a controller")
+    options.update(axis=axis, force_unit=force_unit)
+    return _warned(_feedid.replay_file(os.fspath(path), options, _given(model, controller)))
 
 
 def _paths(paths):

@@ -5,6 +5,7 @@ Each task runs on a worker, reads its file(s) with the host reader and
 identifies them there (feedid must be importable on the workers). A log
 that fails gives a row with its ``error``; it never stops the others.
 """
+import os
 import time
 
 import feedid
@@ -139,6 +140,19 @@ def _on_cluster(task, logs, client, options):
             if cluster is not None:
                 cluster.close()
     return pandas.DataFrame(rows)
+
+
+def report(frame, directory, command="feedid.fleet.report"):
+    """Writes ``report.html`` into directory (created if missing): every
+    axis's parameters side by side, from identify_many's DataFrame. A table
+    (m and each direction's sigma, fc, fs, vs with their standard errors,
+    status and error per log) and one figure per parameter with every
+    axis's estimate and its +-1 standard error, drawn by the host's report
+    code (the HTML and SVG of ``feedid diagnose --report``). command: the
+    text shown as what made the page. Returns the page's path."""
+    directory = os.fspath(directory)
+    feedid._feedid.fleet_report(frame.to_json(orient="records", double_precision=15), directory, command)
+    return os.path.join(directory, "report.html")
 
 
 def logs_per_second(paths_or_groups, workers=(1, 2), repeat=1, rounds=3, **options):
