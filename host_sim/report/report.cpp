@@ -671,10 +671,35 @@ std::string fleet_text(const nlohmann::json& row, const std::string& key) {
   return it != row.end() && it->is_string() ? it->get<std::string>() : "";
 }
 
-/// A figure cell: value +- se with the digits the se justifies; blank where there is none.
+/// Whether the row marks the parameter not identifiable (`<key>_identifiable` false).
+bool fleet_unidentifiable(const nlohmann::json& row, const std::string& key) {
+  const auto it = row.find(key + "_identifiable");
+  return it != row.end() && it->is_boolean() && !it->get<bool>();
+}
+
+/// A figure cell: value +- se with the digits the se justifies, greyed and
+/// said where the data cannot tell it (no "Fs 0 +- 540" read as a finding);
+/// blank where there is none.
 std::string fleet_cell(const nlohmann::json& row, const std::string& key) {
   const double v = fleet_number(row, key);
-  return std::isfinite(v) ? with_se(v, fleet_number(row, key + "_se")) : "";
+  if (!std::isfinite(v)) return "<td></td>";
+  const std::string text = with_se(v, fleet_number(row, key + "_se"));
+  if (fleet_unidentifiable(row, key)) return "<td class=\"ni\">" + text + " (not identifiable)</td>";
+  return "<td class=\"num\">" + text + "</td>";
+}
+
+/// A log's name in the table: each file's name (the folder is in the title, shown on hover).
+std::string fleet_log_name(const std::string& path) {
+  std::string shown;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t plus = path.find(" + ", from);
+    const std::string one = path.substr(from, plus == std::string::npos ? std::string::npos : plus - from);
+    shown += (shown.empty() ? "" : " + ") + std::filesystem::path(one).filename().string();
+    if (plus == std::string::npos) break;
+    from = plus + 3;
+  }
+  return "<code title=\"" + html(path) + "\">" + html(shown) + "</code>";
 }
 
 /// The first row's units dict that is there (failed logs have none).
@@ -687,29 +712,33 @@ nlohmann::json fleet_units(const nlohmann::json& rows) {
 std::string fleet_table(const nlohmann::json& rows, const nlohmann::json& units) {
   const auto unit = [&](const char* k) { return units.contains(k) ? " (" + html(units.at(k).get<std::string>()) + ")" : ""; };
   std::ostringstream o;
-  o << "<table>\n<tr><th>#</th><th>log</th><th>status</th><th>m" << unit("m") << "</th>";
+  o << "<style>td.num{white-space:nowrap}td.ni{white-space:nowrap;color:#999}</style>\n"
+    << "<div style=\"overflow-x:auto\"><table>\n<tr><th>#</th><th>log</th><th>status</th><th>m" << unit("m") << "</th>";
   for (const char* t : kFleetTerms) o << "<th>pos " << t << unit(t) << "</th><th>neg " << t << unit(t) << "</th>";
   o << "<th>error</th></tr>\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const nlohmann::json& r = rows[i];
-    o << "<tr><td>" << i + 1 << "</td><td><code>" << html(fleet_text(r, "path")) << "</code></td><td>"
-      << html(fleet_text(r, "status")) << "</td><td>" << fleet_cell(r, "m") << "</td>";
-    for (const char* t : kFleetTerms)
-      o << "<td>" << fleet_cell(r, std::string("pos_") + t) << "</td><td>" << fleet_cell(r, std::string("neg_") + t) << "</td>";
+    o << "<tr><td>" << i + 1 << "</td><td>" << fleet_log_name(fleet_text(r, "path")) << "</td><td>"
+      << html(fleet_text(r, "status")) << "</td>" << fleet_cell(r, "m");
+    for (const char* t : kFleetTerms) o << fleet_cell(r, std::string("pos_") + t) << fleet_cell(r, std::string("neg_") + t);
     o << "<td>" << html(fleet_text(r, "error")) << "</td></tr>\n";
   }
-  o << "</table>\n";
+  o << "</table></div>\n";
   return o.str();
 }
 
 /// Each axis's estimate of `key` at x = its row number (+ shift) and its
-/// +-1 standard error as a vertical bar (a broken line per axis).
-void fleet_series(const nlohmann::json& rows, const std::string& key, const std::string& label, const std::string& color,
-                  double shift, PlotSpec& p) {
+/// +-1 standard error as a vertical bar (a broken line per axis): those the
+/// data can tell (`identifiable`) or those it cannot, drawn apart in grey.
+void fleet_series(const nlohmann::json& rows, const std::string& key, bool identifiable, std::string label,
+                  std::string color, double shift, PlotSpec& p) {
+  if (!identifiable) color = "#aaaaaa";
   PlotSeries points, bars;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    const double v = fleet_number(rows[i], key), se = fleet_number(rows[i], key + "_se"), x = double(i + 1) + shift;
+    const bool shown = fleet_unidentifiable(rows[i], key) != identifiable;
+    const double v = shown ? fleet_number(rows[i], key) : nan;
+    const double se = fleet_number(rows[i], key + "_se"), x = double(i + 1) + shift;
     points.x.push_back(x);
     points.y.push_back(v);
     if (!std::isfinite(v) || !std::isfinite(se)) continue;
@@ -732,11 +761,14 @@ PlotSpec fleet_plot(const nlohmann::json& rows, const std::string& term, const n
   p.y = {term + (units.contains(term) ? " (" + units.at(term).get<std::string>() + ")" : ""), false};
   p.legend = "below";
   if (term == "m") {
-    fleet_series(rows, "m", "m", "#1f77b4", 0.0, p);
+    fleet_series(rows, "m", true, "m", "#1f77b4", 0.0, p);
+    fleet_series(rows, "m", false, "not identifiable", "", 0.0, p);
     return p;
   }
-  fleet_series(rows, "pos_" + term, "positive direction", "#1f77b4", -0.08, p);
-  fleet_series(rows, "neg_" + term, "negative direction", "#d62728", 0.08, p);
+  fleet_series(rows, "pos_" + term, true, "positive direction", "#1f77b4", -0.08, p);
+  fleet_series(rows, "neg_" + term, true, "negative direction", "#d62728", 0.08, p);
+  fleet_series(rows, "pos_" + term, false, "not identifiable", "", -0.08, p);
+  fleet_series(rows, "neg_" + term, false, "", "", 0.08, p);
   return p;
 }
 }  // namespace

@@ -261,6 +261,12 @@ class Fleet(unittest.TestCase):
         self.assertEqual(text.count("<tr><td>"), 4)
         self.assertIn("missing.csv: cannot open", text)
         self.assertIn("pos sigma (V s/rad)", text)
+        # an estimate the data cannot tell is said to be one, cell by cell
+        flags = ["m_identifiable"] + ["%s_%s_identifiable" % (d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs", "vs")]
+        not_identifiable = sum(1 for f in flags for i in range(len(frame))
+                               if frame[f][i] is False or frame[f][i] is np.False_)
+        self.assertGreater(not_identifiable, 0)
+        self.assertEqual(text.count("(not identifiable)"), not_identifiable)
         for paths in logs:
             self.assertIn(" + ".join(paths), text)
 
