@@ -1,5 +1,5 @@
-// feedid._feedid: the host's reader, identify(), diagnose(), validate(),
-// monitor() and the compensation table for Python (pybind11).
+// feedid._feedid: the host's reader, identify(), diagnose(), validate(), replay(),
+// monitor(), the compensation table and the fleet page for Python (pybind11).
 // The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
 // results cross as the JSON text of each command's to_json, the CLI's --json.
 // Nothing here prints: errors go to Python as exceptions with the host's
@@ -356,12 +356,12 @@ JsonAndWarnings replay_file(const std::string& path, const py::dict& kw, const G
   return run_replay(o, g, [&](const Controller& ctl) { return read_logged_run(path, o.columns, ctl); });
 }
 
-/// `feedid monitor` on one CSV log, read row by row in constant memory; the
+/// `feedid monitor` on one log (a CSV read row by row in constant memory); the
 /// JSON text of its --json (its error, where reading stopped, inside).
 std::string monitor_file(const std::string& path, const py::dict& kw) {
   const CallOptions o = call_options(kw, Command::monitor);
   py::gil_scoped_release release;
-  CsvStream in(path, o.columns);
+  CsvStream in = open_trace_stream(path, o.columns);  // CSV streamed; .mat and .wpilog read whole, as the CLI
   if (!in.ok()) throw std::invalid_argument(in.error());
   return to_json(monitor(in, o.monitor), o.monitor).dump();
 }
@@ -449,7 +449,7 @@ PYBIND11_MODULE(_feedid, m) {
   m.def("replay_file", &replay_file, py::arg("path"), py::arg("options"), py::arg("given"),
         "replay --json on one trace file: (JSON text, warnings)");
   m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
-        "friction health of one CSV log, streamed; the JSON text of monitor --json");
+        "friction health of one log, streamed; the JSON text of monitor --json");
   m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),
         "the friction table of a model JSON text; its JSON text, or CSV");
   m.def("fleet_report", &fleet_report, py::arg("rows"), py::arg("dir"), py::arg("command"),

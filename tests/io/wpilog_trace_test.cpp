@@ -54,18 +54,13 @@ struct Log {
     put_text(p, "{\"source\":\"test\"}");
     record(0, t_us, p);
   }
-  void value(std::uint32_t id, std::uint64_t t_us, double v) {
-    std::uint64_t bits;
-    std::memcpy(&bits, &v, 8);
+  /// A `double` (8 bytes) or `float` (4 bytes) record: the value's IEEE bits, little endian.
+  template <typename Real>
+  void value(std::uint32_t id, std::uint64_t t_us, Real v) {
+    std::uint64_t bits = 0;
+    std::memcpy(&bits, &v, sizeof v);
     Bytes p;
-    put(p, bits, 8);
-    record(id, t_us, p);
-  }
-  void value_float(std::uint32_t id, std::uint64_t t_us, float v) {
-    std::uint32_t bits;
-    std::memcpy(&bits, &v, 4);
-    Bytes p;
-    put(p, bits, 4);
+    put(p, bits, int(sizeof v));
     record(id, t_us, p);
   }
   std::string write(const std::string& name) const {
@@ -116,7 +111,7 @@ TEST(WpilogTrace, RowsAtTheForceTimesOthersInterpolated) {
   for (int k = 0; k < 6; ++k) log.value(1, 1000000 + 5000 * k, 0.5 * k);
   for (int k = 6; k >= 0; --k) {
     log.value(300, 1001000 + 5000 * (k - 1), 2.0 * k);
-    log.value_float(2, 1001000 + 5000 * (k - 1), 0.25f * float(k));
+    log.value(2, 1001000 + 5000 * (k - 1), 0.25f * float(k));
   }
   log.record(3, 1000000, Bytes{'x'});
   const CsvResult r = read_trace_file(log.write("sysid.wpilog"), sysid_columns());

@@ -52,6 +52,20 @@ def sysid_log(mechanism):
     return [os.path.join(SYSID, "%s_%s.csv" % (mechanism, run)) for run in ("slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd")]
 
 
+def model_on_pulses(command):
+    """The model identified on DATA_EMPS's arrays, the pulses run (its path
+    and arrays), and `feedid <command> --model M --controller C` on that run."""
+    d = np.genfromtxt(EMPS, delimiter=",", names=True)
+    model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+    pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+    with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+        json.dump(model, f)
+        f.flush()
+        result = cli(command, [pulses], "--model", f.name, "--controller", CONTROLLER,
+                     "--time", "t_s", "--position", "qm_m", "--force", "force_N")
+    return model, pulses, np.genfromtxt(pulses, delimiter=",", names=True), result
+
+
 @unittest.skipUnless(os.path.exists(EMPS), "no EMPS data at " + EMPS)
 class EmpsArrays(unittest.TestCase):
     def test_arrays_give_the_cli_estimates(self):
@@ -93,15 +107,7 @@ class EmpsArrays(unittest.TestCase):
 
     def test_diagnose_with_a_model_and_controller_gives_the_cli_results(self):
         # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
-        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
-        d = np.genfromtxt(EMPS, delimiter=",", names=True)
-        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
-        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
-        p = np.genfromtxt(pulses, delimiter=",", names=True)
-        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
-            json.dump(model, f)
-            f.flush()
-            cli_dg = cli("diagnose", [pulses], "--model", f.name, "--controller", CONTROLLER, *cols)
+        model, pulses, p, cli_dg = model_on_pulses("diagnose")
         # WHEN diagnosed from Python on the arrays and on the file, as diagnose --model --controller
         columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
         dg = feedid.diagnose(p["t_s"], p["qm_m"], p["force_N"], model=model, controller=CONTROLLER, columns=columns)
@@ -119,15 +125,7 @@ class EmpsArrays(unittest.TestCase):
 
     def test_replay_gives_the_cli_figures(self):
         # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
-        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
-        d = np.genfromtxt(EMPS, delimiter=",", names=True)
-        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
-        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
-        p = np.genfromtxt(pulses, delimiter=",", names=True)
-        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
-            json.dump(model, f)
-            f.flush()
-            cli_r = cli("replay", [pulses], "--model", f.name, "--controller", CONTROLLER, *cols)
+        model, pulses, p, cli_r = model_on_pulses("replay")
         # WHEN replayed from Python on the arrays and on the file
         columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
         on_arrays = feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"], columns=columns)
@@ -144,6 +142,16 @@ class EmpsArrays(unittest.TestCase):
             feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"])
         with self.assertRaisesRegex(TypeError, "unknown option 'folds'"):
             feedid.replay_file(model, CONTROLLER, pulses, folds=3)
+
+    def test_monitor_reads_a_mat_file_as_the_cli(self):
+        # GIVEN EMPS as its .mat (the force as vir, scaled) and as its CSV
+        mat = EMPS.replace(".csv", ".mat")
+        # WHEN monitored from Python
+        from_mat = feedid.monitor(mat, time="t", position="qm", force="vir", force_scale=35.15065188248547, epoch_s=2)
+        from_csv = feedid.monitor(EMPS, time="t_s", position="qm_m", force="force_N", epoch_s=2)
+        # THEN the same epochs (the .mat read whole and handed on, not parsed as text)
+        self.assertGreater(len(from_csv["epochs"]), 5)
+        self.assertEqual(from_mat["epochs"], from_csv["epochs"])
 
     def test_diagnose_model_errors_and_warnings_are_the_clis(self):
         d = np.genfromtxt(EMPS, delimiter=",", names=True)

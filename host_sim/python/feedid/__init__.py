@@ -1,5 +1,5 @@
 """feedid from Python: identify a feed drive's mass and friction from numpy
-arrays or trace files, diagnose the gap and validate a model, with the host
+arrays or trace files, diagnose the gap, validate and replay a model, with the host
 tool's own reader, identify(), diagnose() and validate().
 
 Results are the dicts of the CLI's JSON (``feedid identify --json``), parsed:
@@ -195,7 +195,8 @@ def validate_files(model, paths, axis="linear", force_unit=None, **options):
 
 
 def monitor(path, axis="linear", force_unit=None, **options):
-    """``feedid monitor`` on one CSV log, read row by row in constant memory:
+    """``feedid monitor`` on one log (a CSV read row by row in constant
+    memory, a .mat or .wpilog read whole and handed on row by row):
     each epoch's parameters and the change alarms. options: epoch_s,
     reference_epochs, threshold and the input options. The dict of
     ``monitor --json``; Error (with the epochs so far in ``result``) where
@@ -216,7 +217,7 @@ def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None
 
 
 def read(path, **columns):
-    """A trace file's signals through the host reader, as numpy arrays:
+    """A trace file's signals (CSV, .mat or .wpilog) through the host reader, as numpy arrays:
     a dict with t, x, v, u (SI after position_scale, force_scale and
     time_scale; x or v None when not logged) and rows_skipped,
     rows_repeated, skipped_rows. columns: time, position, velocity, force

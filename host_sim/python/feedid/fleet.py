@@ -109,7 +109,7 @@ def identify_many(paths_or_groups, client=None, **options):
 
 
 def monitor_many(paths, client=None, **options):
-    """feedid.monitor on every log (one CSV each) as its own dask task; a
+    """feedid.monitor on every log (one file each) as its own dask task; a
     pandas DataFrame, one row per log in the order given: path, epochs,
     epochs_identified, alarms, first_alarm_parameter, _direction, _t_s,
     _change_pct, units, error. client and options as identify_many's
