@@ -177,15 +177,15 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   c->add_option_function<std::string>("--columns", [&cols](const std::string& v) { cols.names_by_position = names_by_position(v); },
                                       "names of the columns by position, for a CSV without a header row, e.g. t,x,u "
                                       "(an empty name: a column not read, t,,x,u)");
-  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s, or ISO 8601 stamps)")->capture_default_str();
+  c->add_option("--time", cols.time, "CSV column or .mat variable of time (s, or ISO 8601 stamps); in a .wpilog the entry whose records give the rows (where it has no such entry: the force entry)")->capture_default_str();
   c->add_option("--rate", cols.rate_hz, "sample rate (Hz) of a CSV without a time column: data row k is at k / rate")
       ->check(CLI::PositiveNumber);
   c->add_option("--position", cols.position,
-                "CSV column or .mat variable of position (m; rad with --axis rotary); in a .mat also a struct field "
+                "CSV column, .mat variable or .wpilog entry of position (m; rad with --axis rotary); in a .mat also a struct field "
                 "(rec.act_pos) or a matrix column (data(:,2) or data:2)")->capture_default_str();
   c->add_option("--velocity", cols.velocity,
-                "CSV column or .mat variable of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
-  c->add_option("--force", cols.force, "CSV column or .mat variable of drive force (N; N m with --axis rotary)")->capture_default_str();
+                "CSV column, .mat variable or .wpilog entry of velocity (m/s; rad/s with --axis rotary); optional where position is logged")->capture_default_str();
+  c->add_option("--force", cols.force, "CSV column, .mat variable or .wpilog entry of drive force (N; N m with --axis rotary)")->capture_default_str();
   group_since(c, before_input, "Input: files and columns");
   const std::size_t before_units = c->get_options().size();
   c->add_option("--position-scale", cols.position_scale,

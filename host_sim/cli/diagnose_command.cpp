@@ -24,7 +24,7 @@ struct DiagnoseCommand : Command {
   std::string json_path, report_dir, method = "bands", model_path, controller_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
-    app->add_option("--in", in_path, "trace CSV or .mat; repeat to pool several recordings (folds stay within each)");
+    app->add_option("--in", in_path, "trace CSV, .mat or .wpilog; repeat to pool several recordings (folds stay within each)");
     app->add_option("--json", json_path, "write the diagnosis as JSON");
     app->add_option("--report", report_dir, "write pictures and a report page to this folder");
     add_identify_options(app, cols, input, opt.identify, method);

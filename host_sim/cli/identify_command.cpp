@@ -25,7 +25,7 @@ struct IdentifyCommand : Command {
   bool stream = false;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("identify", "identify the nine parameters from a trace CSV");
-    app->add_option("--in", in_path, "trace CSV (header row) or MATLAB .mat (v4, v5, v7.3); repeat to pool several recordings into one model");
+    app->add_option("--in", in_path, "trace CSV (header row), MATLAB .mat (v4, v5, v7.3) or WPILib .wpilog; repeat to pool several recordings into one model");
     app->add_option("--json", json_path, "write the result as JSON");
     app->add_option("--friction-plot", plot_path, "write the friction curve (measured band means and model) as SVG");
     app->add_flag("--stream", stream,

@@ -21,7 +21,7 @@ struct MonitorCommand : Command {
   std::string in_path, json_path, plot_path, jsonl_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("monitor", "friction health: parameter trends per epoch and change alarms, streaming a log of any length in constant memory");
-    app->add_option("--in", in_path, "log: a CSV, read row by row, or a .mat, read whole")->required();
+    app->add_option("--in", in_path, "log: a CSV, read row by row, or a .mat or .wpilog, read whole")->required();
     app->add_option("--json", json_path, "write epochs and alarms as JSON");
     app->add_option("--jsonl", jsonl_path,
                     "write one JSON line per epoch and per alarm, a time series for a database (docs/monitor.md); - for stdout");

@@ -47,7 +47,7 @@ struct ReplayCommand : Command {
                                           "and compare with the run (relative errors as the EMPS package computes them)");
     app->add_option("--model", model_path, "model JSON (from identify --json, or hand-written: m, pos, neg, offset_N)")->required();
     app->add_option("--controller", controller_path, "controller JSON (docs/reference.md, \"replay\")")->required();
-    app->add_option("--in", in_path, "the logged run (CSV or .mat), one continuous recording")->required();
+    app->add_option("--in", in_path, "the logged run (CSV, .mat or .wpilog), one continuous recording")->required();
     add_input_options(app, cols, input);
     app->add_option("--json", json_path, "write the result as JSON");
     app->add_option("--plot", plot_path, "write measured against simulated force over time as SVG");

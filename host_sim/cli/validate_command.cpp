@@ -24,7 +24,7 @@ struct ValidateCommand : Command {
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("validate", "predict the force of another trace with an identified model; relative error as the EMPS protocol computes it");
     app->add_option("--model", model_path, "model JSON (from identify, or a truth file)")->required();
-    app->add_option("--in", in_path, "trace CSV or .mat to predict; repeat for several recordings");
+    app->add_option("--in", in_path, "trace CSV, .mat or .wpilog to predict; repeat for several recordings");
     app->add_option("--json", json_path, "write the result as JSON");
     add_input_options(app, cols, input);
     app->add_option("--filter", opt.filter_hz, "zero-phase Butterworth cut-off on position (Hz)")->capture_default_str();

@@ -11,6 +11,7 @@
 #include "mat_trace.hpp"
 #include "message_text.hpp"
 #include "trace_rows.hpp"
+#include "wpilog_trace.hpp"
 
 namespace feedid::host {
 
@@ -21,11 +22,12 @@ bool is_mat_file(const std::string& path) {
 }
 
 CsvResult read_trace_file(const std::string& path, const CsvColumns& columns) {
+  if (is_wpilog_file(path)) return read_trace_wpilog(path, columns);
   return is_mat_file(path) ? read_trace_mat(path, columns) : read_trace_csv(path, columns);
 }
 
 CsvStream open_trace_stream(const std::string& path, const CsvColumns& columns) {
-  if (is_mat_file(path)) return CsvStream(read_trace_mat(path, columns));
+  if (is_mat_file(path) || is_wpilog_file(path)) return CsvStream(read_trace_file(path, columns));
   return CsvStream(path, columns);
 }
 

@@ -10,12 +10,12 @@ namespace feedid::host {
 
 /// Whether the path names a MATLAB file (.mat, any case).
 bool is_mat_file(const std::string& path);
-/// A .mat file (by its extension, any case) through read_trace_mat, any
-/// other through read_trace_csv; the same columns, scales and row rules.
+/// A .mat file (by its extension, any case) through read_trace_mat, a
+/// .wpilog through read_trace_wpilog, any other through read_trace_csv; the same columns, scales and row rules.
 CsvResult read_trace_file(const std::string& path, const CsvColumns& columns);
 
 /// A log read row by row (feedid monitor, identify --stream): a CSV
-/// streamed in constant memory, a .mat read whole by read_trace_mat and
+/// streamed in constant memory, a .mat or .wpilog read whole by read_trace_mat and
 /// handed on; the same formats, columns, scales and row rules as
 /// read_trace_file.
 CsvStream open_trace_stream(const std::string& path, const CsvColumns& columns);

@@ -1,5 +1,5 @@
-// feedid._feedid: the host's reader, identify(), diagnose(), validate(),
-// monitor() and the compensation table for Python (pybind11).
+// feedid._feedid: the host's reader, identify(), diagnose(), validate(), replay(),
+// monitor(), the compensation table and the fleet page for Python (pybind11).
 // The pure-Python package (feedid/__init__.py, feedid/fleet.py) wraps it;
 // results cross as the JSON text of each command's to_json, the CLI's --json.
 // Nothing here prints: errors go to Python as exceptions with the host's
@@ -34,6 +34,7 @@
 #include "monitor/monitor.hpp"
 #include "replay/controller.hpp"
 #include "replay/replay.hpp"
+#include "report/report.hpp"
 #include "validate/validate.hpp"
 
 namespace py = pybind11;
@@ -51,6 +52,8 @@ struct CallOptions {
   DiagnoseOptions diagnose;  ///< its .identify: identify's options
   ValidateOptions validate;
   MonitorOptions monitor;
+  ReplayOptions replay;     ///< replay's (substeps, filter, drop_first); units set with the others
+  bool fit_gains = false;   ///< replay --fit-gains
 };
 
 double number(const py::handle& value, const std::string& key) {
@@ -142,7 +145,17 @@ bool monitor_option(const std::string& key, const py::handle& value, MonitorOpti
   return true;
 }
 
-enum class Command { identify, diagnose, validate, monitor, read };
+/// replay's own options (`feedid replay --substeps --filter --drop-first --fit-gains`).
+bool replay_option(const std::string& key, const py::handle& value, CallOptions& o) {
+  if (key == "substeps") o.replay.substeps = whole_in(value, key, 1);
+  else if (key == "filter") o.replay.filter_hz = number(value, key);
+  else if (key == "drop_first") o.replay.drop_first = whole_in(value, key, 0);
+  else if (key == "fit_gains") o.fit_gains = py::cast<bool>(value);
+  else return false;
+  return true;
+}
+
+enum class Command { identify, diagnose, validate, monitor, replay, read };
 
 /// Options as keyword arguments, those of `command` and the input's; any
 /// other name is a TypeError naming it (an option silently ignored, or
@@ -158,10 +171,11 @@ CallOptions call_options(const py::dict& kw, Command command) {
                        (command == Command::identify && identify_option(key, value, o.diagnose.identify)) ||
                        (command == Command::diagnose && diagnose_option(key, value, o.diagnose)) ||
                        (command == Command::validate && validate_option(key, value, o.validate)) ||
-                       (command == Command::monitor && monitor_option(key, value, o.monitor));
+                       (command == Command::monitor && monitor_option(key, value, o.monitor)) ||
+                       (command == Command::replay && replay_option(key, value, o));
     if (!known) throw py::type_error("unknown option '" + key + "'");
   }
-  o.units = o.diagnose.identify.units = o.validate.units = o.monitor.identify.units = units_for(axis, force_unit);
+  o.units = o.diagnose.identify.units = o.validate.units = o.monitor.identify.units = o.replay.units = units_for(axis, force_unit);
   return o;
 }
 
@@ -188,7 +202,8 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
     case Command::diagnose: return to_json(diagnose(read.trace, o.diagnose)).dump();
     case Command::validate: break;
     case Command::monitor:
-    case Command::read: throw std::logic_error("monitor and read are not commands on a whole trace");
+    case Command::replay:
+    case Command::read: throw std::logic_error("monitor, replay and read are not commands on a whole trace");
   }
   const nlohmann::json model_json = nlohmann::json::parse(model_text);
   if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
@@ -307,12 +322,46 @@ JsonAndWarnings model_gap_files(const std::vector<std::string>& paths, const py:
                        [&](const Controller& ctl) { return read_logged_run(paths.front(), o.columns, ctl); });
 }
 
-/// `feedid monitor` on one CSV log, read row by row in constant memory; the
+/// `feedid replay`: the given model in the given controller's loop over the
+/// run `logged` reads for that controller; the JSON text of `replay --json`
+/// and the warnings the CLI prints on stderr (the model's, the controller's).
+JsonAndWarnings run_replay(const CallOptions& o, const GivenFiles& g,
+                           const std::function<LoggedRun(const Controller&)>& logged) {
+  const ModelFile model = model_file_from_json(nlohmann::json::parse(g.model_text), g.model_source);
+  if (const std::string why = model_units_mismatch({{"units", model.units}}, o.units); !why.empty())
+    throw std::invalid_argument(g.model_source + ": " + why);
+  const Controller c = controller_from_json(nlohmann::json::parse(g.controller_text), g.controller_source);
+  std::vector<std::string> notes = model.warnings;
+  notes.insert(notes.end(), c.warnings.begin(), c.warnings.end());
+  const ReplayResult r = replay(model, c, logged(c), o.replay, o.fit_gains);
+  return {to_json(r, model, c, o.replay).dump(), notes};
+}
+
+JsonAndWarnings replay_arrays(const py::object& t, const py::object& x, const py::object& u, const py::dict& kw,
+                              const GivenFiles& g, const py::dict& columns) {
+  const CallOptions o = call_options(kw, Command::replay);
+  TraceColumns c{to_vector(t), to_vector(x), {}, to_vector(u)};
+  if (c.t.empty() || c.x.empty() || c.u.empty()) throw py::value_error("t, x and u are required (time in s, position and force)");
+  std::map<std::string, std::vector<double>> named;
+  for (const auto& [k, a] : columns) named[py::cast<std::string>(k)] = to_vector(py::reinterpret_borrow<py::object>(a));
+  py::gil_scoped_release release;
+  const CsvResult read = trace_from_columns(c, o.columns, "arrays", 0);
+  if (!read.ok) throw std::invalid_argument(read.error);
+  return run_replay(o, g, [&](const Controller& ctl) { return run_from_arrays(read.trace, c.t.size(), named, o.columns, ctl); });
+}
+
+JsonAndWarnings replay_file(const std::string& path, const py::dict& kw, const GivenFiles& g) {
+  const CallOptions o = call_options(kw, Command::replay);
+  py::gil_scoped_release release;
+  return run_replay(o, g, [&](const Controller& ctl) { return read_logged_run(path, o.columns, ctl); });
+}
+
+/// `feedid monitor` on one log (a CSV read row by row in constant memory); the
 /// JSON text of its --json (its error, where reading stopped, inside).
 std::string monitor_file(const std::string& path, const py::dict& kw) {
   const CallOptions o = call_options(kw, Command::monitor);
   py::gil_scoped_release release;
-  CsvStream in(path, o.columns);
+  CsvStream in = open_trace_stream(path, o.columns);  // CSV streamed; .mat and .wpilog read whole, as the CLI
   if (!in.ok()) throw std::invalid_argument(in.error());
   return to_json(monitor(in, o.monitor), o.monitor).dump();
 }
@@ -334,6 +383,19 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
   }
   const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
   return format == "csv" ? to_csv(c.table, opt) : c.json.dump();
+}
+
+/// The fleet page (report/report.hpp) from feedid.fleet's rows as JSON text;
+/// an error writing it is an OSError-like RuntimeError naming the file.
+void fleet_report(const std::string& rows_text, const std::string& dir, const std::string& command) {
+  const nlohmann::json rows = nlohmann::json::parse(rows_text);
+  std::string error;
+  bool ok = false;
+  {
+    py::gil_scoped_release release;
+    ok = write_fleet_report(rows, dir, command, error);
+  }
+  if (!ok) throw std::runtime_error(error);
 }
 
 Array column(const std::vector<TraceSample>& s, double TraceSample::*field) {
@@ -382,9 +444,15 @@ PYBIND11_MODULE(_feedid, m) {
         "diagnose --model [--controller] on signals in memory; (JSON text of --json, warnings)");
   m.def("model_gap_files", &model_gap_files, py::arg("paths"), py::arg("options"), py::arg("given"),
         "the same on trace files (one with a controller)");
+  m.def("replay_arrays", &replay_arrays, py::arg("t"), py::arg("x"), py::arg("u"), py::arg("options"), py::arg("given"),
+        py::arg("columns"), "replay --json on arrays: (JSON text, warnings)");
+  m.def("replay_file", &replay_file, py::arg("path"), py::arg("options"), py::arg("given"),
+        "replay --json on one trace file: (JSON text, warnings)");
   m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
-        "friction health of one CSV log, streamed; the JSON text of monitor --json");
+        "friction health of one log, streamed; the JSON text of monitor --json");
   m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),
         "the friction table of a model JSON text; its JSON text, or CSV");
+  m.def("fleet_report", &fleet_report, py::arg("rows"), py::arg("dir"), py::arg("command"),
+        "report.html of a fleet's rows (JSON text) into dir");
   m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");
 }

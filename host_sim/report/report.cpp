@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -650,6 +651,144 @@ bool write_model_gap_report(const ModelGap& g, const std::string& dir, const std
     << "</code>. docs/diagnosis.md (4b) explains every quantity.</p>\n";
   if (g.replayed) o << model_gap_replay_table(g) << "<h2>Replay overlay and residual</h2>\n" << model_gap_replay_figures(g);
   o << diagnosis_sections(r) << "</body>\n</html>\n";
+  error = write_whole_file(dir + "/report.html", o.str());
+  return error.empty();
+}
+
+namespace {
+
+/// The parameters a fleet page sets side by side: the column stem and its units key.
+const char* const kFleetTerms[] = {"sigma", "fc", "fs", "vs"};
+
+/// A row's number under `key`; NaN where it is missing or null (a failed log).
+double fleet_number(const nlohmann::json& row, const std::string& key) {
+  const auto it = row.find(key);
+  return it != row.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string fleet_text(const nlohmann::json& row, const std::string& key) {
+  const auto it = row.find(key);
+  return it != row.end() && it->is_string() ? it->get<std::string>() : "";
+}
+
+/// Whether the row marks the parameter not identifiable (`<key>_identifiable` false).
+bool fleet_unidentifiable(const nlohmann::json& row, const std::string& key) {
+  const auto it = row.find(key + "_identifiable");
+  return it != row.end() && it->is_boolean() && !it->get<bool>();
+}
+
+/// A figure cell: value +- se with the digits the se justifies, greyed and
+/// said where the data cannot tell it (no "Fs 0 +- 540" read as a finding);
+/// blank where there is none.
+std::string fleet_cell(const nlohmann::json& row, const std::string& key) {
+  const double v = fleet_number(row, key);
+  if (!std::isfinite(v)) return "<td></td>";
+  const std::string text = with_se(v, fleet_number(row, key + "_se"));
+  if (fleet_unidentifiable(row, key)) return "<td class=\"ni\">" + text + " (not identifiable)</td>";
+  return "<td class=\"num\">" + text + "</td>";
+}
+
+/// A log's name in the table: each file's name (the folder is in the title, shown on hover).
+std::string fleet_log_name(const std::string& path) {
+  std::string shown;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t plus = path.find(" + ", from);
+    const std::string one = path.substr(from, plus == std::string::npos ? std::string::npos : plus - from);
+    shown += (shown.empty() ? "" : " + ") + std::filesystem::path(one).filename().string();
+    if (plus == std::string::npos) break;
+    from = plus + 3;
+  }
+  return "<code title=\"" + html(path) + "\">" + html(shown) + "</code>";
+}
+
+/// The first row's units dict that is there (failed logs have none).
+nlohmann::json fleet_units(const nlohmann::json& rows) {
+  for (const auto& r : rows)
+    if (r.contains("units") && r.at("units").is_object()) return r.at("units");
+  return nlohmann::json::object();
+}
+
+std::string fleet_table(const nlohmann::json& rows, const nlohmann::json& units) {
+  const auto unit = [&](const char* k) { return units.contains(k) ? " (" + html(units.at(k).get<std::string>()) + ")" : ""; };
+  std::ostringstream o;
+  o << "<style>td.num{white-space:nowrap}td.ni{white-space:nowrap;color:#999}</style>\n"
+    << "<div style=\"overflow-x:auto\"><table>\n<tr><th>#</th><th>log</th><th>status</th><th>m" << unit("m") << "</th>";
+  for (const char* t : kFleetTerms) o << "<th>pos " << t << unit(t) << "</th><th>neg " << t << unit(t) << "</th>";
+  o << "<th>error</th></tr>\n";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const nlohmann::json& r = rows[i];
+    o << "<tr><td>" << i + 1 << "</td><td>" << fleet_log_name(fleet_text(r, "path")) << "</td><td>"
+      << html(fleet_text(r, "status")) << "</td>" << fleet_cell(r, "m");
+    for (const char* t : kFleetTerms) o << fleet_cell(r, std::string("pos_") + t) << fleet_cell(r, std::string("neg_") + t);
+    o << "<td>" << html(fleet_text(r, "error")) << "</td></tr>\n";
+  }
+  o << "</table></div>\n";
+  return o.str();
+}
+
+/// Each axis's estimate of `key` at x = its row number (+ shift) and its
+/// +-1 standard error as a vertical bar (a broken line per axis): those the
+/// data can tell (`identifiable`) or those it cannot, drawn apart in grey.
+void fleet_series(const nlohmann::json& rows, const std::string& key, bool identifiable, std::string label,
+                  std::string color, double shift, PlotSpec& p) {
+  if (!identifiable) color = "#aaaaaa";
+  PlotSeries points, bars;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const bool shown = fleet_unidentifiable(rows[i], key) != identifiable;
+    const double v = shown ? fleet_number(rows[i], key) : nan;
+    const double se = fleet_number(rows[i], key + "_se"), x = double(i + 1) + shift;
+    points.x.push_back(x);
+    points.y.push_back(v);
+    if (!std::isfinite(v) || !std::isfinite(se)) continue;
+    bars.x.insert(bars.x.end(), {x, x, nan});
+    bars.y.insert(bars.y.end(), {v - se, v + se, nan});
+  }
+  p.series.push_back(scatter(label, points.x, points.y, color));
+  bars.color = color;
+  bars.markers = false;
+  p.series.push_back(bars);
+}
+
+PlotSpec fleet_plot(const nlohmann::json& rows, const std::string& term, const nlohmann::json& units) {
+  PlotSpec p;
+  p.id = "fleet_" + term;
+  p.title = term + " per axis (+-1 standard error)";
+  p.width_px = 1000;
+  p.height_px = 320;
+  p.x = {"axis (row # in the table)", false, 0.5, double(rows.size()) + 0.5};
+  p.y = {term + (units.contains(term) ? " (" + units.at(term).get<std::string>() + ")" : ""), false};
+  p.legend = "below";
+  if (term == "m") {
+    fleet_series(rows, "m", true, "m", "#1f77b4", 0.0, p);
+    fleet_series(rows, "m", false, "not identifiable", "", 0.0, p);
+    return p;
+  }
+  fleet_series(rows, "pos_" + term, true, "positive direction", "#1f77b4", -0.08, p);
+  fleet_series(rows, "neg_" + term, true, "negative direction", "#d62728", 0.08, p);
+  fleet_series(rows, "pos_" + term, false, "not identifiable", "", -0.08, p);
+  fleet_series(rows, "neg_" + term, false, "", "", 0.08, p);
+  return p;
+}
+}  // namespace
+
+bool write_fleet_report(const nlohmann::json& rows, const std::string& dir, const std::string& command,
+                        std::string& error) {
+  if (!rows.is_array()) {
+    error = "fleet report: the rows must be a list of objects (one per log)";
+    return false;
+  }
+  if (!create_dir(dir, error)) return false;
+  const nlohmann::json units = fleet_units(rows);
+  std::ostringstream o;
+  o << page_head("feedid fleet: " + std::to_string(rows.size()) + " axes");
+  o << "<h1>Fleet: " << rows.size() << " axes side by side</h1>\n<p>Made by <code>" << html(command)
+    << "</code>. One row per log; docs/python.md (\"A fleet\") defines every column.</p>\n";
+  o << fleet_table(rows, units);
+  o << "<h2>m</h2>\n" << render_svg(fleet_plot(rows, "m", units));
+  for (const char* t : kFleetTerms) o << "<h2>" << t << "</h2>\n" << render_svg(fleet_plot(rows, t, units));
+  o << "</body>\n</html>\n";
   error = write_whole_file(dir + "/report.html", o.str());
   return error.empty();
 }

@@ -58,4 +58,14 @@ bool write_model_gap_report(const ModelGap& g, const std::string& dir, const std
 bool write_replay_report(const ReplayResult& r, const std::string& dir, const std::string& source,
                          const std::string& command, std::string& error);
 
+/// Writes report.html into dir (created if missing) for a fleet: every
+/// axis's parameters side by side, a table (value +- standard error, status,
+/// error) and one figure per parameter (m, sigma, fc, fs, vs) with each
+/// axis's estimate and +-1 standard error per direction. `rows`: an array of
+/// objects with the keys of feedid.fleet.identify_many's columns (path,
+/// status, error, m, m_se, pos_sigma, pos_sigma_se, ..., units); a missing
+/// or null figure is left blank. `command`: what made it, shown on the page.
+bool write_fleet_report(const nlohmann::json& rows, const std::string& dir, const std::string& command,
+                        std::string& error);
+
 }  // namespace feedid::host

@@ -52,6 +52,20 @@ def sysid_log(mechanism):
     return [os.path.join(SYSID, "%s_%s.csv" % (mechanism, run)) for run in ("slow_fwd", "slow_bwd", "fast_fwd", "fast_bwd")]
 
 
+def model_on_pulses(command):
+    """The model identified on DATA_EMPS's arrays, the pulses run (its path
+    and arrays), and `feedid <command> --model M --controller C` on that run."""
+    d = np.genfromtxt(EMPS, delimiter=",", names=True)
+    model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
+    pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
+    with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+        json.dump(model, f)
+        f.flush()
+        result = cli(command, [pulses], "--model", f.name, "--controller", CONTROLLER,
+                     "--time", "t_s", "--position", "qm_m", "--force", "force_N")
+    return model, pulses, np.genfromtxt(pulses, delimiter=",", names=True), result
+
+
 @unittest.skipUnless(os.path.exists(EMPS), "no EMPS data at " + EMPS)
 class EmpsArrays(unittest.TestCase):
     def test_arrays_give_the_cli_estimates(self):
@@ -93,15 +107,7 @@ class EmpsArrays(unittest.TestCase):
 
     def test_diagnose_with_a_model_and_controller_gives_the_cli_results(self):
         # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
-        cols = ("--time", "t_s", "--position", "qm_m", "--force", "force_N")
-        d = np.genfromtxt(EMPS, delimiter=",", names=True)
-        model = feedid.identify(d["t_s"], d["qm_m"], d["force_N"])
-        pulses = EMPS.replace("DATA_EMPS.csv", "DATA_EMPS_PULSES.csv")
-        p = np.genfromtxt(pulses, delimiter=",", names=True)
-        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
-            json.dump(model, f)
-            f.flush()
-            cli_dg = cli("diagnose", [pulses], "--model", f.name, "--controller", CONTROLLER, *cols)
+        model, pulses, p, cli_dg = model_on_pulses("diagnose")
         # WHEN diagnosed from Python on the arrays and on the file, as diagnose --model --controller
         columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
         dg = feedid.diagnose(p["t_s"], p["qm_m"], p["force_N"], model=model, controller=CONTROLLER, columns=columns)
@@ -116,6 +122,36 @@ class EmpsArrays(unittest.TestCase):
                 for k in ("position", "velocity", "acceleration", "force"):
                     self.assertAlmostEqual(got["replay"][when][k], cli_dg["replay"][when][k],
                                            delta=1e-9 * cli_dg["replay"][when][k], msg=when + " " + k)
+
+    def test_replay_gives_the_cli_figures(self):
+        # GIVEN the model identified on DATA_EMPS (a dict), the EMPS controller (a path) and the pulses run
+        model, pulses, p, cli_r = model_on_pulses("replay")
+        # WHEN replayed from Python on the arrays and on the file
+        columns = {"qg_m": p["qg_m"], "pulses_N_raw": p["pulses_N_raw"]}
+        on_arrays = feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"], columns=columns)
+        on_file = feedid.replay_file(model, CONTROLLER, pulses, time="t_s", position="qm_m", force="force_N")
+        # THEN the CLI's keys and its four relative errors, each way of comparing
+        for got in (on_arrays, on_file):
+            self.assertEqual(set(got), set(cli_r))
+            for figures in ("relative_error_pct", "relative_error_same_processing_pct", "processing_alone_pct"):
+                for k in ("position", "velocity", "acceleration", "force"):
+                    self.assertAlmostEqual(got[figures][k], cli_r[figures][k], delta=1e-9 * abs(cli_r[figures][k]),
+                                           msg=figures + " " + k)
+        # AND a missing reference column is a ValueError naming it, an unknown option a TypeError
+        with self.assertRaisesRegex(ValueError, "no reference column 'qg_m'"):
+            feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"])
+        with self.assertRaisesRegex(TypeError, "unknown option 'folds'"):
+            feedid.replay_file(model, CONTROLLER, pulses, folds=3)
+
+    def test_monitor_reads_a_mat_file_as_the_cli(self):
+        # GIVEN EMPS as its .mat (the force as vir, scaled) and as its CSV
+        mat = EMPS.replace(".csv", ".mat")
+        # WHEN monitored from Python
+        from_mat = feedid.monitor(mat, time="t", position="qm", force="vir", force_scale=35.15065188248547, epoch_s=2)
+        from_csv = feedid.monitor(EMPS, time="t_s", position="qm_m", force="force_N", epoch_s=2)
+        # THEN the same epochs (the .mat read whole and handed on, not parsed as text)
+        self.assertGreater(len(from_csv["epochs"]), 5)
+        self.assertEqual(from_mat["epochs"], from_csv["epochs"])
 
     def test_diagnose_model_errors_and_warnings_are_the_clis(self):
         d = np.genfromtxt(EMPS, delimiter=",", names=True)
@@ -223,6 +259,24 @@ class Fleet(unittest.TestCase):
                 self.assertEqual(frame[d + "_sigma_se"][i], cli[d]["sigma_se"])
             self.assertEqual(frame["m"][i], cli["m"])
             self.assertEqual(frame["units"][i]["sigma"], "V s/rad")
+        # AND the fleet page sets every axis side by side: a table row per log with
+        # its error, and one figure per parameter (m, sigma, fc, fs, vs)
+        with tempfile.TemporaryDirectory() as tmp:
+            page = feedid.fleet.report(frame, os.path.join(tmp, "fleet"))
+            with open(page) as f:
+                text = f.read()
+        self.assertEqual(text.count("<svg"), 5)
+        self.assertEqual(text.count("<tr><td>"), 4)
+        self.assertIn("missing.csv: cannot open", text)
+        self.assertIn("pos sigma (V s/rad)", text)
+        # an estimate the data cannot tell is said to be one, cell by cell
+        flags = ["m_identifiable"] + ["%s_%s_identifiable" % (d, p) for d in ("pos", "neg") for p in ("sigma", "fc", "fs", "vs")]
+        not_identifiable = sum(1 for f in flags for i in range(len(frame))
+                               if frame[f][i] is False or frame[f][i] is np.False_)
+        self.assertGreater(not_identifiable, 0)
+        self.assertEqual(text.count("(not identifiable)"), not_identifiable)
+        for paths in logs:
+            self.assertIn(" + ".join(paths), text)
 
 
 class Monitor(unittest.TestCase):

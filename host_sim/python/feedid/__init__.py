@@ -1,5 +1,5 @@
 """feedid from Python: identify a feed drive's mass and friction from numpy
-arrays or trace files, diagnose the gap and validate a model, with the host
+arrays or trace files, diagnose the gap, validate and replay a model, with the host
 tool's own reader, identify(), diagnose() and validate().
 
 Results are the dicts of the CLI's JSON (``feedid identify --json``), parsed:
@@ -14,7 +14,7 @@ import warnings
 from . import _feedid
 
 __all__ = ["Error", "NotPhysical", "identify", "identify_files", "diagnose", "diagnose_files", "validate",
-           "validate_files", "monitor", "compensate", "read"]
+           "validate_files", "replay", "replay_file", "monitor", "compensate", "read"]
 
 
 class Error(ValueError):
@@ -138,6 +138,31 @@ def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None
     return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, json.dumps(model)))
 
 
+def replay(model, controller, t, x, u, *, columns=None, axis="linear", force_unit=None, **options):
+    """``feedid replay``: the model simulated inside the drive's own loop
+    (controller), driven by the logged reference, and compared with the run
+    given as arrays (t in s, x the measured position, u the force, one
+    continuous recording with no row left out). model and controller: dicts
+    with the keys of the CLI's files, or paths to them. columns: the arrays
+    the controller's reference and extra_command name (name -> array).
+    options: substeps, filter (Hz), drop_first, fit_gains and the input
+    options. The dict of ``replay --json``; the model's and controller's
+    warnings are Python warnings, as the CLI's on stderr."""
+    if model is None or controller is None:
+        raise TypeError("replay needs a model and a controller")
+    options.update(axis=axis, force_unit=force_unit)
+    return _warned(_feedid.replay_arrays(t, x, u, options, _given(model, controller), columns or {}))
+
+
+def replay_file(model, controller, path, axis="linear", force_unit=None, **options):
+    """replay() on one trace file (CSV or .mat) read by the host reader, the
+    controller's columns from it; options as replay()'s plus the column names."""
+    if model is None or controller is None:
+        raise TypeError("replay needs a model and a controller")
+    options.update(axis=axis, force_unit=force_unit)
+    return _warned(_feedid.replay_file(os.fspath(path), options, _given(model, controller)))
+
+
 def _paths(paths):
     return [os.fspath(paths)] if isinstance(paths, (str, os.PathLike)) else [os.fspath(p) for p in paths]
 
@@ -170,7 +195,8 @@ def validate_files(model, paths, axis="linear", force_unit=None, **options):
 
 
 def monitor(path, axis="linear", force_unit=None, **options):
-    """``feedid monitor`` on one CSV log, read row by row in constant memory:
+    """``feedid monitor`` on one log (a CSV read row by row in constant
+    memory, a .mat or .wpilog read whole and handed on row by row):
     each epoch's parameters and the change alarms. options: epoch_s,
     reference_epochs, threshold and the input options. The dict of
     ``monitor --json``; Error (with the epochs so far in ``result``) where
@@ -191,7 +217,7 @@ def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None
 
 
 def read(path, **columns):
-    """A trace file's signals through the host reader, as numpy arrays:
+    """A trace file's signals (CSV, .mat or .wpilog) through the host reader, as numpy arrays:
     a dict with t, x, v, u (SI after position_scale, force_scale and
     time_scale; x or v None when not logged) and rows_skipped,
     rows_repeated, skipped_rows. columns: time, position, velocity, force

@@ -5,6 +5,7 @@ Each task runs on a worker, reads its file(s) with the host reader and
 identifies them there (feedid must be importable on the workers). A log
 that fails gives a row with its ``error``; it never stops the others.
 """
+import os
 import time
 
 import feedid
@@ -108,7 +109,7 @@ def identify_many(paths_or_groups, client=None, **options):
 
 
 def monitor_many(paths, client=None, **options):
-    """feedid.monitor on every log (one CSV each) as its own dask task; a
+    """feedid.monitor on every log (one file each) as its own dask task; a
     pandas DataFrame, one row per log in the order given: path, epochs,
     epochs_identified, alarms, first_alarm_parameter, _direction, _t_s,
     _change_pct, units, error. client and options as identify_many's
@@ -139,6 +140,19 @@ def _on_cluster(task, logs, client, options):
             if cluster is not None:
                 cluster.close()
     return pandas.DataFrame(rows)
+
+
+def report(frame, directory, command="feedid.fleet.report"):
+    """Writes ``report.html`` into directory (created if missing): every
+    axis's parameters side by side, from identify_many's DataFrame. A table
+    (m and each direction's sigma, fc, fs, vs with their standard errors,
+    status and error per log) and one figure per parameter with every
+    axis's estimate and its +-1 standard error, drawn by the host's report
+    code (the HTML and SVG of ``feedid diagnose --report``). command: the
+    text shown as what made the page. Returns the page's path."""
+    directory = os.fspath(directory)
+    feedid._feedid.fleet_report(frame.to_json(orient="records", double_precision=15), directory, command)
+    return os.path.join(directory, "report.html")
 
 
 def logs_per_second(paths_or_groups, workers=(1, 2), repeat=1, rounds=3, **options):
