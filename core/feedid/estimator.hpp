@@ -469,7 +469,7 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
     if (section_sign_ * v <= -cfg_.section_enter_m_s) {
       close_section();
       open_section(v > T(0) ? 0 : 1, true);
-      section_time_ = dt;  // the interval is the new section's
+      section_time_ = dt;  // the interval belongs to the section just opened
       return;
     }
     section_time_ += dt;  // a section that rests ends with this interval
