@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
+#include "io/number_format.hpp"
 #include "signals/filters.hpp"
 
 namespace feedid::host {
@@ -165,7 +167,9 @@ IdentifyResult with_constant(const Trace& trace, IdentifyOptions base, IdentifyR
 IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResult r0, bool automatic) {
   const double span = travel_span(trace);
   if (automatic && span < kGravityMinSpan_rad) {
-    r0.gravity.note = "none: the axis turns " + std::to_string(span) + " rad, too little to tell G cos(q - q0) from friction";
+    std::ostringstream o;
+    o << "none: the axis turns " << std::setprecision(2) << span << " rad, too little to tell G cos(q - q0) from friction";
+    r0.gravity.note = o.str();
     return r0;
   }
   double a = 0.0, b = 0.0;
@@ -198,7 +202,8 @@ IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResu
   const double coulomb = 0.5 * (std::fabs(r0.estimate.pos.coulomb_N) + std::fabs(r0.estimate.neg.coulomb_N));
   if (automatic && !(G >= kGravityMinZ * G_se && G >= kGravityMinShareOfCoulomb * coulomb)) {
     std::ostringstream o;
-    o << "none: G cos(q - q0) came out at " << G << " +- " << G_se << ", under " << kGravityMinZ
+    const Rounded g = round_to_se(G, G_se);  // the digits its error justifies
+    o << "none: G cos(q - q0) came out at " << g.value << " +- " << g.se << ", under " << kGravityMinZ
       << " standard errors or a tenth of the Coulomb friction";
     r0.gravity.note = o.str();
     return r0;
