@@ -190,7 +190,7 @@ ModelFile compensable_model(const nlohmann::json& mj, const std::string& source)
   const auto refuse = [&](const std::string& why) {
     throw std::invalid_argument(source + ": " + why + ": no compensation written");
   };
-  if (mj.contains("status") && mj["status"] != "ok")
+  if (mj.contains("status") && mj["status"] != "ok" && mj["status"] != "not_physical")  // the reader says why not physical
     refuse("identify did not solve it (status " + mj["status"].dump() +
            (mj.contains("error") && mj["error"].is_string() ? ": " + mj["error"].get<std::string>() : std::string()) + ")");
   ModelFile file;

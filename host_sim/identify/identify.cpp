@@ -887,6 +887,11 @@ std::string not_physical(const IdentifyResult& r) {
   return non_physical_parameters(to_drive_params(r.estimate), r.units);
 }
 
+std::string status_word(const IdentifyResult& r) {
+  if (!not_physical(r).empty()) return "not_physical";
+  return feedid::status_name(r.status);
+}
+
 std::vector<std::string> implausible_magnitudes(const IdentifyResult& r) {
   std::vector<std::string> out;
   const bool linear = r.units.linear_si(), rotary = r.units.force == "N m" && r.units.position == "rad";
@@ -991,7 +996,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& g = r.diagnostics;
   nlohmann::json j;
-  j["status"] = feedid::status_name(r.status);
+  j["status"] = status_word(r);
   if (!r.error.empty()) j["error"] = r.error;
   const std::string unphysical = not_physical(r);
   j["physical"] = unphysical.empty();
@@ -1104,7 +1109,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   const auto& e = r.estimate;
   char buf[256];
   o << "method " << (e.method == feedid::Method::paper ? "paper" : "bands") << ", status "
-    << feedid::status_name(r.status) << "; "
+    << status_word(r) << "; "
     << (r.streamed ? r.diagnostics.samples_accepted + r.diagnostics.samples_rejected : r.signals.t.size())
     << (r.streamed ? " samples streamed, " : " samples, ") << r.duration_s << " s at "
     << r.signals.sample_rate_hz << " Hz; velocity " << r.signals.velocity_origin << "\n";

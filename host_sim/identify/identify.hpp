@@ -375,6 +375,12 @@ BlockMass block_mass(const std::vector<PairedBlock>& blocks);
 /// not ok: nothing to judge).
 std::string not_physical(const IdentifyResult& r);
 
+/// The result's status as the JSON and the summary say it: the core's
+/// status name, or "not_physical" where the core solved but the model is
+/// not physical, so that no output says "ok" beside a model every command
+/// refuses.
+std::string status_word(const IdentifyResult& r);
+
 /// The likeliest cause of a model that is not physical, in words; empty
 /// when it is physical. Every term negative: the force's sign. One
 /// direction's Coulomb force negative beyond two standard errors while the

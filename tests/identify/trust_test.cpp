@@ -110,6 +110,10 @@ TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
   EXPECT_NE(why.find("Fc- = -"), std::string::npos) << why;
   const nlohmann::json j = to_json(r);
   EXPECT_FALSE(j.at("physical").get<bool>());
+  // no output says "ok" beside a model every command refuses
+  EXPECT_EQ(j.at("status"), "not_physical");
+  EXPECT_NE(summary(r).find("status not_physical"), std::string::npos);
+  EXPECT_EQ(to_json(clean()).at("status"), "ok");
   EXPECT_NE(j.at("not_physical_cause").get<std::string>().find("wrong sign"), std::string::npos);
   EXPECT_NE(summary(r).find("NOT PHYSICAL"), std::string::npos);
   EXPECT_TRUE(to_json(clean()).at("physical").get<bool>());

@@ -19,19 +19,11 @@ def _log_name(paths):
     return paths[0] if len(paths) == 1 else " + ".join(paths)
 
 
-def _status(result):
-    """The core's status, except that a solved model that is not physical
-    reads "not_physical": never "ok" beside a model the CLI refuses."""
-    if not result:
-        return "error"
-    return "not_physical" if result.get("physical") is False else result.get("status", "error")
-
-
 def row(paths, result, error=""):
     """One log's row: path, status, the estimates with standard errors and
     identifiability flags, the symmetric model where the directions agree,
     and the error (empty when none)."""
-    r = {"path": _log_name(paths), "status": _status(result)}
+    r = {"path": _log_name(paths), "status": result.get("status", "error") if result else "error"}
     r["m"] = result.get("m") if result else None
     r["m_se"] = result.get("m_se") if result else None
     r["m_identifiable"] = result.get("m_identifiable") if result else None
