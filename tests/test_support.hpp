@@ -52,6 +52,19 @@ inline host::SimConfig logged_config(const SimSpec& s, host::ForceLog force, hos
 
 inline host::Trace simulate(const SimSpec& s) { return host::simulate(sim_config(s)); }
 
+/// The default drive's 60 s ladder as a rotary arm: its travel of 0.11 m
+/// read as 20 times as many rad (2.25 rad), with G cos(q - q0) added to the
+/// force. The friction and mass are the drive's in the arm's units.
+inline host::Trace arm_trace(double G, double q0) {
+  host::Trace tr = simulate(SimSpec{});
+  for (host::TraceSample& s : tr.samples) {
+    s.x_m *= 20.0;
+    s.v_m_s *= 20.0;
+    s.u_N += G * std::cos(s.x_m - q0);
+  }
+  return tr;
+}
+
 /// The core configuration for an encoder of quantum q (m) sampled at rate
 /// (Hz), and the relative error: the core tests' own (core_trace.hpp).
 using core_test::default_config;

@@ -37,7 +37,7 @@ struct ValidateCommand : Command {
     const ModelFile file = read_model_file(model_path);
     for (const auto& w : file.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     const DriveParams& model = file.drive;
-    opt.offset_N = file.offset_N;
+    opt.load = file.load;
     opt.units = input.units();
     if (const std::string why = model_units_mismatch({{"units", file.units}}, opt.units); !why.empty()) {
       std::fprintf(stderr, "error: %s: %s\n", model_path.c_str(), why.c_str());

@@ -227,6 +227,9 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   ModelCompensation c;
   c.table = make_compensation_table(file.drive, opt.max_speed_m_s, opt.points);
   c.warnings = file.warnings;
+  if (file.load.any())
+    c.warnings.push_back(source + ": the model's load (a constant force or an arm's weight) is not friction and is not "
+                         "in the table: feed it forward on its own");
   c.json = to_json(c.table, opt);
   if (mj.contains("units")) c.json["model_units"] = mj["units"];  // the table's speeds and forces are in these
   c.force_negated = mj.contains("input") && mj["input"].value("force_sign", 1) < 0;

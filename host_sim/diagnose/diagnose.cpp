@@ -926,7 +926,7 @@ Vec given_prediction(const Observations& obs, const ModelFile& m) {
   const Signals& s = obs.signals();
   return obs.sample_column([&](std::size_t j) {
     const double a = (s.v[j + 1] - s.v[j]) / obs.interval_dt(j);
-    return predict_force(m.drive, obs.interval_v(j), a) + m.offset_N;
+    return predict_force(m.drive, obs.interval_v(j), a) + m.load.at(0.5 * (s.x[j] + s.x[j + 1]));
   });
 }
 
@@ -1097,7 +1097,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
     // The given model is the base; the core's fit on the identification
     // folds only set the signals' timing and velocity range.
     nlohmann::json m = model_json(r.given_model.drive, r.base.units);
-    m["offset_N"] = r.given_model.offset_N;
+    put_load(m, r.given_model.load);
     j["base_model"] = {{"given", r.given_model.source}, {"refitted", false}, {"model", m},
                        {"note", "the mass, friction and offset are the file's; only the effects are fitted, on the "
                                 "identification folds"}};

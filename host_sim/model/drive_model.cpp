@@ -9,6 +9,16 @@
 
 namespace feedid::host {
 
+double ModelLoad::at(double x) const {
+  return gravity_N != 0.0 ? offset_N + gravity_N * std::cos(x - gravity_angle0_rad) : offset_N;
+}
+
+void put_load(nlohmann::json& model, const ModelLoad& load) {
+  model["offset_N"] = load.offset_N;
+  if (load.gravity_N != 0.0)
+    model["gravity"] = {{"form", "angle"}, {"G", load.gravity_N}, {"angle0_rad", load.gravity_angle0_rad}};
+}
+
 double sliding_friction(const DirectionFriction& f, double direction, double v_m_s) {
   const double r = v_m_s / f.stribeck_velocity_m_s;
   // Beyond kExpUnderflow, exp(-r^2) is exactly 0 in double: skipping it

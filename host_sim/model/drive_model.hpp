@@ -51,6 +51,26 @@ feedid::Estimate<double> to_estimate(const DriveParams& p);
 /// pushes with the motion, and a friction feedforward from it would too.
 std::string non_physical_parameters(const DriveParams& p, const Units& units = {});
 
+/// A load that does not reverse with the motion, beside m a + F(v): a
+/// constant force F0 (an inclined axis, cable drag, a sensor offset; the
+/// EMPS reference model's "offset") and, on a rotary arm, its weight
+/// G cos(q - q0) (identify --gravity). The one rule for the load, used by
+/// the simulator's plant, validate, replay and diagnose.
+struct ModelLoad {
+  double offset_N = 0.0;            ///< F0 (N, or the log's force unit)
+  double gravity_N = 0.0;           ///< G of G cos(q - q0) (N m, or the log's force unit); 0: none
+  double gravity_angle0_rad = 0.0;  ///< q0 (rad): the angle where the arm's weight pulls hardest
+  /// The load at position x (rad where gravity_N != 0).
+  double at(double x) const;
+  /// Whether the load needs the position (a log without one cannot carry it).
+  bool depends_on_position() const { return gravity_N != 0.0; }
+  bool any() const { return offset_N != 0.0 || gravity_N != 0.0; }
+};
+
+/// Writes the load into a model's JSON as the model file reads it:
+/// "offset_N" always, "gravity" {"G", "angle0_rad"} when there is one.
+void put_load(nlohmann::json& model, const ModelLoad& load);
+
 /// Force the model predicts for velocity v and acceleration a (N).
 double predict_force(const DriveParams& p, double v_m_s, double a_m_s2);
 

@@ -50,6 +50,28 @@ DirectionFriction direction_from_json(const nlohmann::json& j, const char* name,
   return f;
 }
 
+/// The gravity term as identify writes it ({"form": "constant"|"angle"|"none",
+/// "G", "angle0_rad", ...}) or by hand ({"G", "angle0_rad"}: the arm form;
+/// {"G"} alone: a constant). A constant G is a constant load: it adds to F0.
+void read_gravity(const nlohmann::json& g, bool from_identify, ModelFile& out) {
+  if (!g.is_object()) fail(out.source, "'gravity' must be an object");
+  const std::string form = g.contains("form") && g.at("form").is_string() ? g.at("form").get<std::string>()
+                           : g.contains("angle0_rad")                      ? "angle"
+                                                                            : "constant";
+  if (form == "none") return;
+  if (form != "constant" && form != "angle")
+    fail(out.source, "'gravity.form' is \"" + form + "\": none, constant or angle");
+  const double G = number_at(g, "G", "gravity.", out.source);
+  if (form == "constant") {
+    out.load.offset_N += G;
+  } else {
+    out.load.gravity_N = G;
+    out.load.gravity_angle0_rad = number_at(g, "angle0_rad", "gravity.", out.source);
+  }
+  if (!from_identify) warn_unknown(g, {"form", "G", "angle0_rad", "G_se", "angle0_se_rad", "units", "note", "rule"},
+                                   "gravity.", out);
+}
+
 }  // namespace
 
 ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source) {
@@ -63,11 +85,12 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   out.drive.mass_kg = number_at(j, "m", "", source);
   out.drive.pos = direction_from_json(j, "pos", from_identify, out);
   out.drive.neg = direction_from_json(j, "neg", from_identify, out);
-  if (j.contains("offset_N")) out.offset_N = number_at(j, "offset_N", "", source);
+  if (j.contains("offset_N")) out.load.offset_N = number_at(j, "offset_N", "", source);
+  if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
   if (!unphysical.empty()) fail(source, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
-  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", "offset_N", "units", "comment"}, "", out);
+  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", "offset_N", "gravity", "units", "comment"}, "", out);
   return out;
 }
 

@@ -2,7 +2,8 @@
 // `feedid identify --json` writes, or a hand-written one with at least
 //
 //     {"m": 95.1, "pos": {"sigma": 203.5, "fc": 20.4[, "fs": 0, "vs": 1e-3]},
-//                 "neg": {...}[, "offset_N": -3.16]}
+//                 "neg": {...}[, "offset_N": -3.16]
+//      [, "gravity": {"G": 30.2, "angle0_rad": 0.41}]}
 //
 // (the drive model of NOTES.md plus a constant load force). The one reader
 // for every stage that takes a model (validate, replay, diagnose,
@@ -20,10 +21,12 @@ namespace feedid::host {
 
 struct ModelFile {
   DriveParams drive;
-  /// Constant load force F0 (N) the drive holds at rest and in motion,
-  /// u = m a + F(v) + F0 (Effects::offset_N; the EMPS reference model's
-  /// "offset"). 0 when the file has none.
-  double offset_N = 0.0;
+  /// The load the drive holds at rest and in motion, u = m a + F(v) + load:
+  /// the file's "offset_N" (F0; the EMPS reference model's "offset"), and
+  /// the gravity term identify --gravity wrote ("gravity": a constant G adds
+  /// to F0; G cos(q - angle0_rad) is the arm's weight). None when the file
+  /// has neither.
+  ModelLoad load;
   /// Keys the reader did not use, as "model.json: unknown key 'foo' (ignored)":
   /// a typo must not silently leave a parameter at its default.
   std::vector<std::string> warnings;

@@ -210,7 +210,7 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
     throw std::invalid_argument("model: " + why);
   const ModelFile file = model_file_from_json(model_json, "model");
   CallOptions with_offset = o;
-  with_offset.validate.offset_N = file.offset_N;
+  with_offset.validate.load = file.load;
   return to_json(validate(file.drive, read.trace, with_offset.validate), file.drive, with_offset.validate).dump();
 }
 

@@ -91,9 +91,14 @@ double continuous_period(const LoggedRun& run) {
   return dt;
 }
 
-/// The plant's effects: the model's constant load force added to those asked for.
-Effects plant_effects(double offset_N, Effects e) {
-  e.offset_N += offset_N;
+/// The plant's effects: the model's load (its constant force and an arm's
+/// weight) added to those asked for.
+Effects plant_effects(const ModelLoad& load, Effects e) {
+  e.offset_N += load.offset_N;
+  if (load.gravity_N != 0.0) {
+    e.gravity_N = load.gravity_N;
+    e.gravity_angle0_rad = load.gravity_angle0_rad;
+  }
   return e;
 }
 
@@ -101,7 +106,7 @@ Effects plant_effects(double offset_N, Effects e) {
 class LoopReplay {
  public:
   LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps, const ReplayOptions& opt)
-      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(plant_effects(m.offset_N, opt.effects)), extra_(opt.extra_force),
+      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(plant_effects(m.load, opt.effects)), extra_(opt.extra_force),
         plant_(m.drive, fx_, extra_, no_change_), vel_(c.position_fir, dt),
         commands_(static_cast<std::size_t>(c.delay_samples) + 1, 0.0) {}
   void start_at(double x) { plant_.start_at(x); }
@@ -313,7 +318,7 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
                      {"extra_gain", std::isfinite(r.gain_fit.extra_gain) ? nlohmann::json(r.gain_fit.extra_gain) : nlohmann::json()},
                      {"extra_gain_se", std::isfinite(r.gain_fit.extra_gain_se) ? nlohmann::json(r.gain_fit.extra_gain_se) : nlohmann::json()}};
   nlohmann::json m = model_json(model.drive, r.units);
-  m["offset_N"] = model.offset_N;
+  put_load(m, model.load);
   j["model"] = m;
   j["notes"] = r.notes;
   j["units"] = units_json(r.units);

@@ -50,7 +50,7 @@ struct ReplayOptions {
   int drop_first = 49;     ///< samples left out at the start (the filter's edge), as in the protocol
   Units units;             ///< labels only (units.hpp)
   /// Unmodelled effects added to the model's plant (diagnose's named
-  /// effects, sim/drive_sim.hpp); offset_N adds to the model's own.
+  /// effects, sim/drive_sim.hpp); offset_N adds to the model's own load.
   Effects effects;
   /// A further force against the motion, f(t, x, v) (N), for an effect the
   /// plant's fixed shapes do not draw (a drift per direction); none when empty.

@@ -245,8 +245,12 @@ std::string given_model_html(const ModelFile& m, const Units& u) {
   row("Coulomb F<sub>c</sub>", u.force, d.pos.coulomb_N, d.neg.coulomb_N, true);
   row("break-away F<sub>s</sub>", u.force, d.pos.breakaway_N, d.neg.breakaway_N, dip);
   row("Stribeck v<sub>s</sub>", u.velocity(), d.pos.stribeck_velocity_m_s, d.neg.stribeck_velocity_m_s, dip);
-  o << "<tr><td>offset</td><td colspan=\"2\">" << (m.offset_N != 0 ? stated(m.offset_N) : "not in the model") << "</td><td>"
-    << html(u.force) << "</td></tr>\n</table>\n";
+  o << "<tr><td>offset</td><td colspan=\"2\">" << (m.load.offset_N != 0 ? stated(m.load.offset_N) : "not in the model")
+    << "</td><td>" << html(u.force) << "</td></tr>\n";
+  if (m.load.gravity_N != 0)
+    o << "<tr><td>gravity G cos(q - q<sub>0</sub>)</td><td>G " << stated(m.load.gravity_N) << "</td><td>q<sub>0</sub> "
+      << stated(m.load.gravity_angle0_rad) << " rad</td><td>" << html(u.force) << "</td></tr>\n";
+  o << "</table>\n";
   return o.str();
 }
 

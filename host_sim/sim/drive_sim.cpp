@@ -65,6 +65,8 @@ void require_finite(double v, const char* field, const char* unit) {
 void validate_effects(const SimConfig& c) {
   const Effects& e = c.effects;
   require_finite(e.offset_N, "effects.offset_N", "N");
+  require_finite(e.gravity_N, "effects.gravity_N", "N");
+  require_finite(e.gravity_angle0_rad, "effects.gravity_angle0_rad", "rad");
 
   require_finite(e.ripple_amplitude_N, "effects.ripple_amplitude_N", "N");
   require_finite(e.ripple_phase_rad, "effects.ripple_phase_rad", "rad");
@@ -205,7 +207,7 @@ std::vector<std::string> active_effects(const Effects& e) {
 }
 
 double load_force(const Effects& e, double t_s, double x_m) {
-  double f = e.offset_N;
+  double f = ModelLoad{e.offset_N, e.gravity_N, e.gravity_angle0_rad}.at(x_m);
   if (e.ripple_amplitude_N != 0.0)
     f += e.ripple_amplitude_N * std::sin(2.0 * kPi * x_m / e.ripple_period_m + e.ripple_phase_rad);
   if (e.disturbance_amplitude_N != 0.0)

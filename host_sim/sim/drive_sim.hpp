@@ -62,6 +62,10 @@ struct Effects {
   /// cable drag, current-sensor offset. The recorded force shifts by +F0 in
   /// both directions and at rest.
   double offset_N = 0.0;
+  /// An arm's weight, F_load += G cos(x - q0) with x in rad (ModelLoad; a
+  /// model identified with --gravity angle replays with it). 0: none.
+  double gravity_N = 0.0;
+  double gravity_angle0_rad = 0.0;
 
   // --- position ripple (in F_load) ----------------------------------------
   /// Amplitude A (N) of F_load += A sin(2 pi x / P + phi) (cogging, screw pitch error).

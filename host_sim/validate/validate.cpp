@@ -81,7 +81,9 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
   std::vector<double> v, a;
   protocol_derivatives(p, has_position, opt.filter_hz, v, a);
   std::vector<double> u_hat(n);
-  for (std::size_t k = 0; k < n; ++k) u_hat[k] = predict_force(model, v[k], a[k]) + opt.offset_N;
+  for (std::size_t k = 0; k < n; ++k)
+    u_hat[k] = predict_force(model, v[k], a[k]) + opt.load.at(has_position ? p.x[k] : 0.0);  // validate() refuses
+                                                                                         // an arm's load without x
   for (std::size_t k = first; k < n; ++k) full.add(p.u[k], u_hat[k]);
   // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
   // new Nyquist frequency, like MATLAB decimate's default) and every n-th
@@ -122,6 +124,9 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
   r.stretches_on_clock_slots = s.stretches_on_clock_slots;
   r.velocity_origin = logged.has_position ? "position, zero-phase Butterworth + central differences"
                                           : "velocity column, zero-phase Butterworth; acceleration by central differences";
+  if (opt.load.depends_on_position() && !logged.has_position)
+    throw std::invalid_argument(logged.source + ": the model carries an arm's weight, G cos(q - q0), and the log has "
+                                "no position to place it: give the position column");
   ErrorSums full, decimated;
   const auto parts = stretches(s);
   for (const auto& [first, end] : parts)
@@ -164,8 +169,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"position_unwraps", r.position_wrap.wraps},
           {"model", model_json(model, r.units)},
           {"units", units_json(r.units)}};
-  // Only a model with a load force states it (the keys of one without are unchanged).
-  if (opt.offset_N != 0.0) j["model"]["offset_N"] = opt.offset_N;
+  // Only a model with a load states it (the keys of one without are unchanged).
+  if (opt.load.any()) put_load(j["model"], opt.load);
   return j;
 }
 

@@ -21,9 +21,9 @@ struct ValidateOptions {
   int decimate = 10;          ///< keep every n-th sample after anti-alias filtering (1 = none)
   int drop_first = 49;        ///< samples dropped at the start (filter edge), as in the protocol
   Units units;                ///< labels only (units.hpp)
-  /// The model's constant load force (ModelFile::offset_N, N), added to
-  /// every prediction: u = m a + F(v) + offset.
-  double offset_N = 0.0;
+  /// The model's load (ModelFile::load), added to every prediction:
+  /// u = m a + F(v) + load(x).
+  ModelLoad load;
 };
 
 struct ValidateResult {

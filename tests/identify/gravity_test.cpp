@@ -11,19 +11,7 @@ namespace {
 using test::SimSpec;
 using test::simulate;
 
-/// The default drive's 60 s ladder as a rotary arm: its travel of 0.11 m
-/// read as 20 times as many rad (2.25 rad), with G cos(q - q0) added to the
-/// force. The friction and mass are the drive's in the arm's units.
-Trace arm(double G, double q0) {
-  SimSpec spec;
-  Trace tr = simulate(spec);
-  for (TraceSample& s : tr.samples) {
-    s.x_m *= 20.0;
-    s.v_m_s *= 20.0;
-    s.u_N += G * std::cos(s.x_m - q0);
-  }
-  return tr;
-}
+Trace arm(double G, double q0) { return test::arm_trace(G, q0); }
 
 IdentifyOptions rotary(GravityTerm g) {
   IdentifyOptions o;

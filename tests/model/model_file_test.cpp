@@ -28,7 +28,7 @@ TEST(ModelFile, HandWrittenMinimalModelHasNoStribeckDip) {
   EXPECT_DOUBLE_EQ(m.drive.neg.viscous_Ns_m, 203.5034);
   EXPECT_DOUBLE_EQ(m.drive.pos.coulomb_N, 20.3935);
   EXPECT_EQ(m.drive.pos.breakaway_N, 0.0);
-  EXPECT_DOUBLE_EQ(m.offset_N, -3.1648);
+  EXPECT_DOUBLE_EQ(m.load.offset_N, -3.1648);
   EXPECT_TRUE(m.warnings.empty());
   // AND the friction just above rest is the Coulomb force, the dip absent
   EXPECT_NEAR(stribeck_friction(m.drive, 1e-9), 20.3935, 1e-6);
@@ -56,7 +56,7 @@ TEST(ModelFile, UnknownKeyIsAWarningNotAnError) {
   ASSERT_EQ(m.warnings.size(), 2u);
   EXPECT_NE(m.warnings[0].find("'pos.sigam'"), std::string::npos) << m.warnings[0];
   EXPECT_NE(m.warnings[1].find("'ofset_N'"), std::string::npos) << m.warnings[1];
-  EXPECT_EQ(m.offset_N, 0.0);
+  EXPECT_EQ(m.load.offset_N, 0.0);
 }
 
 TEST(ModelFile, StribeckNeedsBothFsAndVs) {
@@ -97,6 +97,28 @@ TEST(ModelFile, IdentifyReportKeysAreNotWarnedButAFailedStatusIsAnError) {
   // WHEN identify failed
   j["status"] = "insufficient_data";
   EXPECT_NE(error_of([&] { model_file_from_json(j, "id.json"); }).find("status"), std::string::npos);
+}
+
+TEST(ModelFile, AGravityTermIsTheModelsLoad) {
+  // GIVEN identify's constant form, its arm form, and an arm written by hand
+  json constant = emps_reference(), arm = emps_reference(), by_hand = emps_reference();
+  constant["gravity"] = {{"form", "constant"}, {"G", 5.0}};
+  arm["gravity"] = {{"form", "angle"}, {"G", 30.0}, {"angle0_rad", 0.4}};
+  by_hand["gravity"] = {{"G", 30.0}, {"angle0_rad", 0.4}, {"q0", 1.0}};
+  // THEN a constant G adds to the offset, and the arm's weight is a load that turns with q
+  const ModelFile c = model_file_from_json(constant, "c.json");
+  EXPECT_DOUBLE_EQ(c.load.offset_N, -3.1648 + 5.0);
+  EXPECT_FALSE(c.load.depends_on_position());
+  for (const json& j : {arm, by_hand}) {
+    const ModelFile a = model_file_from_json(j, "a.json");
+    EXPECT_DOUBLE_EQ(a.load.gravity_N, 30.0);
+    EXPECT_DOUBLE_EQ(a.load.at(0.4), -3.1648 + 30.0);
+    EXPECT_NEAR(a.load.at(0.4 + 1.5707963267948966), -3.1648, 1e-12);
+  }
+  // AND a typo inside it is a warning, a form it does not know an error
+  EXPECT_EQ(model_file_from_json(by_hand, "h.json").warnings.size(), 1u);
+  arm["gravity"]["form"] = "sine";
+  EXPECT_NE(error_of([&] { model_file_from_json(arm, "x"); }).find("gravity.form"), std::string::npos);
 }
 
 }  // namespace

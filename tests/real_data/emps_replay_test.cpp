@@ -61,7 +61,7 @@ ReplayFigures figure_se(const ModelFile& ref, const ReplayFigures& at_ref,
       [](ModelFile& m) { m.drive.mass_kg += 0.1085; },
       [](ModelFile& m) { m.drive.pos.viscous_Ns_m += 1.1460, m.drive.neg.viscous_Ns_m += 1.1460; },
       [](ModelFile& m) { m.drive.pos.coulomb_N += 0.1012, m.drive.neg.coulomb_N += 0.1012; },
-      [](ModelFile& m) { m.offset_N += 0.0444; }};
+      [](ModelFile& m) { m.load.offset_N += 0.0444; }};
   ReplayFigures se;
   for (const auto& move : moves) {
     ModelFile m = ref;

@@ -80,7 +80,7 @@ TEST_F(Emps, PublishedModelFileWithItsOffsetReproducesThePublishedError) {
   const ModelFile m = read_model_file(std::string(FEEDID_SOURCE_DIR) + "/docs/examples/emps_reference_model.json");
   ASSERT_TRUE(m.warnings.empty());
   ValidateOptions with_offset;
-  with_offset.offset_N = m.offset_N;
+  with_offset.load = m.load;
   // WHEN validate computes its error on the identification run
   const Trace run = read_emps("DATA_EMPS.csv");
   const double e = validate(m.drive, run, with_offset).relative_error_pct;
