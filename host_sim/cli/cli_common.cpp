@@ -210,9 +210,9 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   c->add_option_function<std::string>(
        "--gravity",
        [&o](const std::string& v) { (void)gravity_from_name(v, o.gravity); },
-       "a load that does not reverse with the motion, fitted and taken off the force first: none (default); constant "
-       "(a vertical axis: G, with Coulomb friction the same both ways); angle (a rotary arm: G cos(q - q0), q in rad); "
-       "auto (angle where the axis is rotary and the data show it)")
+       "a load that does not reverse with the motion, fitted and taken off the force first: auto (default: angle "
+       "where the axis is rotary and the data show it, else none); none; constant (a vertical axis: G, with Coulomb "
+       "friction the same both ways); angle (a rotary arm: G cos(q - q0), q in rad)")
       ->check(CLI::IsMember({"none", "constant", "angle", "auto"}));
   const std::size_t before_advanced = c->get_options().size();
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")

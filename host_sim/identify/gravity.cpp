@@ -254,7 +254,7 @@ IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& 
   if (opt.gravity == GravityTerm::constant) return with_constant(trace, base, std::move(r0));
   const bool rotary = opt.units.position == "rad";
   if (!rotary) {
-    r0.gravity.note = opt.gravity == GravityTerm::automatic ? "none: a linear axis (a constant load is --gravity constant)" : "";
+    r0.gravity.note = "";  // automatic (the default) on a linear axis: nothing to say on every linear log
     if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs a rotary axis (--axis rotary, position in rad)";
     return r0;
   }

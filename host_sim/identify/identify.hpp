@@ -97,7 +97,10 @@ struct IdentifyOptions {
   /// residual for its `delay` candidate instead of vanishing into the lag.
   bool lag_within_conventions = false;
   /// A gravity term to fit and take off the force first (gravity.hpp).
-  GravityTerm gravity = GravityTerm::none;
+  /// automatic: an arm's weight where the axis is rotary and the data tell
+  /// it from friction; nothing on a linear axis, where a constant load and
+  /// asymmetric Coulomb friction look alike.
+  GravityTerm gravity = GravityTerm::automatic;
   /// Overrides of the automatic choices (0 = from the data).
   double velocity_min_m_s = 0.0;
   double velocity_max_m_s = 0.0;

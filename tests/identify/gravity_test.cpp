@@ -43,6 +43,22 @@ TEST(Gravity, AnArmsLoadIsFittedAndTheFrictionIsTheUnloadedArms) {
   }
 }
 
+TEST(Gravity, ARotaryAxisGetsTheArmsWeightByDefaultALinearOneNothing) {
+  // GIVEN the loaded arm, identified with nothing said of gravity
+  IdentifyOptions o;
+  o.units = units_for(Axis::rotary);
+  const IdentifyResult r = identify(arm(30.0, 0.4), o);
+  // THEN the weight is found, as asked for with auto
+  ASSERT_EQ(r.gravity.form, GravityTerm::angle) << r.gravity.note;
+  EXPECT_NEAR(r.gravity.G, 30.0, 0.3);
+  // AND a linear axis, where a constant load looks like asymmetric Coulomb
+  // friction, keeps its friction as it was and says nothing of gravity
+  const IdentifyResult linear = identify(simulate(SimSpec{}), IdentifyOptions{});
+  EXPECT_EQ(linear.gravity.form, GravityTerm::none);
+  EXPECT_TRUE(linear.gravity.note.empty()) << linear.gravity.note;
+  EXPECT_FALSE(to_json(linear).contains("gravity"));
+}
+
 TEST(Gravity, AutomaticKeepsNoTermWhereThereIsNoLoad) {
   const IdentifyResult r = identify(arm(0.0, 0.0), rotary(GravityTerm::automatic));
   ASSERT_TRUE(r.error.empty()) << r.error;
