@@ -33,7 +33,7 @@ int run_circle_report(const CircleOptions& opt) {
   std::printf("largest quadrant glitch %.0f %% lower with the identified compensation\n", 100.0 * r.glitch_reduction);
   std::string err;
   if (!opt.json_path.empty()) {
-    err = write_whole_file(opt.json_path, to_json(r, opt).dump(2) + "\n");
+    err = write_whole_file(opt.json_path, json_as_written(to_json(r, opt)).dump(2) + "\n");
     if (!err.empty()) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;

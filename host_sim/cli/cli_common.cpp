@@ -236,7 +236,7 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
 }
 
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {
-  const std::string err = write_whole_file(path, j.dump(2) + "\n", inputs);
+  const std::string err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
   if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
   return err.empty();
 }

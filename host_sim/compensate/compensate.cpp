@@ -215,15 +215,17 @@ std::string unusable_model(const nlohmann::json& mj) {
 
 ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions opt, const std::string& source) {
   const ModelFile file = compensable_model(mj, source);
-  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains("velocity_max_m_s"))
-    opt.max_speed_m_s = mj["config"]["velocity_max_m_s"].get<double>();
+  // identify names the key in the model's units (velocity_max_rad_s on a rotary axis)
+  const std::string top_speed = key_in_units("velocity_max_m_s", stated_units(mj));
+  if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains(top_speed))
+    opt.max_speed_m_s = mj["config"][top_speed].get<double>();
   if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "--force-scale %g: must be finite and non-zero", opt.force_scale);
     throw std::invalid_argument(buf);
   }
   if (opt.max_speed_m_s <= 0)
-    throw std::invalid_argument(source + " has no config.velocity_max_m_s (a truth file?): give --max-speed");
+    throw std::invalid_argument(source + " has no config." + top_speed + " (a truth file?): give --max-speed");
   ModelCompensation c;
   c.table = make_compensation_table(file.drive, opt.max_speed_m_s, opt.points);
   c.warnings = file.warnings;
@@ -231,7 +233,7 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
     c.warnings.push_back(source + ": the model's load (a constant force or an arm's weight) is not friction and is not "
                          "in the table: feed it forward on its own");
   c.json = to_json(c.table, opt);
-  if (mj.contains("units")) c.json["model_units"] = mj["units"];  // the table's speeds and forces are in these
+  if (mj.contains("units")) c.json["units"] = mj["units"];  // the table's speeds and forces are in these (its keys are named in them)
   c.force_negated = mj.contains("input") && mj["input"].value("force_sign", 1) < 0;
   return c;
 }

@@ -56,7 +56,7 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
 std::string unusable_model(const nlohmann::json& model);
 
 /// A model JSON's compensation: the table and its JSON (with the model's
-/// units as model_units), and whether the model was identified with the
+/// units as units), and whether the model was identified with the
 /// logged force negated (input.force_sign -1: the drive's feedforward is
 /// then minus the table).
 struct ModelCompensation {

@@ -1053,6 +1053,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
     j["error"] = r.error;
     return j;
   }
+  j["units"] = units_json(r.base.units);  // the log's: every key and value below is in them
   j["effect"] = {{"kind", r.effect}, {"parameters", r.effect_parameters.is_null() ? nlohmann::json::object() : r.effect_parameters}};
   for (auto it = r.effect_parameters.begin(); r.effect_parameters.is_object() && it != r.effect_parameters.end(); ++it)
     j["effect"][it.key()] = it.value();

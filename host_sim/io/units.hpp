@@ -5,6 +5,7 @@
 // the labels change, and they are written here once. Host only.
 #pragma once
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -44,6 +45,62 @@ inline nlohmann::json units_json(const Units& u) {
   return {{"m", u.mass()},          {"sigma", u.viscous()},   {"fc", u.force},   {"fs", u.force},
           {"vs", u.velocity()},     {"position", u.position}, {"force", u.force}, {"velocity", u.velocity()}};
 }
+
+/// A unit label as a key's suffix: rad/s -> rad_s, kg m^2 -> kg_m2,
+/// V s^2/rad -> V_s2_rad.
+inline std::string unit_token(const std::string& label) {
+  std::string t;
+  for (char c : label) {
+    if (c == ' ' || c == '/') t += '_';
+    else if (c != '^') t += c;
+  }
+  return t;
+}
+
+/// An output key that names an SI linear unit (suffix _m_s2, _m_s, _Ns_m,
+/// _kg, _m or _N) named in u's instead, so that no key names a unit its
+/// value is not in: velocity_max_m_s is velocity_max_rad_s on a rotary
+/// axis, max_force_N is max_force_V for a force in volts. Any other key, or
+/// any key in m and N, is unchanged.
+inline std::string key_in_units(const std::string& key, const Units& u) {
+  if (u.linear_si()) return key;
+  const std::pair<const char*, std::string> si_suffixes[] = {
+      {"_m_s2", u.acceleration()}, {"_m_s", u.velocity()}, {"_Ns_m", u.viscous()},
+      {"_kg", u.mass()},           {"_m", u.position},     {"_N", u.force}};  // longest first: _m_s2 before _m_s before _m
+  for (const auto& [si, unit] : si_suffixes) {
+    const std::size_t n = std::char_traits<char>::length(si);
+    if (key.size() > n && key.compare(key.size() - n, n, si) == 0) return key.substr(0, key.size() - n) + "_" + unit_token(unit);
+  }
+  return key;
+}
+
+/// j with every key renamed by key_in_units, through objects and arrays.
+inline nlohmann::json keys_in_units(const nlohmann::json& j, const Units& u) {
+  if (j.is_array()) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& v : j) out.push_back(keys_in_units(v, u));
+    return out;
+  }
+  if (!j.is_object()) return j;
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [key, value] : j.items()) out[key_in_units(key, u)] = keys_in_units(value, u);
+  return out;
+}
+
+/// The units a command's JSON states (its top-level "units": position and
+/// force); m and N when it states none.
+inline Units stated_units(const nlohmann::json& j) {
+  Units u;
+  if (!j.is_object() || !j.contains("units") || !j.at("units").is_object()) return u;
+  const nlohmann::json& s = j.at("units");
+  if (s.contains("position") && s.at("position").is_string()) u.position = s.at("position").get<std::string>();
+  if (s.contains("force") && s.at("force").is_string()) u.force = s.at("force").get<std::string>();
+  return u;
+}
+
+/// A command's JSON as it is written: its keys named in the units it states
+/// (keys_in_units). Every JSON output goes through this once.
+inline nlohmann::json json_as_written(const nlohmann::json& j) { return keys_in_units(j, stated_units(j)); }
 
 /// Why a model JSON cannot be applied to a log read in `run`'s units: its
 /// `units` (identify writes them) name another position or force unit, e.g.

@@ -85,12 +85,13 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   out.drive.mass_kg = number_at(j, "m", "", source);
   out.drive.pos = direction_from_json(j, "pos", from_identify, out);
   out.drive.neg = direction_from_json(j, "neg", from_identify, out);
-  if (j.contains("offset_N")) out.load.offset_N = number_at(j, "offset_N", "", source);
+  const std::string offset = key_in_units("offset_N", stated_units(j));  // offset_N_m on a rotary axis
+  if (j.contains(offset)) out.load.offset_N = number_at(j, offset.c_str(), "", source);
   if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
   if (!unphysical.empty()) fail(source, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
-  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", "offset_N", "gravity", "units", "comment"}, "", out);
+  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "units", "comment"}, "", out);
   return out;
 }
 

@@ -198,8 +198,8 @@ std::vector<double> to_vector(const py::object& a) {
 std::string run(Command command, const CsvResult& read, const CallOptions& o, const std::string& model_text) {
   if (!read.ok) throw std::invalid_argument(read.error);
   switch (command) {
-    case Command::identify: return to_json(identify(read.trace, o.diagnose.identify)).dump();
-    case Command::diagnose: return to_json(diagnose(read.trace, o.diagnose)).dump();
+    case Command::identify: return json_as_written(to_json(identify(read.trace, o.diagnose.identify))).dump();
+    case Command::diagnose: return json_as_written(to_json(diagnose(read.trace, o.diagnose))).dump();
     case Command::validate: break;
     case Command::monitor:
     case Command::replay:
@@ -211,7 +211,7 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
   const ModelFile file = model_file_from_json(model_json, "model");
   CallOptions with_offset = o;
   with_offset.validate.load = file.load;
-  return to_json(validate(file.drive, read.trace, with_offset.validate), file.drive, with_offset.validate).dump();
+  return json_as_written(to_json(validate(file.drive, read.trace, with_offset.validate), file.drive, with_offset.validate)).dump();
 }
 
 std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,
@@ -264,7 +264,7 @@ JsonAndWarnings run_model_gap(const CsvResult& read, const CallOptions& o, const
     notes.insert(notes.end(), run->notes.begin(), run->notes.end());
   }
   const ModelGap gap = model_gap(read.trace, opt, c ? &*c : nullptr, run ? &*run : nullptr, ropt);
-  return {to_json(gap).dump(), notes};
+  return {json_as_written(to_json(gap)).dump(), notes};
 }
 
 /// The run a replay reads from arrays: the trace's own rows (none may be
@@ -334,7 +334,7 @@ JsonAndWarnings run_replay(const CallOptions& o, const GivenFiles& g,
   std::vector<std::string> notes = model.warnings;
   notes.insert(notes.end(), c.warnings.begin(), c.warnings.end());
   const ReplayResult r = replay(model, c, logged(c), o.replay, o.fit_gains);
-  return {to_json(r, model, c, o.replay).dump(), notes};
+  return {json_as_written(to_json(r, model, c, o.replay)).dump(), notes};
 }
 
 JsonAndWarnings replay_arrays(const py::object& t, const py::object& x, const py::object& u, const py::dict& kw,
@@ -363,7 +363,7 @@ std::string monitor_file(const std::string& path, const py::dict& kw) {
   py::gil_scoped_release release;
   CsvStream in = open_trace_stream(path, o.columns);  // CSV streamed; .mat and .wpilog read whole, as the CLI
   if (!in.ok()) throw std::invalid_argument(in.error());
-  return to_json(monitor(in, o.monitor), o.monitor).dump();
+  return json_as_written(to_json(monitor(in, o.monitor), o.monitor)).dump();
 }
 
 /// `feedid compensate`: the friction table a drive can load, from a model
@@ -382,7 +382,7 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
     else throw py::type_error("unknown option '" + key + "'");
   }
   const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
-  return format == "csv" ? to_csv(c.table, opt) : c.json.dump();
+  return format == "csv" ? to_csv(c.table, opt) : json_as_written(c.json).dump();
 }
 
 /// The fleet page (report/report.hpp) from feedid.fleet's rows as JSON text;
