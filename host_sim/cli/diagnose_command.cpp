@@ -21,7 +21,7 @@ struct DiagnoseCommand : Command {
   InputOptions input;
   DiagnoseOptions opt;
   std::vector<std::string> in_path;
-  std::string json_path, report_dir, method = "bands", model_path, controller_path;
+  std::string json_path, report_dir, method = "bands", model_path, controller_path, model_out_path;
   void add(CLI::App& parent) override {
     app = parent.add_subcommand("diagnose", "where the identified model misses a trace, which unmodelled effect causes it, and how far adding it shrinks the held-out gap");
     app->add_option("--in", in_path, "trace CSV, .mat or .wpilog; repeat to pool several recordings (folds stay within each)");
@@ -34,6 +34,8 @@ struct DiagnoseCommand : Command {
                                            "offset_N): the base model is not refitted");
     app->add_option("--controller", controller_path, "with --model: replay the model in this drive loop (replay's "
                                                      "controller JSON) on held-out time, before and after the causes");
+    app->add_option("--model-out", model_out_path, "write the base model with the named effects as a model file: "
+                                                   "replay --model simulates them");
   }
   std::vector<std::string> with_inputs(std::vector<std::string> more) const {
     more.insert(more.end(), in_path.begin(), in_path.end());
@@ -59,6 +61,10 @@ struct DiagnoseCommand : Command {
     }
     const ModelGap g = model_gap(csv.trace, opt, controller ? &*controller : nullptr, run ? &*run : nullptr, ropt);
     if (!json_path.empty() && !write_json(json_path, to_json(g), with_inputs({model_path, controller_path}))) return 1;
+    if (!model_out_path.empty() && g.diagnosis.error.empty() &&
+        !write_json(model_out_path, model_with_effects(g.diagnosis, read_json_file(model_path)),
+                    with_inputs({model_path, controller_path})))
+      return 1;
     if (!g.diagnosis.error.empty()) { std::fprintf(stderr, "error: %s\n", g.diagnosis.error.c_str()); return 2; }
     note_force_outliers(g.diagnosis.force_outliers, opt.identify.units);
     std::cout << summary(g);
@@ -89,6 +95,9 @@ struct DiagnoseCommand : Command {
     if (!controller_path.empty()) throw std::invalid_argument("--controller needs --model (the model to replay)");
     const DiagnoseResult r = diagnose(csv.trace, opt);
     if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
+    if (!model_out_path.empty() && r.error.empty() &&
+        !write_json(model_out_path, model_with_effects(r, nlohmann::json()), with_inputs({})))
+      return 1;
     if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
     note_force_outliers(r.force_outliers, opt.identify.units);
     std::cout << summary(r);

@@ -36,6 +36,9 @@ struct ValidateCommand : Command {
     // The one model reader replay and diagnose use; its errors reach main's handler.
     const ModelFile file = read_model_file(model_path);
     for (const auto& w : file.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!file.effects.empty())
+      std::fprintf(stderr, "warning: %s: its %zu effect(s) are not in validate's prediction (replay --model simulates "
+                   "them)\n", model_path.c_str(), file.effects.size());
     const DriveParams& model = file.drive;
     opt.load = file.load;
     opt.units = input.units();

@@ -13,96 +13,6 @@
 namespace feedid::host {
 namespace {
 
-/// Linear interpolation of y(x) on an ascending grid, held at its ends.
-double interpolate(const std::vector<double>& x, const std::vector<double>& y, double q) {
-  if (q <= x.front()) return y.front();
-  if (q >= x.back()) return y.back();
-  const auto i = static_cast<std::size_t>(std::upper_bound(x.begin(), x.end(), q) - x.begin());
-  const double w = (q - x[i - 1]) / (x[i] - x[i - 1]);
-  return y[i - 1] + w * (y[i] - y[i - 1]);
-}
-
-/// A force against the motion, f(t, x, v), for the extra force's sum.
-using Drag = std::function<double(double, double, double)>;
-
-/// A position-friction profile per direction (shape "spline"): its
-/// profile plus each direction's level, against the motion.
-Drag profile_drag(const nlohmann::json& p) {
-  const auto& prof = p.at("profile");
-  const std::vector<double> x = prof.at("x_m"), pos = prof.at("positive_N"), neg = prof.at("negative_N");
-  const double lp = p.at("level_N").at("positive"), ln = p.at("level_N").at("negative");
-  return [x, pos, neg, lp, ln](double, double q, double v) {
-    if (v > 0) return interpolate(x, pos, q) + lp;
-    if (v < 0) return -(interpolate(x, neg, q) + ln);
-    return 0.0;
-  };
-}
-
-/// A thermal drift per direction: (sigma change v + Fc change s) exp(-t / tc),
-/// t from the run's start (the replay's clock starts there).
-Drag drift_drag(const nlohmann::json& p) {
-  const double tc = p.at("time_constant_s");
-  const auto side = [&](const char* d, const char* key) { return p.contains(d) ? p.at(d).value(key, 0.0) : p.value(key, 0.0); };
-  const double vp = side("positive", "viscous_change_Ns_m"), cp = side("positive", "coulomb_change_N");
-  const double vn = side("negative", "viscous_change_Ns_m"), cn = side("negative", "coulomb_change_N");
-  return [=](double t, double, double v) {
-    const double decay = std::exp(-t / tc);
-    return v > 0 ? (vp * v + cp) * decay : (v < 0 ? (vn * v - cn) * decay : 0.0);
-  };
-}
-
-/// One named effect into the plant: true when it entered (note says how), false with the reason.
-bool into_plant(const NamedEffect& e, double mass_kg, Effects& fx, std::vector<Drag>& drags, std::string& note) {
-  const nlohmann::json& p = e.parameters;
-  if (e.kind == effect_name(Effect::offset)) {
-    fx.offset_N += p.value("force_N", 0.0);
-    note = "a constant load force";
-  } else if (e.kind == effect_name(Effect::quadratic_viscous)) {
-    fx.quadratic_c2_Ns2_m2 = p.value("c2", 0.0);
-    note = "c2 v|v| in the friction";
-  } else if (e.kind == effect_name(Effect::position_ripple)) {
-    fx.ripple_amplitude_N = p.value("amplitude_N", 0.0);
-    fx.ripple_period_m = p.value("period_m", 1.0);
-    fx.ripple_phase_rad = p.value("phase_rad", 0.0);
-    note = p.value("harmonics", 1) > 1 ? "its fundamental only (the plant's ripple is one sine)" : "a load force sine in position";
-  } else if (e.kind == effect_name(Effect::position_friction)) {
-    if (p.value("shape", std::string()) == "spline" && p.contains("level_N")) {
-      drags.push_back(profile_drag(p));
-      note = "its profile per direction, interpolated in position";
-    } else {
-      fx.position_friction_N = p.value("delta_N", 0.0);
-      fx.position_friction_x_min_m = p.value("x_min_m", 0.0);
-      fx.position_friction_x_max_m = p.value("x_max_m", 0.0);
-      note = "friction changed on its range of positions";
-    }
-  } else if (e.kind == effect_name(Effect::thermal_drift)) {
-    drags.push_back(drift_drag(p));
-    note = "friction decaying from the run's start, per direction";
-  } else if (e.kind == effect_name(Effect::presliding_hysteresis)) {
-    if (p.contains("elements") || p.value("resets", std::string()) != "at reversals") {
-      note = "not simulated: the plant's bristle element is one, reset at reversals only";
-      return false;
-    }
-    fx.presliding_force_N = p.value("force_N", 0.0);
-    fx.presliding_distance_m = p.value("distance_m", 1e-5);
-    note = "a bristle element reset at reversals";
-  } else if (e.kind == effect_name(Effect::compliance)) {
-    const double m2 = p.value("load_mass_kg", 0.0);
-    if (!(m2 > 0 && m2 < mass_kg)) {
-      note = "not simulated: its load mass is outside (0, m)";
-      return false;
-    }
-    fx.compliance_frequency_hz = p.value("frequency_hz", 0.0);
-    fx.compliance_mass_fraction = m2 / mass_kg;
-    fx.compliance_damping_ratio = p.value("damping_ratio", 0.05);
-    note = "a load mass behind a spring (two-mass plant)";
-  } else {
-    note = "not simulated: a delay of the logged force is the log's, not the plant's";
-    return false;
-  }
-  return true;
-}
-
 /// Whether each compared sample lies in a held-out fold (odd fold index).
 std::vector<char> heldout_samples(const std::vector<double>& t, const std::vector<double>& edges) {
   std::vector<char> keep(t.size());
@@ -139,13 +49,17 @@ void judge_comparison(const ReplayResult& r, const std::vector<char>& keep, doub
 
 void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const LoggedRun& run, const ReplayOptions& ropt,
                          ModelGap& g) {
-  g.before = replay(*opt.model, c, run, ropt);
-  PlantEffects pe = plant_effects(g.diagnosis.effects, opt.model->drive.mass_kg);
+  // The base is the model's mass, friction and load, as the diagnosis's
+  // is: effects a model file carries (an earlier diagnosis's) are named anew.
+  ModelFile base = *opt.model;
+  base.effects = nlohmann::json::array();
+  g.before = replay(base, c, run, ropt);
+  PlantEffects pe = plant_effects(named_effects_json(g.diagnosis.effects), base.drive.mass_kg);
   g.plant = pe.list;
   ReplayOptions with = ropt;
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
-  g.after = replay(*opt.model, c, run, with);
+  g.after = replay(base, c, run, with);
   const std::vector<char> keep = heldout_samples(g.before.t, g.diagnosis.fold_edges);
   g.heldout_samples = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
   if (g.heldout_samples < 100) throw std::invalid_argument(run.source + ": too few held-out samples to replay on");
@@ -172,22 +86,16 @@ void print_figures(std::ostringstream& o, const char* label, const ReplayFigures
 
 }  // namespace
 
-PlantEffects plant_effects(const std::vector<NamedEffect>& named, double mass_kg) {
-  PlantEffects out;
-  std::vector<Drag> drags;
-  for (const NamedEffect& e : named) {
-    PlantEffect p;
-    p.kind = e.kind;
-    p.simulated = into_plant(e, mass_kg, out.effects, drags, p.note);
-    out.list.push_back(p);
-  }
-  if (!drags.empty())
-    out.extra_force = [drags](double t, double x, double v) {
-      double f = 0.0;
-      for (const Drag& d : drags) f += d(t, x, v);
-      return f;
-    };
+nlohmann::json named_effects_json(const std::vector<NamedEffect>& named) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const NamedEffect& e : named) out.push_back({{"kind", e.kind}, {"parameters", e.parameters}});
   return out;
+}
+
+nlohmann::json model_with_effects(const DiagnoseResult& r, const nlohmann::json& given) {
+  nlohmann::json j = given.is_null() ? to_json(r.base) : keys_in_si(given, stated_units(given));
+  j["effects"] = named_effects_json(r.effects);
+  return j;
 }
 
 ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Controller* c, const LoggedRun* run,

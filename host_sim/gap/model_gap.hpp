@@ -18,25 +18,20 @@
 
 #include "diagnose/diagnose.hpp"
 #include "replay/replay.hpp"
+#include "sim/named_effects.hpp"
 
 namespace feedid::host {
 
-/// A named effect and whether the replay's plant simulates it.
-struct PlantEffect {
-  std::string kind;
-  bool simulated = false;
-  std::string note;  ///< how it enters the plant, or why it does not
-};
+/// The named effects as diagnose writes them ({"kind", "parameters"}), for
+/// plant_effects (sim/named_effects.hpp) and a model file's "effects".
+nlohmann::json named_effects_json(const std::vector<NamedEffect>& named);
 
-/// The named effects as the plant's effects (sim/drive_sim.hpp) and one
-/// extra force for those its fixed shapes do not draw; each effect says
-/// whether and how it entered. mass_kg: the model's (a compliance's load share).
-struct PlantEffects {
-  Effects effects;
-  ExtraForce extra_force;
-  std::vector<PlantEffect> list;
-};
-PlantEffects plant_effects(const std::vector<NamedEffect>& named, double mass_kg);
+/// A model file with the diagnosis's named effects (diagnose --model-out):
+/// the given model's JSON (null: the base identify fitted on the
+/// identification folds, as identify writes it) with "effects" set to the
+/// effects named now, keys in m and N (the writer names them in the
+/// file's units). replay simulates them (ModelFile::effects).
+nlohmann::json model_with_effects(const DiagnoseResult& r, const nlohmann::json& given);
 
 struct ModelGap {
   DiagnoseResult diagnosis;

@@ -4,6 +4,8 @@
 // parameters scale exactly as its units do (tests/io/units_test.cpp). Only
 // the labels change, and they are written here once. Host only.
 #pragma once
+#include <algorithm>
+#include <array>
 #include <string>
 #include <utility>
 
@@ -57,35 +59,60 @@ inline std::string unit_token(const std::string& label) {
   return t;
 }
 
+namespace detail {
+/// The SI linear suffixes and the units they stand for, longest first
+/// (_m_s2 before _m_s before _m).
+inline std::array<std::pair<std::string, std::string>, 6> si_suffixes(const Units& u) {
+  return {{{"_m_s2", u.acceleration()}, {"_m_s", u.velocity()}, {"_Ns_m", u.viscous()},
+           {"_kg", u.mass()},           {"_m", u.position},     {"_N", u.force}}};
+}
+/// key with suffix `from` replaced by `to`; false when it does not end in it.
+inline bool swap_suffix(std::string& key, const std::string& from, const std::string& to) {
+  if (key.size() <= from.size() || key.compare(key.size() - from.size(), from.size(), from) != 0) return false;
+  key = key.substr(0, key.size() - from.size()) + to;
+  return true;
+}
+}  // namespace detail
+
 /// An output key that names an SI linear unit (suffix _m_s2, _m_s, _Ns_m,
 /// _kg, _m or _N) named in u's instead, so that no key names a unit its
 /// value is not in: velocity_max_m_s is velocity_max_rad_s on a rotary
 /// axis, max_force_N is max_force_V for a force in volts. Any other key, or
 /// any key in m and N, is unchanged.
-inline std::string key_in_units(const std::string& key, const Units& u) {
+inline std::string key_in_units(std::string key, const Units& u) {
   if (u.linear_si()) return key;
-  const std::pair<const char*, std::string> si_suffixes[] = {
-      {"_m_s2", u.acceleration()}, {"_m_s", u.velocity()}, {"_Ns_m", u.viscous()},
-      {"_kg", u.mass()},           {"_m", u.position},     {"_N", u.force}};  // longest first: _m_s2 before _m_s before _m
-  for (const auto& [si, unit] : si_suffixes) {
-    const std::size_t n = std::char_traits<char>::length(si);
-    if (key.size() > n && key.compare(key.size() - n, n, si) == 0) return key.substr(0, key.size() - n) + "_" + unit_token(unit);
-  }
+  for (const auto& [si, unit] : detail::si_suffixes(u))
+    if (detail::swap_suffix(key, si, "_" + unit_token(unit))) break;
   return key;
 }
 
-/// j with every key renamed by key_in_units, through objects and arrays.
-inline nlohmann::json keys_in_units(const nlohmann::json& j, const Units& u) {
+/// The inverse: a key named in u's units back in m and N, for what reads
+/// the JSON back (a model file's effects): force_N_m is force_N.
+inline std::string key_in_si(std::string key, const Units& u) {
+  if (u.linear_si()) return key;
+  auto suffixes = detail::si_suffixes(u);
+  // The longest unit first: _N_m_s_rad (viscous) before _rad_s before _rad.
+  std::sort(suffixes.begin(), suffixes.end(), [](const auto& a, const auto& b) { return a.second.size() > b.second.size(); });
+  for (const auto& [si, unit] : suffixes)
+    if (detail::swap_suffix(key, "_" + unit_token(unit), si)) break;
+  return key;
+}
+
+/// j with every key renamed by `rename` (key_in_units or key_in_si), through objects and arrays.
+template <typename Rename>
+nlohmann::json renamed_keys(const nlohmann::json& j, const Units& u, Rename rename) {
   if (j.is_array()) {
     nlohmann::json out = nlohmann::json::array();
-    for (const auto& v : j) out.push_back(keys_in_units(v, u));
+    for (const auto& v : j) out.push_back(renamed_keys(v, u, rename));
     return out;
   }
   if (!j.is_object()) return j;
   nlohmann::json out = nlohmann::json::object();
-  for (const auto& [key, value] : j.items()) out[key_in_units(key, u)] = keys_in_units(value, u);
+  for (const auto& [key, value] : j.items()) out[rename(key, u)] = renamed_keys(value, u, rename);
   return out;
 }
+inline nlohmann::json keys_in_units(const nlohmann::json& j, const Units& u) { return renamed_keys(j, u, key_in_units); }
+inline nlohmann::json keys_in_si(const nlohmann::json& j, const Units& u) { return renamed_keys(j, u, key_in_si); }
 
 /// The units a command's JSON states (its top-level "units": position and
 /// force); m and N when it states none.

@@ -1,6 +1,8 @@
 // Reading a model file (model_file.hpp).
 #include "model_file.hpp"
 
+#include "effects.hpp"
+
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -72,6 +74,24 @@ void read_gravity(const nlohmann::json& g, bool from_identify, ModelFile& out) {
                                    "gravity.", out);
 }
 
+/// The effects diagnose named (a list of {"kind", "parameters"}), kept for
+/// the replay's plant; a kind outside the catalogue is an error (a typo
+/// must not silently leave an effect out).
+void read_effects(const nlohmann::json& e, const nlohmann::json& j_units, ModelFile& out) {
+  if (!e.is_array()) fail(out.source, "'effects' must be a list of {\"kind\", \"parameters\"}");
+  for (const nlohmann::json& x : e) {
+    if (!x.is_object() || !x.contains("kind") || !x.at("kind").is_string())
+      fail(out.source, "each of 'effects' needs a \"kind\" (as diagnose writes them)");
+    const std::string kind = x.at("kind").get<std::string>();
+    bool known = false;
+    for (int i = 0; i < kCatalogueCount; ++i) known = known || kind == effect_name(static_cast<Effect>(i));
+    if (!known) fail(out.source, "'effects' names \"" + kind + "\", not an effect diagnose names");
+    if (x.contains("parameters") && !x.at("parameters").is_object())
+      fail(out.source, "the parameters of effect \"" + kind + "\" must be an object");
+    out.effects.push_back(keys_in_si(x, stated_units(j_units)));  // force_N_m of a rotary file is force_N
+  }
+}
+
 }  // namespace
 
 ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source) {
@@ -88,10 +108,11 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   const std::string offset = key_in_units("offset_N", stated_units(j));  // offset_N_m on a rotary axis
   if (j.contains(offset)) out.load.offset_N = number_at(j, offset.c_str(), "", source);
   if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
+  if (j.contains("effects")) read_effects(j.at("effects"), j, out);
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
   if (!unphysical.empty()) fail(source, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
-  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "units", "comment"}, "", out);
+  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "units", "comment"}, "", out);
   return out;
 }
 

@@ -27,6 +27,10 @@ struct ModelFile {
   /// to F0; G cos(q - angle0_rad) is the arm's weight). None when the file
   /// has neither.
   ModelLoad load;
+  /// Effects diagnose named, as it writes them ([{"kind", "parameters"}]):
+  /// replay simulates them in the model's plant (sim/named_effects.hpp).
+  /// Empty when the file has none.
+  nlohmann::json effects = nlohmann::json::array();
   /// Keys the reader did not use, as "model.json: unknown key 'foo' (ignored)":
   /// a typo must not silently leave a parameter at its default.
   std::vector<std::string> warnings;

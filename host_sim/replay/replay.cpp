@@ -93,7 +93,7 @@ double continuous_period(const LoggedRun& run) {
 
 /// The plant's effects: the model's load (its constant force and an arm's
 /// weight) added to those asked for.
-Effects plant_effects(const ModelLoad& load, Effects e) {
+Effects with_load(const ModelLoad& load, Effects e) {
   e.offset_N += load.offset_N;
   if (load.gravity_N != 0.0) {
     e.gravity_N = load.gravity_N;
@@ -106,7 +106,7 @@ Effects plant_effects(const ModelLoad& load, Effects e) {
 class LoopReplay {
  public:
   LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps, const ReplayOptions& opt)
-      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(plant_effects(m.load, opt.effects)), extra_(opt.extra_force),
+      : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(with_load(m.load, opt.effects)), extra_(opt.extra_force),
         plant_(m.drive, fx_, extra_, no_change_), vel_(c.position_fir, dt),
         commands_(static_cast<std::size_t>(c.delay_samples) + 1, 0.0) {}
   void start_at(double x) { plant_.start_at(x); }
@@ -148,6 +148,19 @@ class LoopReplay {
   double integral_ = 0.0;         ///< running integral of the velocity error (p_pi)
 };
 
+/// opt, with the model file's own effects in the plant where opt brings
+/// none (diagnose --model brings the model's and the named ones together);
+/// each of the model's effects said in notes.
+ReplayOptions with_model_effects(const ModelFile& model, const ReplayOptions& opt, std::vector<std::string>& notes) {
+  if (model.effects.empty() || !active_effects(opt.effects).empty() || opt.extra_force) return opt;
+  const PlantEffects pe = plant_effects(model.effects, model.drive.mass_kg);
+  for (const PlantEffect& e : pe.list) notes.push_back("the model's effect " + e.kind + ": " + e.note);
+  ReplayOptions with = opt;
+  with.effects = pe.effects;
+  with.extra_force = pe.extra_force;
+  return with;
+}
+
 /// The model in the loop over the run: x, v, a and force at every sample
 /// into r (r.gains, r.dt_s and r.substeps set).
 void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
@@ -157,7 +170,7 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
   r.v_sim.resize(n);
   r.a_sim.resize(n);
   r.u_sim.resize(n);
-  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, opt);
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, with_model_effects(model, opt, r.notes));
   loop.start_at(run.x.front());
   for (std::size_t k = 0; k < n; ++k)
     loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
@@ -319,6 +332,7 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
                      {"extra_gain_se", std::isfinite(r.gain_fit.extra_gain_se) ? nlohmann::json(r.gain_fit.extra_gain_se) : nlohmann::json()}};
   nlohmann::json m = model_json(model.drive, r.units);
   put_load(m, model.load);
+  if (!model.effects.empty()) m["effects"] = model.effects;
   j["model"] = m;
   j["notes"] = r.notes;
   j["units"] = units_json(r.units);

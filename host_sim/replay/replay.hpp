@@ -24,6 +24,7 @@
 #include "io/units.hpp"
 #include "model/model_file.hpp"
 #include "sim/drive_sim.hpp"
+#include "sim/named_effects.hpp"
 
 namespace feedid::host {
 
@@ -51,6 +52,8 @@ struct ReplayOptions {
   Units units;             ///< labels only (units.hpp)
   /// Unmodelled effects added to the model's plant (diagnose's named
   /// effects, sim/drive_sim.hpp); offset_N adds to the model's own load.
+  /// None given (here and in extra_force): the model file's own effects
+  /// (ModelFile::effects) are the plant's.
   Effects effects;
   /// A further force against the motion, f(t, x, v) (N), for an effect the
   /// plant's fixed shapes do not draw (a drift per direction); none when empty.

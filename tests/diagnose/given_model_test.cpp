@@ -130,6 +130,8 @@ void loop_run(const host::SimConfig& base, double duration_s, host::LoggedRun& r
 struct RippleLoop {
   host::SimConfig cfg;
   host::ModelGap g;
+  host::LoggedRun run;
+  nlohmann::json controller;
 };
 
 const RippleLoop& ripple_loop() {
@@ -142,13 +144,12 @@ const RippleLoop& ripple_loop() {
     cfg.sensors.encoder_resolution_m = 1e-7;
     cfg.effects.ripple_amplitude_N = 15.0;
     cfg.effects.ripple_period_m = 12e-3;
-    host::LoggedRun run;
+    host::LoggedRun& run = out.run;
     host::Trace trace;
     loop_run(cfg, 61.0, run, trace);
-    const host::Controller c = host::controller_from_json(
-        {{"kp", 60.0}, {"kv", 2.0 * host::kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
-         {"position_fir", {1.0}}, {"delay_samples", 0}, {"reference", "r"}},
-        "c");
+    out.controller = {{"kp", 60.0}, {"kv", 2.0 * host::kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
+                      {"position_fir", {1.0}}, {"delay_samples", 0}, {"reference", "r"}};
+    const host::Controller c = host::controller_from_json(out.controller, "c");
     host::DiagnoseOptions opt;
     opt.model = model_of(cfg.drive);
     out.g = host::model_gap(trace, opt, &c, &run, host::ReplayOptions{});
@@ -173,6 +174,23 @@ TEST(DiagnoseGivenModel, ReplayedWithTheNamedEffectTheHeldOutForceErrorShrinks) 
     EXPECT_TRUE(j["replay"]["before_pct"][k].is_number()) << k;
     EXPECT_TRUE(j["replay"]["after_pct"][k].is_number()) << k;
   }
+}
+
+TEST(DiagnoseGivenModel, TheModelFileWithTheNamedEffectsReplaysThem) {
+  const RippleLoop& l = ripple_loop();
+  ASSERT_TRUE(l.g.replayed);
+  // GIVEN the model file diagnose --model-out writes from the given model, as written
+  const nlohmann::json given = host::model_json(l.cfg.drive, host::Units{});
+  const host::ModelFile with =
+      host::model_file_from_json(host::json_as_written(host::model_with_effects(l.g.diagnosis, given)), "fx.json");
+  ASSERT_EQ(with.effects.size(), l.g.diagnosis.effects.size());
+  EXPECT_EQ(with.effects[0]["kind"], "position_ripple");
+  // WHEN it and the bare model are replayed over the whole run
+  const host::Controller c = host::controller_from_json(l.controller, "c");
+  const host::ReplayResult bare = host::replay(model_of(l.cfg.drive), c, l.run, host::ReplayOptions{});
+  const host::ReplayResult fx = host::replay(with, c, l.run, host::ReplayOptions{});
+  // THEN the file's effects take most of the force error away, as the diagnosis's did
+  EXPECT_LT(fx.error_pct.force, 0.5 * bare.error_pct.force) << fx.error_pct.force << " against " << bare.error_pct.force;
 }
 
 std::size_t count(const std::string& text, const std::string& what) {

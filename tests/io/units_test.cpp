@@ -119,4 +119,29 @@ TEST(Units, ScalesApplyAsTheCsvIsRead) {
 }
 
 }  // namespace
+TEST(Units, KeysNameTheUnitsTheirValuesAreInAndReadBack) {
+  // GIVEN keys in m and N, and an axis in rad and N m, and a drive logged in volts
+  const Units rotary = units_for(Axis::rotary), volts = units_for(Axis::rotary, "V");
+  // THEN each names the units its value is in
+  EXPECT_EQ(key_in_units("velocity_max_m_s", rotary), "velocity_max_rad_s");
+  EXPECT_EQ(key_in_units("max_acceleration_m_s2", rotary), "max_acceleration_rad_s2");
+  EXPECT_EQ(key_in_units("force_N", rotary), "force_N_m");
+  EXPECT_EQ(key_in_units("load_mass_kg", rotary), "load_mass_kg_m2");
+  EXPECT_EQ(key_in_units("viscous_change_Ns_m", volts), "viscous_change_V_s_rad");
+  EXPECT_EQ(key_in_units("mass_from_windows_kg", volts), "mass_from_windows_V_s2_rad");
+  EXPECT_EQ(key_in_units("period_m", volts), "period_rad");
+  // AND keys of no unit, and every key of a log in m and N, stay as they are
+  for (const char* k : {"m", "sigma", "time_constant_s", "frequency_hz", "relative_error_pct"})
+    EXPECT_EQ(key_in_units(k, rotary), k);
+  EXPECT_EQ(key_in_units("force_N", Units{}), "force_N");
+  // AND what reads them back gets the m and N names again
+  for (const Units& u : {rotary, volts})
+    for (const char* k : {"velocity_max_m_s", "max_acceleration_m_s2", "force_N", "load_mass_kg", "viscous_change_Ns_m",
+                          "period_m", "x_m", "time_constant_s"})
+      EXPECT_EQ(key_in_si(key_in_units(k, u), u), k) << k << " in " << u.position << ", " << u.force;
+  // AND a command's JSON is renamed through its objects and lists by the units it states
+  const nlohmann::json j = {{"units", units_json(volts)}, {"effects", {{{"parameters", {{"force_N", 1.0}}}}}}};
+  EXPECT_EQ(json_as_written(j)["effects"][0]["parameters"]["force_V"], 1.0);
+}
+
 }  // namespace feedid::host

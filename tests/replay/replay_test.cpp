@@ -100,9 +100,10 @@ DriveParams true_drive() {
 /// dx) with dx the backward difference (FIR [1]), no delay, plus a pulse
 /// train added to the force; no encoder quantum, no noise. With
 /// integral_hz, its PI adds ki = kv 2 pi integral_hz on the velocity error.
-LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0) {
+LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0, const Effects& fx = {}) {
   SimConfig cfg;
   cfg.drive = d;
+  cfg.effects = fx;
   cfg.controller.servo_rate_hz = 1000.0;
   cfg.controller.velocity_integral_hz = integral_hz;
   cfg.controller.acceleration_feedforward = false;
@@ -151,6 +152,39 @@ TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   // THEN the force and acceleration errors grow many times over
   EXPECT_GT(w.same_processing_pct.force, 5.0 * std::max(r.same_processing_pct.force, 0.2));
   EXPECT_GT(w.same_processing_pct.acceleration, 5.0 * std::max(r.same_processing_pct.acceleration, 0.2));
+}
+
+TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
+  // GIVEN a run whose plant has a position ripple its friction law lacks
+  Effects ripple;
+  ripple.ripple_amplitude_N = 15.0;
+  ripple.ripple_period_m = 0.02;
+  ripple.ripple_phase_rad = 0.3;
+  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, ripple);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  // WHEN replayed with a model file that names the ripple as diagnose writes it, and without it
+  const DriveParams d = true_drive();
+  const auto side = [](const DirectionFriction& f) {
+    return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
+  };
+  const json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
+                  {"effects", json::array({{{"kind", "position_ripple"},
+                                            {"parameters", {{"amplitude_N", 15.0}, {"period_m", 0.02}, {"phase_rad", 0.3}}}}})}};
+  const ModelFile with = model_file_from_json(j, "m.json");
+  ASSERT_TRUE(with.warnings.empty());
+  ModelFile bare = with;
+  bare.effects = json::array();
+  const ReplayResult w = replay(with, c, run, ReplayOptions{}), b = replay(bare, c, run, ReplayOptions{});
+  // THEN the effect in the plant closes the gap as the true plant's would, and the replay says so
+  EXPECT_LT(w.same_processing_pct.force, 0.5);
+  EXPECT_GT(b.same_processing_pct.force, 5.0 * std::max(w.same_processing_pct.force, 0.2));
+  bool said = false;
+  for (const std::string& n : w.notes) said = said || n.find("position_ripple") != std::string::npos;
+  EXPECT_TRUE(said);
+  // AND a kind no diagnosis names is an error, not an effect silently left out
+  json typo = j;
+  typo["effects"][0]["kind"] = "ripple";
+  EXPECT_NE(error_of([&] { model_file_from_json(typo, "t.json"); }).find("\"ripple\""), std::string::npos);
 }
 
 TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
