@@ -149,8 +149,8 @@ class LoopReplay {
 };
 
 /// opt, with the model file's own effects in the plant where opt brings
-/// none (diagnose --model brings the model's and the named ones together);
-/// each of the model's effects said in notes.
+/// none (diagnose --model replays its base without them, then with the
+/// effects it names); each of the model's effects said in notes.
 ReplayOptions with_model_effects(const ModelFile& model, const ReplayOptions& opt, std::vector<std::string>& notes) {
   if (model.effects.empty() || !active_effects(opt.effects).empty() || opt.extra_force) return opt;
   const PlantEffects pe = plant_effects(model.effects, model.drive.mass_kg);
