@@ -919,15 +919,34 @@ diag::MeasuredFriction given_friction(const DriveParams& d, const BaseColumns& b
   return f;
 }
 
-/// The mean force a given model predicts over each interval, from the
-/// same velocity and acceleration the fitted base's columns use: what the
-/// observations' force less it leaves is the gap the effects may explain.
+/// The mean force a given model's inertia and friction predict over each
+/// interval (its load: load_prediction), from the same velocity and
+/// acceleration the fitted base's columns use: what the observations'
+/// force less it leaves is the gap the effects may explain.
 Vec given_prediction(const Observations& obs, const ModelFile& m) {
   const Signals& s = obs.signals();
   return obs.sample_column([&](std::size_t j) {
     const double a = (s.v[j + 1] - s.v[j]) / obs.interval_dt(j);
-    return predict_force(m.drive, obs.interval_v(j), a) + m.load.at(0.5 * (s.x[j] + s.x[j + 1]));
+    return predict_force(m.drive, obs.interval_v(j), a);
   });
+}
+
+/// A load over each interval, at its middle position: a given model's,
+/// or the gravity term the base's identification fitted.
+Vec load_prediction(const Observations& obs, const ModelLoad& load) {
+  const Signals& s = obs.signals();
+  return obs.sample_column([&](std::size_t j) { return load.at(0.5 * (s.x[j] + s.x[j + 1])); });
+}
+
+/// The base identification's gravity term as a load (none: no load).
+ModelLoad base_load(const GravityFit& g) {
+  ModelLoad load;
+  if (g.form == GravityTerm::constant) load.offset_N = g.G;
+  if (g.form == GravityTerm::angle) {
+    load.gravity_N = g.G;
+    load.gravity_angle0_rad = g.angle0_rad;
+  }
+  return load;
 }
 
 bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseResult& out) {
@@ -977,7 +996,10 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // (no base columns), so the effects explain what it leaves. Pooled runs
   // still get their own levels: the file states one day's friction, and a
   // level between recordings is no effect of the model (add_run_levels).
-  if (opt.model) force -= given_prediction(obs, *opt.model);
+  if (opt.model) force -= given_prediction(obs, *opt.model) + load_prediction(obs, opt.model->load);
+  // The base's gravity term (auto on a rotary axis) is the base's, as it is
+  // in the model identify writes: taken off, so no effect takes it up again.
+  if (!opt.model && out.base.gravity.form != GravityTerm::none) force -= load_prediction(obs, base_load(out.base.gravity));
   ColumnBank bank(force, id);
   const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
   BaseColumns base_cols;

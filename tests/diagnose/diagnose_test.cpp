@@ -105,6 +105,20 @@ TEST(DiagnoseEffect, PositionRippleUnderAnotherForceConvention) {
   EXPECT_GT(r.closed_fraction, 0.8);
 }
 
+TEST(DiagnoseEffect, AnArmsWeightIsTheBasesNotAnEffect) {
+  // GIVEN an arm whose weight is 30 N m at 0.4 rad (its friction 25 N m)
+  host::DiagnoseOptions opt;
+  opt.identify.units = host::units_for(host::Axis::rotary);
+  const host::DiagnoseResult r = host::diagnose(arm_trace(30.0, 0.4), opt);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  // THEN the base's identification fits the weight (gravity auto on a
+  // rotary axis), and no effect takes it up again: the gap is the noise
+  EXPECT_EQ(r.base.gravity.form, host::GravityTerm::angle) << r.base.gravity.note;
+  EXPECT_NEAR(r.base.gravity.G, 30.0, 0.5);
+  EXPECT_EQ(r.effect, "none") << host::summary(r);
+  EXPECT_LT(r.rms_base_N, 1.5 * r.noise_floor_N) << host::summary(r);
+}
+
 // A physical delay of 2.5 periods under an instantaneous force log: the
 // conventions explain a force delay of up to 0.6 period, so `delay` is named
 // and its size is the part beyond that (docs/diagnosis.md, "Timing").
