@@ -201,6 +201,10 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   }
   r.duration_s = t_last - cores->t_first;
   finish(r, *cores, in, source, opt);
+  // The gravity fit refits the whole trace (gravity.hpp); a stream is read once.
+  if (opt.gravity != GravityTerm::none && opt.units.position == "rad")
+    r.gravity.note = "not fitted: a streamed log is read once, and the gravity term refits the whole trace (identify "
+                     "without --stream fits it)";
   return r;
 }
 
