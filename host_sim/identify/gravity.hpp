@@ -23,11 +23,13 @@ IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& 
 constexpr double kGravityMinSpan_rad = 0.5;  ///< less, and cos(q - q0) is a tilted line: Coulomb and G trade
 constexpr double kGravityMinZ = 5.0;         ///< an automatic term must stand this far above its error
 /// ... and be worth a model term: on a simulated axis without a load the
-/// fit found G = 0.13 +- 0.06 N m, against 25 N m Coulomb. The error's
+/// fit found G = 0.13 +- 0.11 N m, against 25 N m Coulomb. The errors'
 /// coverage, over 12 simulated arms with G = 30 N m at q0 = 0.4 rad: G
-/// within 1.96 errors in 12 (mean 30.006, spread 0.016, error 0.056); q0
-/// in 3 (0.0042 rad low, 2.2 errors: residuals the friction law does not
-/// have, at the ends of the travel, that no fit over blocks averages out).
+/// within 1.96 errors in 12 (mean 30.006, spread 0.016, error 0.115:
+/// conservative), q0 in 12 (0.0042 rad low, error 0.0035). Block scatter
+/// alone covered q0 in 3: the friction law's misfit at the travel's ends
+/// shifts the load without scattering it, and differs by direction, so
+/// the errors carry how far each direction's fit parts from the other's.
 constexpr double kGravityMinShareOfCoulomb = 0.1;
 
 const char* gravity_name(GravityTerm g);

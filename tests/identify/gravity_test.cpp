@@ -36,6 +36,8 @@ TEST(Gravity, AnArmsLoadIsFittedAndTheFrictionIsTheUnloadedArms) {
     EXPECT_NEAR(r.gravity.G, 30.0, 0.3);
     // and its error covers it (the stick and slip at the travel's ends took G 3 errors low)
     EXPECT_LT(std::fabs(r.gravity.G - 30.0), 2.0 * r.gravity.G_se) << r.gravity.G << " +- " << r.gravity.G_se;
+    EXPECT_LT(std::fabs(r.gravity.angle0_rad - 0.4), 2.0 * r.gravity.angle0_se_rad)
+        << r.gravity.angle0_rad << " +- " << r.gravity.angle0_se_rad;
     EXPECT_NEAR(r.gravity.angle0_rad, 0.4, 0.01);
     EXPECT_NEAR(r.estimate.pos.coulomb_N, ref.estimate.pos.coulomb_N, 0.15);
     EXPECT_NEAR(r.estimate.neg.coulomb_N, ref.estimate.neg.coulomb_N, 0.15);
