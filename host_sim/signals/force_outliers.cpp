@@ -103,7 +103,7 @@ bool clip_level(const std::vector<double>& u, double sign, double& level) {
 }
 }  // namespace
 
-Trace leave_out_force_saturation(Trace logged, ForceSaturation& found) {
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known) {
   found = ForceSaturation{};
   std::vector<double> u, t;
   for (const TraceSample& s : logged.samples) {
@@ -112,6 +112,8 @@ Trace leave_out_force_saturation(Trace logged, ForceSaturation& found) {
   }
   found.found_hi = clip_level(u, 1.0, found.level_hi);
   found.found_lo = clip_level(u, -1.0, found.level_lo);
+  if (!found.found_hi && known.found_hi) found.found_hi = true, found.level_hi = known.level_hi;
+  if (!found.found_lo && known.found_lo) found.found_lo = true, found.level_lo = known.level_lo;
   if (!found.found()) return logged;
   const std::size_t n = u.size();
   std::vector<bool> out(n, false);

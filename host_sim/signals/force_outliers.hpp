@@ -108,6 +108,8 @@ struct ForceOutliers {
 Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, ForceOutliers& found);
 
 /// The trace without its clipped rows (the rule above); `found` says what was left out.
-Trace leave_out_force_saturation(Trace logged, ForceSaturation& found);
+/// `known`: levels found earlier in the same log (a stream's earlier
+/// chunks), left out here too where this part alone does not show them.
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known = {});
 
 }  // namespace feedid::host

@@ -2,6 +2,8 @@
 // read row by row in chunks, gives what the whole-trace identification gives.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -59,6 +61,40 @@ TEST(IdentifyStream, ChunksGiveTheWholeTracesEstimate) {
     EXPECT_LT(e.coulomb_se, 5.0 * w.coulomb_se) << d;
   }
   EXPECT_NE(to_json(r)["input"]["streamed"].get<std::string>().find("row by row"), std::string::npos);
+}
+
+TEST(IdentifyStream, AClipThatStartsAfterTheHeadIsLeftOut) {
+  // GIVEN the default drive whose force is clipped from 20 s on, after the head
+  test::SimSpec spec;
+  spec.duration_s = 60.0;
+  const host::SimConfig cfg = test::sim_config(spec);
+  Trace trace = host::simulate(cfg);
+  double peak = 0.0;
+  for (const TraceSample& s : trace.samples)
+    if (s.t_s > 20.0) peak = std::max(peak, std::fabs(s.u_N));
+  const double limit = 0.8 * peak;
+  for (TraceSample& s : trace.samples)
+    if (s.t_s > 20.0) s.u_N = std::clamp(s.u_N, -limit, limit);
+  const std::string path = ::testing::TempDir() + "feedid_stream_late_clip.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, trace, err)) << err;
+  // WHEN streamed with a 15 s head
+  CsvStream in(path, CsvColumns{});
+  ASSERT_TRUE(in.ok()) << in.error();
+  StreamOptions small;
+  small.head_s = 15.0;
+  small.chunk_s = 5.0;
+  small.margin_s = 0.5;
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{}, small);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  // THEN the clip is found and named, and the mass is the drive's
+  const ForceSaturation& sat = r.force_outliers.saturation;
+  ASSERT_TRUE(sat.found_hi && sat.found_lo);
+  EXPECT_DOUBLE_EQ(sat.level_hi, limit);
+  EXPECT_GT(sat.rows, 0u);
+  EXPECT_GE(sat.rows_left_out, sat.rows);
+  EXPECT_NEAR(r.estimate.mass_kg, cfg.drive.mass_kg, 3.0 * r.estimate.mass_se_kg);
+  EXPECT_TRUE(to_json(r)["input"]["force_saturation"].is_object());
 }
 
 // Under 50 s of data fewer than five jackknife groups have any: the core's
