@@ -45,6 +45,9 @@ struct DiagnoseCommand : Command {
   int run_given_model(const CsvResult& csv) {
     opt.model = read_model_file(model_path);
     for (const auto& w : opt.model->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!opt.model->effects.empty())
+      std::fprintf(stderr, "note: %s: its %zu effect(s) are not the diagnosis's base (its mass, friction and load are): "
+                   "the effects are named anew\n", model_path.c_str(), opt.model->effects.size());
     if (const std::string why = model_units_mismatch({{"units", opt.model->units}}, opt.identify.units); !why.empty())
       throw std::invalid_argument(model_path + ": " + why);
     std::optional<Controller> controller;
