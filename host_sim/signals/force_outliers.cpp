@@ -103,15 +103,16 @@ bool clip_level(const std::vector<double>& u, double sign, double& level) {
 }
 }  // namespace
 
-Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known) {
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known,
+                                 double min_level) {
   found = ForceSaturation{};
   std::vector<double> u, t;
   for (const TraceSample& s : logged.samples) {
     u.push_back(s.u_N);
     t.push_back(s.t_s);
   }
-  found.found_hi = clip_level(u, 1.0, found.level_hi);
-  found.found_lo = clip_level(u, -1.0, found.level_lo);
+  found.found_hi = clip_level(u, 1.0, found.level_hi) && found.level_hi >= min_level;
+  found.found_lo = clip_level(u, -1.0, found.level_lo) && -found.level_lo >= min_level;
   if (!found.found_hi && known.found_hi) found.found_hi = true, found.level_hi = known.level_hi;
   if (!found.found_lo && known.found_lo) found.found_lo = true, found.level_lo = known.level_lo;
   if (!found.found()) return logged;

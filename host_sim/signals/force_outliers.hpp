@@ -109,7 +109,10 @@ Trace bridge_force_outliers(const Trace& logged, const std::string& force_unit, 
 
 /// The trace without its clipped rows (the rule above); `found` says what was left out.
 /// `known`: levels found earlier in the same log (a stream's earlier
-/// chunks), left out here too where this part alone does not show them.
-Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known = {});
+/// chunks), left out here too where this part alone does not show them;
+/// `min_level`: a level of smaller magnitude is no clip (a part of a log
+/// that holds one force at rest, its largest, is not clipped).
+Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const ForceSaturation& known = {},
+                                 double min_level = 0.0);
 
 }  // namespace feedid::host

@@ -179,6 +179,26 @@ TEST(ForceSaturation, ACoarselyQuantisedForceIsNotCalledClipped) {
   EXPECT_FALSE(found.found()) << found.describe("N");
 }
 
+TEST(ForceSaturation, APartThatHoldsOneForceAtRestIsNotClippedBelowTheLogsLevel) {
+  // GIVEN a stretch that dwells, holding 3 N (its largest force) but for a few smaller rows
+  Trace tr = reciprocating(2.0);
+  for (std::size_t k = 0; k < tr.samples.size(); ++k) tr.samples[k].u_N = k % 50 == 0 ? 2.0 : 3.0;
+  // WHEN screened alone THEN the held force looks like a clip ...
+  ForceSaturation found;
+  (void)leave_out_force_saturation(tr, found);
+  EXPECT_TRUE(found.found_hi);
+  // ... AND is none where the log's force has been ten times that (a stream's chunk)
+  (void)leave_out_force_saturation(tr, found, ForceSaturation{}, 0.5 * 30.0);
+  EXPECT_FALSE(found.found()) << found.describe("N");
+  // AND a level known from earlier in the log is left out here too
+  ForceSaturation known;
+  known.found_hi = true;
+  known.level_hi = 3.0;
+  const Trace kept = leave_out_force_saturation(tr, found, known, 0.5 * 30.0);
+  EXPECT_TRUE(found.found_hi);
+  EXPECT_LT(kept.samples.size(), tr.samples.size());
+}
+
 TEST(PositionSpikes, AOneRowJumpIsBridgedAndAFastMoveIsNot) {
   // GIVEN a reciprocation (peak step 0.16 mm per 1 ms row) with one row 1 m off
   Trace tr = reciprocating(10.0);
