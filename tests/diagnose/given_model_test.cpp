@@ -288,5 +288,40 @@ TEST(DiagnoseGivenModelCli, MissingReferenceColumnIsNamed) {
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
 }
 
+TEST(DiagnoseGivenModelCli, ModelOutWritesTheNamedEffectsAndReplayRunsThem) {
+  // GIVEN the ripple drive's run in its own loop as a log, its controller and its true base model
+  const RippleLoop& l = ripple_loop();
+  const std::string run = own("run.csv"), c = own("c.json"), m = own("m.json"), fx = own("fx.json");
+  {
+    std::ofstream f(run);
+    f.precision(17);
+    f << "t,x,u,r\n";
+    for (std::size_t k = 0; k < l.run.t.size(); ++k) f << l.run.t[k] << "," << l.run.x[k] << "," << l.run.u[k] << "," << l.run.reference[k] << "\n";
+    std::ofstream(c) << l.controller.dump();
+    std::ofstream(m) << host::model_json(l.cfg.drive).dump();
+  }
+  const std::string in = " --controller " + c + " --in " + run + " --time t --position x --force u";
+  // WHEN diagnosed with --model-out
+  const Outcome d = feedid("diagnose --model " + m + in + " --model-out " + fx);
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  // THEN the file holds the base model with the ripple, and replay simulates it
+  const host::ModelFile written = host::read_model_file(fx);
+  ASSERT_FALSE(written.effects.empty());
+  EXPECT_EQ(written.effects[0]["kind"], "position_ripple");
+  EXPECT_DOUBLE_EQ(written.drive.mass_kg, l.cfg.drive.mass_kg);
+  const std::string bare_json = own("bare.json"), fx_json = own("fx_replay.json");
+  ASSERT_EQ(feedid("replay --model " + m + in + " --json " + bare_json).exit_code, 0);
+  const Outcome r = feedid("replay --model " + fx + in + " --json " + fx_json);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto force_pct = [](const std::string& path) {
+    std::ifstream f(path);
+    return nlohmann::json::parse(f)["relative_error_pct"]["force"].get<double>();
+  };
+  EXPECT_LT(force_pct(fx_json), 0.5 * force_pct(bare_json));
+  // AND an output that names an input is refused, the input kept
+  EXPECT_EQ(feedid("diagnose --model " + m + in + " --model-out " + m).exit_code, 1);
+  EXPECT_NO_THROW(host::read_model_file(m));
+}
+
 }  // namespace
 }  // namespace feedid::test
