@@ -86,10 +86,19 @@ inline std::string key_in_units(std::string key, const Units& u) {
   return key;
 }
 
+/// Keys whose value is an angle on every axis: named in rad already, so the
+/// inverse below must not read their _rad as a rotary position's.
+inline bool angle_key(const std::string& key) {
+  for (const char* k : {"phase_rad", "angle0_rad", "angle0_se_rad"})
+    if (key == k) return true;
+  return false;
+}
+
 /// The inverse: a key named in u's units back in m and N, for what reads
-/// the JSON back (a model file's effects): force_N_m is force_N.
+/// the JSON back (a model file's effects): force_N_m is force_N, phase_rad
+/// stays phase_rad.
 inline std::string key_in_si(std::string key, const Units& u) {
-  if (u.linear_si()) return key;
+  if (u.linear_si() || angle_key(key)) return key;
   auto suffixes = detail::si_suffixes(u);
   // The longest unit first: _N_m_s_rad (viscous) before _rad_s before _rad.
   std::sort(suffixes.begin(), suffixes.end(), [](const auto& a, const auto& b) { return a.second.size() > b.second.size(); });

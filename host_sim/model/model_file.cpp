@@ -105,7 +105,9 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   out.drive.mass_kg = number_at(j, "m", "", source);
   out.drive.pos = direction_from_json(j, "pos", from_identify, out);
   out.drive.neg = direction_from_json(j, "neg", from_identify, out);
-  const std::string offset = key_in_units("offset_N", stated_units(j));  // offset_N_m on a rotary axis
+  // offset_N_m on a rotary axis as the tool writes it; offset_N as a user may
+  std::string offset = key_in_units("offset_N", stated_units(j));
+  if (!j.contains(offset)) offset = "offset_N";
   if (j.contains(offset)) out.load.offset_N = number_at(j, offset.c_str(), "", source);
   if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
   if (j.contains("effects")) read_effects(j.at("effects"), j, out);

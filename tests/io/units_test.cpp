@@ -139,6 +139,8 @@ TEST(Units, KeysNameTheUnitsTheirValuesAreInAndReadBack) {
     for (const char* k : {"velocity_max_m_s", "max_acceleration_m_s2", "force_N", "load_mass_kg", "viscous_change_Ns_m",
                           "period_m", "x_m", "time_constant_s"})
       EXPECT_EQ(key_in_si(key_in_units(k, u), u), k) << k << " in " << u.position << ", " << u.force;
+  // AND an angle's key is rad on every axis: read back as it is
+  for (const char* k : {"phase_rad", "angle0_rad", "angle0_se_rad"}) EXPECT_EQ(key_in_si(k, rotary), k);
   // AND a command's JSON is renamed through its objects and lists by the units it states
   const nlohmann::json j = {{"units", units_json(volts)}, {"effects", {{{"parameters", {{"force_N", 1.0}}}}}}};
   EXPECT_EQ(json_as_written(j)["effects"][0]["parameters"]["force_V"], 1.0);

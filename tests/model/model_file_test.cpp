@@ -99,6 +99,20 @@ TEST(ModelFile, IdentifyReportKeysAreNotWarnedButAFailedStatusIsAnError) {
   EXPECT_NE(error_of([&] { model_file_from_json(j, "id.json"); }).find("status"), std::string::npos);
 }
 
+TEST(ModelFile, AnOffsetByItsSINameIsReadInAnyUnits) {
+  // GIVEN a hand-written rotary model in volts with the documented offset_N
+  json j = emps_reference();
+  j["units"] = {{"position", "rad"}, {"force", "V"}};
+  const ModelFile m = model_file_from_json(j, "hand.json");
+  // THEN it is the load, and nothing is warned of
+  EXPECT_DOUBLE_EQ(m.load.offset_N, -3.1648);
+  EXPECT_TRUE(m.warnings.empty()) << m.warnings.front();
+  // AND under the name the tool writes on such an axis too
+  j.erase("offset_N");
+  j["offset_V"] = 1.5;
+  EXPECT_DOUBLE_EQ(model_file_from_json(j, "tool.json").load.offset_N, 1.5);
+}
+
 TEST(ModelFile, AGravityTermIsTheModelsLoad) {
   // GIVEN identify's constant form, its arm form, and an arm written by hand
   json constant = emps_reference(), arm = emps_reference(), by_hand = emps_reference();
