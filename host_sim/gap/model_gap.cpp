@@ -2,6 +2,7 @@
 #include "model_gap.hpp"
 
 #include "diagnose/diagnose_fit.hpp"
+#include "identify/gravity.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -93,7 +94,17 @@ nlohmann::json named_effects_json(const std::vector<NamedEffect>& named) {
 }
 
 nlohmann::json model_with_effects(const DiagnoseResult& r, const nlohmann::json& given) {
-  nlohmann::json j = given.is_null() ? to_json(r.base) : keys_in_si(given, stated_units(given));
+  nlohmann::json j;
+  if (!given.is_null()) {
+    j = keys_in_si(given, stated_units(given));
+  } else {
+    // The base refitted beside the effects (the core's own fit on the
+    // identification folds holds part of a drift or a position friction
+    // already: with the effects beside it, that part would count twice).
+    j = model_json(r.has_augmented_model ? r.augmented_model : to_drive_params(r.base.estimate), r.base.units);
+    put_load(j, gravity_load(r.base.gravity));
+    j["comment"] = "diagnose --model-out: the base refitted beside the named effects, on the identification folds";
+  }
   j["effects"] = named_effects_json(r.effects);
   return j;
 }

@@ -261,6 +261,16 @@ IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResu
 
 }  // namespace
 
+ModelLoad gravity_load(const GravityFit& g) {
+  ModelLoad load;
+  if (g.form == GravityTerm::constant) load.offset_N = g.G;
+  if (g.form == GravityTerm::angle) {
+    load.gravity_N = g.G;
+    load.gravity_angle0_rad = g.angle0_rad;
+  }
+  return load;
+}
+
 const char* gravity_name(GravityTerm g) {
   switch (g) {
     case GravityTerm::none: return "none";
@@ -284,6 +294,11 @@ IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& 
   if (!r0.error.empty() || opt.gravity == GravityTerm::none) return r0;
   if (opt.gravity == GravityTerm::constant) return with_constant(trace, base, std::move(r0));
   const bool rotary = opt.units.position == "rad";
+  if (rotary && !trace.has_position) {  // an angle integrated from the velocity has no zero: cos(q - q0) has no q
+    if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs the arm's angle: give the position column";
+    else r0.gravity.note = "none: the log has no position, so the arm's angle is unknown";
+    return r0;
+  }
   if (!rotary) {
     r0.gravity.note = "";  // automatic (the default) on a linear axis: nothing to say on every linear log
     if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs a rotary axis (--axis rotary, position in rad)";

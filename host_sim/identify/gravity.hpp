@@ -33,6 +33,9 @@ constexpr double kGravityMinZ = 5.0;         ///< an automatic term must stand t
 constexpr double kGravityMinShareOfCoulomb = 0.1;
 
 const char* gravity_name(GravityTerm g);
+/// The fitted term as a model's load (model/drive_model.hpp): a constant G
+/// is a constant force, the angle form an arm's weight; none: no load.
+ModelLoad gravity_load(const GravityFit& g);
 /// The term named none, constant, angle or auto; false for another name.
 bool gravity_from_name(const std::string& name, GravityTerm& g);
 

@@ -176,6 +176,20 @@ TEST(DiagnoseGivenModel, ReplayedWithTheNamedEffectTheHeldOutForceErrorShrinks) 
   }
 }
 
+TEST(DiagnoseGivenModel, ModelOutWithoutAModelIsTheBaseRefittedBesideTheEffects) {
+  // GIVEN the ripple drive diagnosed without a model
+  const host::DiagnoseResult r = host::diagnose(host::simulate(ripple_trace_config(3)), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(r.has_augmented_model);
+  // WHEN written as a model file THEN its friction is the base fitted beside the effects, not the core's alone
+  const host::ModelFile m = host::model_file_from_json(host::model_with_effects(r, nlohmann::json()), "fx.json");
+  EXPECT_DOUBLE_EQ(m.drive.mass_kg, r.augmented_model.mass_kg);
+  EXPECT_DOUBLE_EQ(m.drive.pos.coulomb_N, r.augmented_model.pos.coulomb_N);
+  EXPECT_DOUBLE_EQ(m.drive.neg.viscous_Ns_m, r.augmented_model.neg.viscous_Ns_m);
+  EXPECT_EQ(m.effects.size(), r.effects.size());
+  EXPECT_TRUE(m.warnings.empty()) << m.warnings.front();
+}
+
 TEST(DiagnoseGivenModel, TheModelFileWithTheNamedEffectsReplaysThem) {
   const RippleLoop& l = ripple_loop();
   ASSERT_TRUE(l.g.replayed);
