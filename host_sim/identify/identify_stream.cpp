@@ -118,11 +118,11 @@ void keep_tail(Trace& chunk, double t_end, double margin_s) {
 /// otherwise reach the core (m 15 % low on a log clipped from 70 s on).
 /// The rows left out between t_from and t_end, the part of the chunk that
 /// is pushed, are counted into `log` once. A chunk's level below half the
-/// largest force of the log so far is no clip (a chunk that only dwells).
-Trace without_clipped_rows(const Trace& chunk, double t_from, double t_end, double& peak, ForceSaturation& log) {
-  for (const TraceSample& s : chunk.samples) peak = std::max(peak, std::fabs(s.u_N));
+/// head's largest force (its outliers bridged: one spike must not hide a
+/// clip) is no clip (a chunk that only dwells).
+Trace without_clipped_rows(const Trace& chunk, double t_from, double t_end, double head_peak, ForceSaturation& log) {
   ForceSaturation here;
-  Trace kept = leave_out_force_saturation(chunk, here, log, 0.5 * peak);
+  Trace kept = leave_out_force_saturation(chunk, here, log, 0.5 * head_peak);
   if (!here.found()) return kept;
   const auto pushed = [&](double t) { return t >= t_from && t < t_end; };
   std::size_t on_level = 0, in_chunk = 0, in_kept = 0;
@@ -210,13 +210,16 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     return r;
   }
   r.config = cores->core.config();  // as init() completed it: what the core ran with
-  double t_last = cores->t_first, t_pushed = -INFINITY, peak = 0.0;
+  double t_last = cores->t_first, t_pushed = -INFINITY, head_peak = 0.0;
+  for (double u : r.signals.u) head_peak = std::max(head_peak, std::fabs(u));
   ForceSaturation clipped;
   for (;;) {
     // Filter the chunk with its margins; push what lies past the samples
     // already pushed and, unless it is the last chunk, before the trailing margin.
     const double t_end = more ? chunk.samples.back().t_s - so.margin_s : INFINITY;
-    cores->push(prepare_signals(without_clipped_rows(chunk, t_pushed, t_end, peak, clipped), fixed), t_end, r.first_rejections);
+    const Trace kept = without_clipped_rows(chunk, t_pushed, t_end, head_peak, clipped);
+    // A chunk that only pushes against the limit keeps too few rows to condition: nothing to push.
+    if (kept.samples.size() >= 2) cores->push(prepare_signals(kept, fixed), t_end, r.first_rejections);
     t_pushed = t_end;
     t_last = chunk.samples.back().t_s;
     if (opt.progress) opt.progress(t_last - cores->t_first);
