@@ -10,6 +10,7 @@
 #include "diagnose_blocks.hpp"
 #include "diagnose_catalogue.hpp"
 #include "diagnose_fit.hpp"
+#include "identify/gravity.hpp"
 
 namespace feedid::host {
 namespace {
@@ -82,6 +83,17 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   idopt.select_friction_model = false;
   idopt.force_sign = 1;  // aligned_signals oriented the force already
   idopt.velocity_lag_s = (sig.core_velocity_lag + sig.velocity_delay_samples) / sig.sample_rate_hz;
+  // id_trace's position is integrated where the log has none: no arm's angle to place a gravity term at.
+  if (!trace.has_position && idopt.gravity == GravityTerm::automatic) idopt.gravity = GravityTerm::none;
+  if (!trace.has_position && idopt.gravity == GravityTerm::angle) {
+    out.error = trace.source + ": --gravity angle needs the arm's angle: give the position column";
+    return false;
+  }
+  if (!trace.has_position && opt.model && opt.model->load.depends_on_position()) {
+    out.error = trace.source + ": the model carries an arm's weight, G cos(q - q0), and the log has no position to "
+                               "place it: give the position column";
+    return false;
+  }
   out.base = identify(id_trace, idopt);
   // The identification folds reach the core as a measured column; say where it came from.
   out.base.signals.velocity_origin = sig.velocity_origin;
@@ -938,16 +950,7 @@ Vec load_prediction(const Observations& obs, const ModelLoad& load) {
   return obs.sample_column([&](std::size_t j) { return load.at(0.5 * (s.x[j] + s.x[j + 1])); });
 }
 
-/// The base identification's gravity term as a load (none: no load).
-ModelLoad base_load(const GravityFit& g) {
-  ModelLoad load;
-  if (g.form == GravityTerm::constant) load.offset_N = g.G;
-  if (g.form == GravityTerm::angle) {
-    load.gravity_N = g.G;
-    load.gravity_angle0_rad = g.angle0_rad;
-  }
-  return load;
-}
+
 
 bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseResult& out) {
   out.blocks_heldout = obs.heldout_count();
@@ -999,7 +1002,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   if (opt.model) force -= given_prediction(obs, *opt.model) + load_prediction(obs, opt.model->load);
   // The base's gravity term (auto on a rotary axis) is the base's, as it is
   // in the model identify writes: taken off, so no effect takes it up again.
-  if (!opt.model && out.base.gravity.form != GravityTerm::none) force -= load_prediction(obs, base_load(out.base.gravity));
+  if (!opt.model && out.base.gravity.form != GravityTerm::none) force -= load_prediction(obs, gravity_load(out.base.gravity));
   ColumnBank bank(force, id);
   const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
   BaseColumns base_cols;

@@ -37,10 +37,19 @@ bool conventions_due(const MonitorOptions& opt, const LogConventions& c, int epo
   return !c.fixed || (every > 0 && epoch - c.found_at_epoch >= every);
 }
 
+/// The identify options every epoch starts from: a gravity term only where
+/// asked (--gravity), never the automatic one, which could take the term in
+/// one epoch and not the next and move the friction between them.
+IdentifyOptions log_options(const MonitorOptions& opt) {
+  IdentifyOptions o = opt.identify;
+  if (o.gravity == GravityTerm::automatic) o.gravity = GravityTerm::none;
+  return o;
+}
+
 /// The identify options for an epoch: the fixed conventions stated, where
 /// the user did not state them.
 IdentifyOptions epoch_options(const MonitorOptions& opt, const LogConventions& c) {
-  IdentifyOptions o = opt.identify;
+  IdentifyOptions o = log_options(opt);
   if (!c.fixed) return o;
   if (o.force_sign == 0) o.force_sign = c.force_sign;
   if (!std::isfinite(o.force_lag_s) && o.alignment == "auto") o.force_lag_s = c.force_lag_s;
@@ -64,7 +73,7 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   t.time_unit_stated = in.time_unit_stated();
   t.source = "epoch";
   const bool searching = conventions_due(opt, conv, epoch);
-  const IdentifyResult r = identify(t, searching ? opt.identify : epoch_options(opt, conv));
+  const IdentifyResult r = identify(t, searching ? log_options(opt) : epoch_options(opt, conv));
   e.error = r.error;
   if (r.error.empty()) e.estimate = r.estimate;
   for (int d = 0; d < 2; ++d) e.stribeck[static_cast<std::size_t>(d)] = r.friction_model[static_cast<std::size_t>(d)].stribeck;
