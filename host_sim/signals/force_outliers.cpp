@@ -80,26 +80,51 @@ nlohmann::json ForceSaturation::to_json() const {
 }
 
 namespace {
-/// Whether the largest value of `u` (sign +1) or the smallest (-1) is a
-/// clip level (ForceSaturation), and which.
-bool clip_level(const std::vector<double>& u, double sign, double& level) {
-  if (u.empty()) return false;
-  level = sign > 0 ? *std::max_element(u.begin(), u.end()) : *std::min_element(u.begin(), u.end());
+/// Whether `level` is a clip level of u on the side `sign` (the rules of
+/// ForceSaturation), the rows beyond it left aside as spikes.
+bool clip_at(const std::vector<double>& u, double sign, double level) {
   if (!(sign * level > 0.0) || !std::isfinite(level)) return false;
   // The force's step at the level: the distance to the nearest value below it.
   std::size_t on = 0;
   double step = std::numeric_limits<double>::infinity();
   for (double x : u) {
     if (x == level) ++on;
-    else step = std::min(step, sign * (level - x));
+    else if (sign * (level - x) > 0.0) step = std::min(step, sign * (level - x));
   }
   // A force that never leaves the level (a constant) has nothing clipped.
   if (on < kSaturationMinRows || !std::isfinite(step)) return false;
   const double band = std::max(kSaturationBand * std::fabs(level), std::isfinite(step) ? 3.0 * step : 0.0);
   std::size_t near = 0;
   for (double x : u)
-    if (x != level && sign * (level - x) <= band) ++near;
+    if (x != level && sign * (level - x) > 0.0 && sign * (level - x) <= band) ++near;
   return static_cast<double>(on) > kSaturationPileUp * static_cast<double>(near);
+}
+
+/// Whether the largest value of `u` (sign +1) or the smallest (-1) is a
+/// clip level (ForceSaturation), and which. A few rows beyond it
+/// (kSaturationSpikes: outliers, bridged later) do not hide it: one row of
+/// 1e5 N above a clip at 116 N left EMPS-like data 12 % light, unnamed.
+bool clip_level(const std::vector<double>& u, double sign, double& level) {
+  if (u.empty()) return false;
+  // The kSaturationSpikes + 1 extreme distinct values, the most extreme first.
+  std::vector<double> extremes;
+  for (double x : u) {
+    if (!std::isfinite(x) || std::find(extremes.begin(), extremes.end(), x) != extremes.end()) continue;
+    extremes.push_back(x);
+    std::sort(extremes.begin(), extremes.end(), [sign](double a, double b) { return sign * a > sign * b; });
+    if (extremes.size() > kSaturationSpikes + 1) extremes.pop_back();
+  }
+  std::size_t beyond = 0;
+  for (double candidate : extremes) {
+    if (beyond > kSaturationSpikes) break;
+    if (clip_at(u, sign, candidate)) {
+      level = candidate;
+      return true;
+    }
+    beyond += static_cast<std::size_t>(std::count(u.begin(), u.end(), candidate));
+  }
+  level = extremes.empty() ? 0.0 : extremes.front();
+  return false;
 }
 }  // namespace
 

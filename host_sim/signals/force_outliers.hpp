@@ -44,6 +44,7 @@ double force_outlier_limit(const std::vector<double>& x, const std::vector<doubl
 /// times as many as lie within kSaturationBand of it below (or within
 /// three of the force's steps, for a coarsely quantised force).
 constexpr std::size_t kSaturationMinRows = 5;
+constexpr std::size_t kSaturationSpikes = 3;  ///< rows beyond a level that do not hide it (outliers)
 constexpr double kSaturationPileUp = 4.0;
 constexpr double kSaturationBand = 0.02;
 

@@ -165,6 +165,25 @@ TEST(ForceSaturation, ClippedRowsAreLeftOutAsGapsAndAPeakIsNot) {
   EXPECT_FALSE(none.found());
 }
 
+TEST(ForceSaturation, AFewSpikesBeyondAClipDoNotHideIt) {
+  // GIVEN the reciprocation clipped at +-15 N, with spikes beyond the upper level
+  Trace tr = reciprocating(10.0);
+  for (auto& smp : tr.samples) smp.u_N = std::clamp(smp.u_N, -15.0, 15.0);
+  tr.samples[1000].u_N = 1e5;
+  tr.samples[3000].u_N = 40.0;
+  tr.samples[5000].u_N = 40.0;
+  // WHEN screened THEN both levels are still found (the spikes are the outlier bridge's)
+  ForceSaturation found;
+  (void)leave_out_force_saturation(tr, found);
+  ASSERT_TRUE(found.found_hi && found.found_lo);
+  EXPECT_EQ(found.level_hi, 15.0);
+  // AND more rows beyond the level than a few spikes are a force, not spikes: no clip there
+  for (std::size_t k = 0; k < 10; ++k) tr.samples[6000 + 50 * k].u_N = 20.0 + k;
+  (void)leave_out_force_saturation(tr, found);
+  EXPECT_FALSE(found.found_hi);
+  EXPECT_TRUE(found.found_lo);
+}
+
 TEST(ForceSaturation, ACoarselyQuantisedForceIsNotCalledClipped) {
   // GIVEN the reciprocation's force (peak 19.9 N) in steps of 5 N, unclipped
   Trace tr = reciprocating(10.0);
