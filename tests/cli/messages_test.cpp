@@ -22,9 +22,11 @@ struct Outcome {
   std::string err;
 };
 
-/// feedid with `args`, its stderr kept.
+/// feedid with `args`, its stderr kept (in a file of the running test's
+/// own: ctest runs the tests of this file in parallel processes).
 Outcome feedid(const std::string& args) {
-  const std::string err = ::testing::TempDir() + "feedid_messages.err";
+  const std::string err =
+      ::testing::TempDir() + "feedid_messages_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".err";
   const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >/dev/null 2>" + err).c_str());
   std::ifstream f(err);
   return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1,
