@@ -96,4 +96,81 @@ template <typename T, int N>
   return true;
 }
 
+/// The normal equations of a search over one nonlinear parameter, where
+/// only the last column changes from fit to fit: the leading N-1 block is
+/// scaled, factorised and forward-solved once (bordered_factor), and each
+/// fit completes the last row (bordered_solve). The operations are those of
+/// solve_normal_equations(), in the same order, so the result is the same
+/// to the bit; a fit saves the leading block's square roots and divisions.
+template <typename T, int N> struct BorderedFactor {
+  static_assert(N >= 2, "a bordered system has a leading block");
+  SymMatrix<T, N> l{};  ///< the leading block's Cholesky factor (scaled)
+  Vector<T, N> scale{}, y{};  ///< leading entries: 1/sqrt(a_ii), forward solution
+  Vector<T, N> x_lead{};  ///< the leading block solved alone (last entry 0)
+  bool ok = false;        ///< false: the leading block is singular
+};
+
+/// Factor of the leading N-1 block of a and b (the last row is not read).
+template <typename T, int N>
+BorderedFactor<T, N> bordered_factor(const SymMatrix<T, N>& a, const Vector<T, N>& b, T rel_tol) {
+  constexpr int M = N - 1;
+  BorderedFactor<T, N> f;
+  for (int i = 0; i < M; ++i) {
+    if (!(a.a[i][i] > T(0))) return f;
+    f.scale.v[i] = T(1) / port::sqrt(a.a[i][i]);
+  }
+  SymMatrix<T, M> s;
+  Vector<T, M> sb;
+  for (int i = 0; i < M; ++i) {
+    sb.v[i] = b.v[i] * f.scale.v[i];
+    for (int j = 0; j < M; ++j) s.a[i][j] = a.a[i][j] * f.scale.v[i] * f.scale.v[j];
+  }
+  if (!cholesky(s, rel_tol)) return f;
+  const Vector<T, M> sx = cholesky_solve(s, sb);
+  for (int i = 0; i < M; ++i) {
+    f.x_lead.v[i] = sx.v[i] * f.scale.v[i];
+    T acc = sb.v[i];  // cholesky_solve()'s forward pass, kept for the border
+    for (int k = 0; k < i; ++k) acc -= s.a[i][k] * f.y.v[k];
+    f.y.v[i] = acc / s.a[i][i];
+    for (int j = 0; j < M; ++j) f.l.a[i][j] = s.a[i][j];
+  }
+  f.ok = true;
+  return f;
+}
+
+/// solve_normal_equations(a, b, rel_tol, x) for an `a` whose leading block
+/// is the one f was formed from.
+template <typename T, int N>
+[[nodiscard]] bool bordered_solve(const BorderedFactor<T, N>& f, const SymMatrix<T, N>& a, const Vector<T, N>& b,
+                                  T rel_tol, Vector<T, N>& x) {
+  constexpr int M = N - 1;
+  if (!f.ok || !(a.a[M][M] > T(0))) return false;
+  const T scale = T(1) / port::sqrt(a.a[M][M]);
+  T row[N];
+  for (int j = 0; j < M; ++j) {
+    T acc = a.a[M][j] * scale * f.scale.v[j];
+    for (int k = 0; k < j; ++k) acc -= row[k] * f.l.a[j][k];
+    row[j] = acc / f.l.a[j][j];
+  }
+  const T diag0 = a.a[M][M] * scale * scale;
+  T d = diag0;
+  for (int k = 0; k < M; ++k) d -= row[k] * row[k];
+  if (!(d > rel_tol * diag0) || !(diag0 > T(0))) return false;
+  row[M] = port::sqrt(d);
+  T acc = b.v[M] * scale;
+  for (int k = 0; k < M; ++k) acc -= row[k] * f.y.v[k];
+  const T y_last = acc / row[M];
+  T sx[N];
+  sx[M] = y_last / row[M];
+  for (int i = M - 1; i >= 0; --i) {
+    T s = f.y.v[i];
+    for (int k = i + 1; k < M; ++k) s -= f.l.a[k][i] * sx[k];
+    s -= row[i] * sx[M];
+    sx[i] = s / f.l.a[i][i];
+  }
+  for (int i = 0; i < M; ++i) x.v[i] = sx[i] * f.scale.v[i];
+  x.v[M] = sx[M] * scale;
+  return true;
+}
+
 }  // namespace feedid

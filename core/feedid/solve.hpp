@@ -23,7 +23,18 @@ template <typename T, int Bands> struct FrictionPoints {
   Vector<T, 3> b_cv{};     ///< sum w phi_r target for r in {Fc, sigma}
   int count = 0;
   T total_time = T(0);
+  BorderedFactor<T, 3> cv{};  ///< a_cv's (Fc, sigma) block factorised, for `factored_count` points
+  int factored_count = -1;
 };
+
+/// The fit tolerance of the normal equations' pivots in T.
+template <typename T> constexpr T fit_pivot_tolerance() { return T(sizeof(T) == 4 ? 1e-5 : 1e-10); }
+
+/// Factorises the points' (Fc, sigma) block once for all fits of a search.
+template <typename T, int Bands> void factor_friction_points(FrictionPoints<T, Bands>& p) {
+  p.cv = bordered_factor(p.a_cv, p.b_cv, fit_pivot_tolerance<T>());
+  p.factored_count = p.count;
+}
 
 /// The rules that turn a standard error into "not identifiable"; the host
 /// applies the same ones after it widens a standard error (jackknife).
@@ -86,6 +97,7 @@ FrictionPoints<T, Bands> friction_points(const Statistics<T, Bands, C>& s, int d
     if (!(t >= min_band_time_s<T>())) continue;
     (void)add_friction_point(p, t, b.speed.get(), b.speed2.get(), b.force.get() - mass * b.dvel.get());
   }
+  factor_friction_points(p);
   return p;
 }
 
@@ -150,11 +162,20 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
   }
   a.a[2][0] = a.a[0][2];
   a.a[2][1] = a.a[1][2];
-  const T tol = T(sizeof(T) == 4 ? 1e-5 : 1e-10);
+  const T tol = fit_pivot_tolerance<T>();
   // Effective number of bands the exponential reaches: (sum s)^2 / sum s^2.
-  bool active = sum_e2 > T(0) && sum_e * sum_e >= T(2) * sum_e2 &&
-                solve_normal_equations(a, b, tol, theta, inv_diag) && theta.v[2] >= T(0);
-  if (!active && !solve_coulomb_viscous(a, b, tol, theta, inv_diag)) return false;
+  const bool spread = sum_e2 > T(0) && sum_e * sum_e >= T(2) * sum_e2;
+  bool active;
+  if (inv_diag || p.factored_count != p.count) {
+    active = spread && solve_normal_equations(a, b, tol, theta, inv_diag) && theta.v[2] >= T(0);
+    if (!active && !solve_coulomb_viscous(a, b, tol, theta, inv_diag)) return false;
+  } else {  // a search's fit: the (Fc, sigma) block's factor is the points' (the same result to the bit)
+    active = spread && bordered_solve(p.cv, a, b, tol, theta) && theta.v[2] >= T(0);
+    if (!active) {
+      if (!p.cv.ok) return false;
+      theta = p.cv.x_lead;
+    }
+  }
   if (stribeck_active) *stribeck_active = active;
   ssr = friction_ssr(p, theta, e);
   return port::is_finite(ssr);
@@ -167,7 +188,7 @@ bool fit_coulomb_viscous_at(const FrictionPoints<T, Bands>& p, Vector<T, 3>& the
                             Vector<T, 3>* inv_diag = nullptr) {
   T e[Bands];
   for (int k = 0; k < p.count; ++k) e[k] = T(0);
-  if (!solve_coulomb_viscous(p.a_cv, p.b_cv, T(sizeof(T) == 4 ? 1e-5 : 1e-10), theta, inv_diag)) return false;
+  if (!solve_coulomb_viscous(p.a_cv, p.b_cv, fit_pivot_tolerance<T>(), theta, inv_diag)) return false;
   ssr = friction_ssr(p, theta, e);
   return port::is_finite(ssr);
 }

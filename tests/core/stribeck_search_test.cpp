@@ -61,4 +61,32 @@ TEST(StribeckSearch, RefinementGivesUpAtTheRangeEnd) {
   EXPECT_FALSE(detail::refine_stribeck(p, lo, hi, 0.5 * step, l, ssr));
 }
 
+TEST(StribeckSearch, FitsOnFactorisedPointsAreTheUnfactorisedFitsToTheBit) {
+  // GIVEN the ladder's points, factorised once (friction_points) and not
+  auto est = ladder_estimator();
+  ASSERT_NE(est, nullptr);
+  const Config<double>& cfg = est->config();
+  const double lo = detail::stribeck_lo(cfg), hi = detail::stribeck_hi(cfg);
+  for (int d = 0; d < 2; ++d) {
+    const auto factored = detail::friction_points(est->statistics(), d, 100.0);
+    ASSERT_EQ(factored.factored_count, factored.count);
+    auto plain = factored;
+    plain.factored_count = -1;
+    // WHEN each is fitted across the whole search range, below and above the bands
+    for (int g = 0; g < 60; ++g) {
+      const double vs = lo * std::pow(hi / lo, (g - 10) / 40.0);
+      Vector<double, 3> a, b;
+      double ssr_a = 0, ssr_b = 0;
+      bool active_a = false, active_b = false;
+      const bool ok_a = detail::fit_friction_at(factored, vs, a, ssr_a, static_cast<Vector<double, 3>*>(nullptr), &active_a);
+      const bool ok_b = detail::fit_friction_at(plain, vs, b, ssr_b, static_cast<Vector<double, 3>*>(nullptr), &active_b);
+      // THEN the fits agree to the last bit, the Stribeck law's choice included
+      ASSERT_EQ(ok_a, ok_b) << vs;
+      EXPECT_EQ(active_a, active_b) << vs;
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(a.v[k], b.v[k]) << "vs " << vs << " term " << k;
+      EXPECT_EQ(ssr_a, ssr_b) << vs;
+    }
+  }
+}
+
 }  // namespace
