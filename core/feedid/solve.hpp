@@ -497,9 +497,9 @@ bool mass_equation(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>&
     for (int j = 0; j < Bands; ++j) {
       const BandSums<T>& b = s.band[d][j];
       const T pt = b.proj_time.get(), pv = b.proj_speed.get(), pw = b.proj_speed2.get();
-      friction_proj += e.coulomb_N * pt + e.viscous_Ns_m * pv +
-                       e.breakaway_N * exp_integral_about(layout.center(j), pt, pv, pw,
-                                                          e.stribeck_velocity_m_s);
+      friction_proj += e.coulomb_N * pt + e.viscous_Ns_m * pv;
+      if (e.breakaway_N != T(0))
+        friction_proj += e.breakaway_N * exp_integral_about(layout.center(j), pt, pv, pw, e.stribeck_velocity_m_s);
     }
     num += s.dir[d].win_dv_force.get() - friction_proj;
     den += s.dir[d].win_dv2.get();
@@ -525,25 +525,45 @@ template <typename T> T stribeck_candidate(const Config<T>& c, int i, int count)
   return lo * port::exp(port::log(hi / lo) * T(i) / T(count - 1));
 }
 
+/// A first friction for the first mass: Coulomb and viscous alone, at m = 0
+/// (two fits of the (Fc, sigma) block, no vs search). A Stribeck search at
+/// m = 0 placed vs far from where the next round found it (the residual
+/// inertia is in every band's target), so its grid was thrown away.
+template <typename T, int Bands, int C>
+DirectionFit<T> fit_first_friction(const Statistics<T, Bands, C>& s, int d) {
+  DirectionFit<T> out;
+  const FrictionPoints<T, Bands> p = friction_points(s, d, T(0));
+  Vector<T, 3> th;
+  T ssr;
+  if (p.count < 5 || !fit_coulomb_viscous_at(p, th, ssr)) return out;
+  out.est.coulomb_N = th.v[0];
+  out.est.viscous_Ns_m = th.v[1];
+  out.usable = true;
+  return out;
+}
+
 template <typename T, int Bands, int C>
 Status solve_bands(const Statistics<T, Bands, C>& s, const BandLayout<T, Bands>& layout,
                    const Config<T>& cfg, Estimate<T>& out) {
   const T lo = stribeck_lo(cfg), hi = stribeck_hi(cfg);
   DirectionFit<T> fit[2];
   T mass = T(0), num = T(0), dv2 = T(0), tau_dv2 = T(0);
-  bool mass_ok = false;
   // Friction needs m only for the small residual-inertia correction, and m
   // needs friction; alternate. The coupling is weak (sum of dv per band is
-  // near zero), so a few rounds converge to working precision.
-  // Only the first round searches vs over its whole range; later rounds
-  // refine near the previous optimum, and only the last one (the published
-  // fit) computes standard errors and flags.
-  constexpr int rounds = 4;
+  // near zero), so a few rounds converge to working precision. The first
+  // mass comes from Coulomb and viscous friction alone; the first search
+  // round puts vs on the grid at that mass, later rounds refine near the
+  // previous optimum, and only the last one (the published fit) computes
+  // standard errors and flags.
+  for (int d = 0; d < 2; ++d) fit[d] = fit_first_friction(s, d);
+  T m_new;
+  bool mass_ok = mass_equation(s, layout, fit, m_new, num, dv2, tau_dv2);
+  if (mass_ok) mass = m_new;
+  constexpr int rounds = 3;
   for (int it = 0; it < rounds; ++it) {
     const T m_fit = mass_ok ? mass : T(0);
     const bool last = it == rounds - 1;
     for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, m_fit, lo, hi, it > 0 ? &fit[d] : nullptr, last);
-    T m_new;
     mass_ok = mass_equation(s, layout, fit, m_new, num, dv2, tau_dv2);
     if (!mass_ok) {  // no further round: this one's fit is published
       if (!last) for (int d = 0; d < 2; ++d) fit[d] = fit_direction(s, cfg, d, m_fit, lo, hi, &fit[d], true);

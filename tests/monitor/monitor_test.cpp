@@ -291,7 +291,10 @@ TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
 }
 
 TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
-  const SimConfig c = negative_coulomb_step();
+  SimConfig c = negative_coulomb_step();
+  // The log ends 30 s after the alarm (raised at 160 s), before Fc- can
+  // form its new reference of MonitorConfig::reference_epochs epochs.
+  c.motion.duration_s = 190.0;
   const MonitorResult r = monitor_simulated(c, "feedid_monitor_jsonl.csv");
   ASSERT_EQ(r.alarms.size(), 1u) << trend_table(r);
   std::istringstream lines(jsonl_lines(r, "log.csv"));
@@ -315,7 +318,7 @@ TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
   }
   EXPECT_EQ(epochs, r.epochs.size());
   EXPECT_EQ(alarms, 1u);
-  // After its alarm Fc- takes a new reference, which the 117 s left do not
+  // After its alarm Fc- takes a new reference, which the 30 s left do not
   // complete: the log ends partly watched, and says so.
   EXPECT_EQ(watch_status(r), "partly_watching");
   EXPECT_FALSE(r.tracked[6].referenced);
