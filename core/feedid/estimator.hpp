@@ -76,24 +76,41 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
   /// counters: it never reaches a sum, and the next good sample bridges it.
   /// Cost: constant, a few dozen flops and one band lookup; no loop over
   /// past data. Context: servo task or ISR (see port/ for the ISR hand-off).
-  [[nodiscard]] Status push(const Sample<T>& s) {
-    T dt = s.dt_s, v = s.velocity_m_s;
+  /// Inlined into the caller's servo loop (one call site per axis), so that
+  /// the sample stays in registers and the rare paths' saved registers are
+  /// not saved per sample; the rest is push_general_path().
+  [[nodiscard]] FEEDID_HOT_INLINE Status push(const Sample<T>& s) {
+    const T dt = s.dt_s, v = s.velocity_m_s, u = s.force_N;
     // The usual case: measured velocity, continuing a chain, no sample
-    // rejected since the last one (fast_path_), and a sample that passes
+    // rejected since the last one (fast_gap_bits_ != 0), and a sample that passes
     // every test of vet(). Each comparison below is false for NaN, and the
     // limits are finite, so a sample passing them is finite too: its
     // dt + skipped_dt_ (= dt) is within max_gap_s, its dt > 0, speed and
     // force within their limits, the velocity step within the jump limit.
     // Any other sample takes the general path, which finds its status.
-    // (fast_path_ is false until init() succeeded, and until the chain's
+    // (The fast path is off until init() succeeded, and until the chain's
     // force history is full.) Accepted samples are counted as intervals
-    // (diagnostics()).
-    if (fast_path_ && dt <= cfg_.max_gap_s && dt > T(0) && port::abs(v) <= cfg_.max_speed_m_s &&
-        port::abs(s.force_N) <= cfg_.max_force_N &&
+    // (diagnostics()). The first three tests are one integer comparison
+    // (set_fast_path()).
+    if (((port::detail::to_bits(dt) - 1u) < fast_gap_bits_) && port::abs(v) <= cfg_.max_speed_m_s &&
+        port::abs(u) <= cfg_.max_force_N &&
         port::abs(v - v_prev_) <= cfg_.max_acceleration_m_s2 * dt + jump_noise_allowance_) {
-      step<true>(dt, v, s.force_N);
+      step<true>(dt, v, u);
       return Status::ok;
     }
+    return push_general_path(dt, s.position_m, v, u);
+  }
+
+  /// push() of a sample off the usual path: not initialised, a chain's
+  /// first samples, after a rejection, or one that vet() must judge. The
+  /// sample's fields by value: the caller's sample then needs no place in
+  /// memory on the usual path.
+  FEEDID_RARE Status push_general_path(T dt_s, T position_m, T velocity_m_s, T force_N) {
+    Sample<T> s;
+    s.dt_s = dt_s;
+    s.position_m = position_m;
+    s.velocity_m_s = velocity_m_s;
+    s.force_N = force_N;
     if (!initialized_) return Status::not_initialized;
     bool interval = false;
     T dt_general = T(0), v_general = T(0);
@@ -104,14 +121,23 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
     }
     // Set on every acceptance (has_prev_ or the source may have changed);
     // cleared by every rejection (skipped_dt_ or time_lost_ may have).
-    fast_path_ = st == Status::ok && has_prev_ && cfg_.velocity_source == VelocitySource::measured &&
-                 u_history_ == ForcePairing<T>::history;
+    set_fast_path(st == Status::ok && has_prev_ && cfg_.velocity_source == VelocitySource::measured &&
+                  u_history_ == ForcePairing<T>::history);
     return st;
+  }
+
+  /// The fast path on (`on`) and 0 < dt <= max_gap_s, for a dt of bits b, is
+  /// b - 1 < fast_gap_bits_ in unsigned integers: the bits of a positive
+  /// float order as its value; +0 wraps to the largest integer; negatives,
+  /// infinity and NaN lie above any positive finite limit (max_gap_s > 0,
+  /// check()); and 0 fails every dt.
+  void set_fast_path(bool on) {
+    fast_gap_bits_ = on ? port::detail::to_bits(cfg_.max_gap_s) : GapBits(0);
   }
 
   /// Folds the open section and window (the section then no longer counts
   /// for the paper method) and computes the estimate. Bounded work: about
-  /// 4 x 2 x (24 + max_vs_iterations) friction fits of Bands points.
+  /// 3 x 2 x (24 + max_vs_iterations) friction fits of Bands points.
   /// Method::paper on an estimator built without it: method_not_built, and
   /// nothing changes. Context: task, never the ISR.
   [[nodiscard]] Status solve(Method method = Method::bands) {
@@ -266,7 +292,8 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
     estimate_ = Estimate<T>{};
     cfg_ = Config<T>{};
     config_error_ = nullptr;
-    initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = fast_path_ = false;
+    initialized_ = has_prev_ = has_x_prev_ = rest_seen_ = time_lost_ = false;
+    fast_gap_bits_ = GapBits(0);
     x_prev_ = v_prev_ = skipped_dt_ = jump_noise_allowance_ = quasi_steady_floor_ = T(0);
     fold_left_ = 0;
     fold_at_s_ = T(0);
@@ -397,7 +424,7 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
   }
 
   FEEDID_RARE Status reject(Status why, const Sample<T>& s) {
-    fast_path_ = false;
+    set_fast_path(false);
     ++diag_.samples_rejected;
     switch (why) {
       case Status::rejected_not_finite: ++diag_.rejected_not_finite; break;
@@ -969,8 +996,10 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
   bool has_x_prev_ = false;  ///< previous position known (from_position)
   bool rest_seen_ = false;   ///< axis below velocity_min since the last start
   bool time_lost_ = false;   ///< a rejected sample had no usable dt
-  /// has_prev_, velocity measured, skipped_dt_ == 0 and !time_lost_: push() may skip vet().
-  bool fast_path_ = false;
+  /// max_gap_s's bits while push() may skip vet() (has_prev_, velocity
+  /// measured, skipped_dt_ == 0, !time_lost_, the force history full), else 0.
+  using GapBits = typename port::detail::FloatBits<T>::UInt;
+  GapBits fast_gap_bits_ = 0;
   bool section_open_ = false, section_from_rest_ = false, split_counted_ = false;
   WindowBands window_bands_{};
   Pending pending_{};

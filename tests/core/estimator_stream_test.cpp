@@ -66,6 +66,12 @@ const BadSample kBadSamples[] = {
     {"inf_dt", Status::rejected_not_finite, [](Sample<double>& s, double) { s.dt_s = kInf; }},
     {"zero_dt", Status::rejected_time_not_increasing, [](Sample<double>& s, double) { s.dt_s = 0.0; }},
     {"negative_dt", Status::rejected_time_not_increasing, [](Sample<double>& s, double) { s.dt_s = -1e-3; }},
+    // The fast path tests dt by its bits (Estimator::set_fast_path): the
+    // signed zero, a negative NaN and the most negative dt must not pass.
+    {"negative_zero_dt", Status::rejected_time_not_increasing, [](Sample<double>& s, double) { s.dt_s = -0.0; }},
+    {"negative_nan_dt", Status::rejected_not_finite, [](Sample<double>& s, double) { s.dt_s = -kNaN; }},
+    {"lowest_dt", Status::rejected_time_not_increasing,
+     [](Sample<double>& s, double) { s.dt_s = -std::numeric_limits<double>::max(); }},
     {"speed_above_max", Status::rejected_out_of_range, [](Sample<double>& s, double) { s.velocity_m_s = -25.0; }},
     {"force_above_max", Status::rejected_out_of_range, [](Sample<double>& s, double) { s.force_N = 2e6; }},
     {"velocity_jump", Status::rejected_velocity_jump,
