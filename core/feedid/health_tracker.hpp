@@ -12,7 +12,7 @@
 // and re-initialises the estimator push() writes to. On a drive the servo
 // interrupt hands its samples to that task through a queue
 // (feedid_port/spsc_queue.hpp, as port/cortex_m/main.cpp does), which
-// holds the samples that arrive during the close (0.3-0.65 M instructions
+// holds the samples that arrive during the close (0.2-0.26 M instructions
 // measured on the M4, docs/firmware.md).
 //
 // Time is summed with compensation (Sum), so an epoch's clock stays exact to
