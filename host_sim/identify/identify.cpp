@@ -495,6 +495,19 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   return chosen;
 }
 
+IdentifyOptions with_conventions_of(const Signals& found, IdentifyOptions o) {
+  o.force_lag_s = found.force_lag_s;
+  o.force_sign = found.force_sign.sign;
+  if (std::isfinite(found.velocity_lag_s)) o.velocity_lag_s = found.velocity_lag_s;
+  if (found.velocity_filter_hz > 0) {
+    o.velocity_filter_hz = found.velocity_filter_hz;
+    o.velocity_source = VelocitySource::position;
+  } else if (o.velocity_source != VelocitySource::given) {  // the column won the search (or was asked for)
+    o.velocity_source = VelocitySource::column;
+  }
+  return o;
+}
+
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
   feedid::Config<double> c;
   const double dt = s.period_s();

@@ -184,6 +184,12 @@ struct IdentifyResult {
 /// Velocity (measured or derived) and the pairing convention for a trace.
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt);
 
+/// `o` with the conventions prepare_signals() found on `found` stated: the
+/// force sign and lag, the velocity column's lag, and the velocity cut-off
+/// (or the column, where it won): what later parts of the same log (the
+/// streamed identify's chunks, monitor's epochs) take without searching.
+IdentifyOptions with_conventions_of(const Signals& found, IdentifyOptions o);
+
 /// Length of the blocks behind the block residual and the block-pair mass
 /// (s): 10 ms, or 8 samples where that is longer (a 200 Hz log has two
 /// samples in 10 ms, and its block mass was noise).

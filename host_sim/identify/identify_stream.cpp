@@ -36,21 +36,6 @@ bool read_span(CsvStream& in, Trace& into, double span_s, TraceSample& next, boo
   return false;
 }
 
-/// Options that repeat, for every chunk, what was chosen on the head.
-IdentifyOptions stated_from(const Signals& head, IdentifyOptions o) {
-  o.force_lag_s = head.force_lag_s;
-  o.force_sign = head.force_sign.sign;
-  if (std::isfinite(head.velocity_lag_s)) o.velocity_lag_s = head.velocity_lag_s;
-  if (head.velocity_filter_hz > 0) {
-    o.velocity_filter_hz = head.velocity_filter_hz;
-    o.velocity_source = VelocitySource::position;
-  } else {
-    o.velocity_source = VelocitySource::column;
-  }
-  o.progress = nullptr;
-  return o;
-}
-
 /// The whole-trace core and the jackknife's groups: blocks of kGroupBlock_s
 /// dealt round-robin to kJackknifeChunks cores (the whole trace is not
 /// there to cut in ten), fed sample by sample.
@@ -202,7 +187,8 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   r.signals = prepare_signals(bridge_force_outliers(chunk, opt.units.force, r.force_outliers), opt);
   r.force_outliers.rows = 0;
   r.force_outliers.first.clear();
-  const IdentifyOptions fixed = stated_from(r.signals, opt);
+  IdentifyOptions fixed = with_conventions_of(r.signals, opt);  // what the head chose, for every chunk
+  fixed.progress = nullptr;
   auto cores = std::make_unique<StreamedCores>();
   r.config = auto_config(r.signals, opt);  // kept as asked when init() rejects it, as identify() does
   if (!cores->init(r.config, chunk.samples.front().t_s, r.error)) {

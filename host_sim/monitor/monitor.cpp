@@ -19,14 +19,16 @@ using Monitor = feedid::ChangeMonitor<double, 64>;
 
 /// The conventions an identified epoch found, to state to the next epochs:
 /// searching them on every epoch cost most of monitor's time, and they are
-/// the log's, not the epoch's.
-LogConventions conventions_of(const IdentifyResult& r, int epoch) {
+/// the log's, not the epoch's. `searched`: the options that epoch ran with.
+LogConventions conventions_of(const IdentifyResult& r, const IdentifyOptions& searched, int epoch) {
   LogConventions c;
   c.fixed = true;
   c.force_sign = r.signals.force_sign.sign;
   c.force_lag_s = r.signals.force_lag_s;
   c.velocity_lag_s = r.signals.velocity_lag_s;
   c.velocity_filter_hz = r.signals.velocity_filter_hz;
+  c.stated = with_conventions_of(r.signals, searched);
+  c.velocity_column = c.stated.velocity_source == VelocitySource::column;
   c.found_at_epoch = epoch;
   return c;
 }
@@ -46,16 +48,10 @@ IdentifyOptions log_options(const MonitorOptions& opt) {
   return o;
 }
 
-/// The identify options for an epoch: the fixed conventions stated, where
-/// the user did not state them.
+/// The identify options for an epoch: the fixed conventions stated (those
+/// the user stated were stated to the epoch that found them).
 IdentifyOptions epoch_options(const MonitorOptions& opt, const LogConventions& c) {
-  IdentifyOptions o = log_options(opt);
-  if (!c.fixed) return o;
-  if (o.force_sign == 0) o.force_sign = c.force_sign;
-  if (!std::isfinite(o.force_lag_s) && o.alignment == "auto") o.force_lag_s = c.force_lag_s;
-  if (!std::isfinite(o.velocity_lag_s) && std::isfinite(c.velocity_lag_s)) o.velocity_lag_s = c.velocity_lag_s;
-  if (!(o.velocity_filter_hz > 0) && c.velocity_filter_hz > 0) o.velocity_filter_hz = c.velocity_filter_hz;
-  return o;
+  return c.fixed ? c.stated : log_options(opt);
 }
 
 /// An epoch's samples identified on their own, with the log's conventions
@@ -73,14 +69,16 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   t.time_unit_stated = in.time_unit_stated();
   t.source = "epoch";
   const bool searching = conventions_due(opt, conv, epoch);
-  const IdentifyResult r = identify(t, searching ? log_options(opt) : epoch_options(opt, conv));
+  const IdentifyOptions options = searching ? log_options(opt) : epoch_options(opt, conv);
+  const IdentifyResult r = identify(t, options);
   e.error = r.error;
   if (r.error.empty()) e.estimate = r.estimate;
   for (int d = 0; d < 2; ++d) e.stribeck[static_cast<std::size_t>(d)] = r.friction_model[static_cast<std::size_t>(d)].stribeck;
   if (r.error.empty() && searching) {
-    LogConventions found = conventions_of(r, epoch);
+    LogConventions found = conventions_of(r, options, epoch);
     found.times_found = conv.times_found + 1;
     found.times_changed = conv.times_changed + (conv.fixed && (found.force_sign != conv.force_sign ||
+                                                                found.velocity_column != conv.velocity_column ||
                                                                 found.velocity_filter_hz != conv.velocity_filter_hz));
     conv = found;
   }
@@ -416,6 +414,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                                 {"force_lag_s", c.force_lag_s},
                                 {"velocity_lag_s", std::isfinite(c.velocity_lag_s) ? nlohmann::json(c.velocity_lag_s) : nlohmann::json(nullptr)},
                                 {"velocity_filter_hz", c.velocity_filter_hz},
+                                {"velocity_source", c.velocity_column ? "column" : "position"},
                                 {"found_at_epoch", c.found_at_epoch},
                                 {"times_found", c.times_found},
                                 {"times_changed", c.times_changed},

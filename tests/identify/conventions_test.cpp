@@ -200,6 +200,40 @@ TEST(VelocityChoice, FinerColumnThanPositionIsKept) {
   expect_bar(r, cfg, Bar{false, false});
 }
 
+// GIVEN the conventions found on a log (the force lag and sign, and the
+// velocity: the column where it won, else the cut-off), WHEN they are stated
+// to a later part of the same log, as the streamed identify's chunks and
+// monitor's epochs take them (with_conventions_of), THEN the velocity is
+// the one found, without the search: the same parameters at fewer core
+// passes.
+TEST(VelocityChoice, FoundConventionsStatedSkipTheSearch) {
+  const host::SimConfig column_cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-9}, 4, 30.0);
+  host::Trace column_log = host::simulate(column_cfg);
+  for (host::TraceSample& s : column_log.samples) s.x_m = 2e-5 * std::round(s.x_m / 2e-5);
+  const host::Trace filter_log = host::simulate(logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 4, 30.0));
+  for (const host::Trace* t : {static_cast<const host::Trace*>(&column_log), &filter_log}) {
+    const host::IdentifyResult found = host::identify(*t, host::IdentifyOptions{});
+    ASSERT_TRUE(found.error.empty()) << found.error;
+    const host::IdentifyOptions stated = host::with_conventions_of(found.signals, host::IdentifyOptions{});
+    const bool column = found.signals.velocity_filter_hz <= 0;
+    EXPECT_EQ(column, t == &column_log) << "the coarse position's log keeps the column, the fine one a cut-off";
+    EXPECT_EQ(stated.velocity_source, column ? host::VelocitySource::column : host::VelocitySource::position);
+    const host::IdentifyResult again = host::identify(*t, stated);
+    ASSERT_TRUE(again.error.empty()) << again.error;
+    EXPECT_EQ(again.signals.velocity_filter_hz, found.signals.velocity_filter_hz);
+    EXPECT_EQ(again.signals.velocity_origin.rfind("measured", 0) == 0, column) << again.signals.velocity_origin;
+    EXPECT_EQ(again.signals.force_lag_s, found.signals.force_lag_s);
+    EXPECT_LT(again.core_passes, found.core_passes);
+    EXPECT_NEAR(again.estimate.mass_kg, found.estimate.mass_kg, 1e-3 * found.estimate.mass_kg);
+    EXPECT_NEAR(again.estimate.pos.coulomb_N, found.estimate.pos.coulomb_N, 1e-3 * found.estimate.pos.coulomb_N);
+  }
+  // AND a velocity column stated as given stays given
+  host::IdentifyOptions given;
+  given.velocity_source = host::VelocitySource::given;
+  host::Signals no_cutoff;
+  EXPECT_EQ(host::with_conventions_of(no_cutoff, given).velocity_source, host::VelocitySource::given);
+}
+
 // GIVEN samples kept at uneven times (every 2nd to 4th sample of an 8 kHz
 // log, steps 0.25-0.5 ms, as a PC-side logger takes them), WHEN identify
 // derives velocity (on a uniform grid, read back at the samples' own
