@@ -256,6 +256,29 @@ TEST(Monitor, AWarmUpWithItsTemperatureLoggedRaisesNoneWhileAStepAtConstantTempe
   }
 }
 
+// GIVEN an epoch whose Coulomb force is resolved but whose viscous slope is
+// not (ladder motion: an epoch of slow strokes read Fc+ 73.6 +- 0.35 N of a
+// true 68.2 N, the intercept of a line with a wrong slope), THEN its Fc is
+// not carried (not compared), and with the slope resolved it is.
+TEST(Monitor, ACoulombForceUnderAnUnresolvedSlopeIsNotCompared) {
+  host::MonitorEpoch ep;
+  ep.estimate.mass_kg = 100.0;
+  ep.estimate.mass_se_kg = 0.1;
+  for (DirectionEstimate<double>* d : {&ep.estimate.pos, &ep.estimate.neg}) {
+    d->coulomb_N = 70.0;
+    d->coulomb_se = 0.3;
+    d->viscous_Ns_m = 1000.0;
+    d->viscous_se = 5.0;
+  }
+  constexpr int fc_pos = 2, fc_neg = 6;
+  EXPECT_TRUE(host::carried(ep, fc_pos));
+  EXPECT_TRUE(host::carried(ep, fc_neg));
+  ep.estimate.pos.viscous_se = 800.0;
+  ep.estimate.pos.flags |= flag_viscous_uncertain;
+  EXPECT_FALSE(host::carried(ep, fc_pos));
+  EXPECT_TRUE(host::carried(ep, fc_neg));
+}
+
 TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
   for (std::uint64_t seed : {1u, 2u, 3u}) {
     const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_free.csv");
