@@ -379,6 +379,9 @@ double stage_mass(const Stage& st, const Vec& theta) { return st.base.fixed.empt
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
 /// discrete refinement or golden section in log on fine ones.
+/// Width in log(p) at which a continuous parameter's search stops.
+constexpr double kParameterLogTolerance = 1e-3;
+
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
@@ -409,7 +412,10 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
     const double g = 0.6180339887498949;
     double x1 = b - g * (b - a), x2 = a + g * (b - a);
     double f1 = try_p(std::exp(x1)), f2 = try_p(std::exp(x2));
-    for (int it = 0; it < 25; ++it) {
+    // Down to a bracket of 1e-3 in log p (0.1 % of the parameter, far
+    // below what a held-out test resolves): 9-13 steps from the grids'
+    // brackets instead of a fixed 25, which were a third of diagnose's time.
+    for (int it = 0; it < 25 && b - a > kParameterLogTolerance; ++it) {
       if (f1 < f2) {
         b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a);
         f1 = try_p(std::exp(x1));
