@@ -86,14 +86,10 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
   // id_trace's position is integrated where the log has none: no arm's angle to place a gravity term at.
   if (!trace.has_position && idopt.gravity == GravityTerm::automatic) idopt.gravity = GravityTerm::none;
   if (!trace.has_position && idopt.gravity == GravityTerm::angle) {
-    out.error = trace.source + ": --gravity angle needs the arm's angle: give the position column";
+    out.error = trace.source + ": " + kGravityAngleNeedsPosition;
     return false;
   }
-  if (!trace.has_position && opt.model && opt.model->load.depends_on_position()) {
-    out.error = trace.source + ": the model carries an arm's weight, G cos(q - q0), and the log has no position to "
-                               "place it: give the position column";
-    return false;
-  }
+  if (opt.model && !(out.error = opt.model->load.refusal(trace.source, trace.has_position)).empty()) return false;
   out.base = identify(id_trace, idopt);
   // The identification folds reach the core as a measured column; say where it came from.
   out.base.signals.velocity_origin = sig.velocity_origin;

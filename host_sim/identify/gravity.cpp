@@ -295,7 +295,7 @@ IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& 
   if (opt.gravity == GravityTerm::constant) return with_constant(trace, base, std::move(r0));
   const bool rotary = opt.units.position == "rad";
   if (rotary && !trace.has_position) {  // an angle integrated from the velocity has no zero: cos(q - q0) has no q
-    if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs the arm's angle: give the position column";
+    if (opt.gravity == GravityTerm::angle) r0.error = kGravityAngleNeedsPosition;
     else r0.gravity.note = "none: the log has no position, so the arm's angle is unknown";
     return r0;
   }

@@ -20,6 +20,9 @@ namespace feedid::host {
 ///   Coulomb friction; else none, said why.
 IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& opt);
 
+/// Why --gravity angle is refused on a log without position: an angle
+/// integrated from the velocity has no zero, so cos(q - q0) has no q.
+constexpr const char* kGravityAngleNeedsPosition = "--gravity angle needs the arm's angle: give the position column";
 constexpr double kGravityMinSpan_rad = 0.5;  ///< less, and cos(q - q0) is a tilted line: Coulomb and G trade
 constexpr double kGravityMinZ = 5.0;         ///< an automatic term must stand this far above its error
 /// ... and be worth a model term: on a simulated axis without a load the

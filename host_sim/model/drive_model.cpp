@@ -13,6 +13,12 @@ double ModelLoad::at(double x) const {
   return gravity_N != 0.0 ? offset_N + gravity_N * std::cos(x - gravity_angle0_rad) : offset_N;
 }
 
+std::string ModelLoad::refusal(const std::string& source, bool has_position) const {
+  if (has_position || !depends_on_position()) return {};
+  return source + ": the model carries an arm's weight, G cos(q - q0), and the log has no position to place it: "
+                  "give the position column";
+}
+
 void put_load(nlohmann::json& model, const ModelLoad& load) {
   model["offset_N"] = load.offset_N;
   if (load.gravity_N != 0.0)

@@ -64,6 +64,9 @@ struct ModelLoad {
   double at(double x) const;
   /// Whether the load needs the position (a log without one cannot carry it).
   bool depends_on_position() const { return gravity_N != 0.0; }
+  /// Why `source`, a log with or without a position column, cannot carry
+  /// this load; empty when it can.
+  std::string refusal(const std::string& source, bool has_position) const;
   bool any() const { return offset_N != 0.0 || gravity_N != 0.0; }
 };
 

@@ -124,9 +124,8 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
   r.stretches_on_clock_slots = s.stretches_on_clock_slots;
   r.velocity_origin = logged.has_position ? "position, zero-phase Butterworth + central differences"
                                           : "velocity column, zero-phase Butterworth; acceleration by central differences";
-  if (opt.load.depends_on_position() && !logged.has_position)
-    throw std::invalid_argument(logged.source + ": the model carries an arm's weight, G cos(q - q0), and the log has "
-                                "no position to place it: give the position column");
+  if (const std::string why = opt.load.refusal(logged.source, logged.has_position); !why.empty())
+    throw std::invalid_argument(why);
   ErrorSums full, decimated;
   const auto parts = stretches(s);
   for (const auto& [first, end] : parts)

@@ -128,7 +128,14 @@ TEST(ModelFile, AGravityTermIsTheModelsLoad) {
     EXPECT_DOUBLE_EQ(a.load.gravity_N, 30.0);
     EXPECT_DOUBLE_EQ(a.load.at(0.4), -3.1648 + 30.0);
     EXPECT_NEAR(a.load.at(0.4 + 1.5707963267948966), -3.1648, 1e-12);
+    // AND only a log with a position can carry the arm's weight (one rule
+    // for validate, replay and diagnose), which the refusal names
+    EXPECT_TRUE(a.load.refusal("run.csv", true).empty());
+    const std::string why = a.load.refusal("run.csv", false);
+    EXPECT_EQ(why.rfind("run.csv: ", 0), 0u) << why;
+    EXPECT_NE(why.find("give the position column"), std::string::npos) << why;
   }
+  EXPECT_TRUE(c.load.refusal("run.csv", false).empty()) << "a constant load needs no position";
   // AND a typo inside it is a warning, a form it does not know an error
   EXPECT_EQ(model_file_from_json(by_hand, "h.json").warnings.size(), 1u);
   arm["gravity"]["form"] = "sine";
