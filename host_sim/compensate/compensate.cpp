@@ -185,14 +185,9 @@ namespace {
 
 /// The model of mj through the one model reader (model/model_file.hpp), or
 /// invalid_argument naming `source` and why no table can be made from it:
-/// identify did not solve it, a key is missing, or it is not physical.
+/// identify did not solve it, a key is missing, or it is not physical (the
+/// reader's rules).
 ModelFile compensable_model(const nlohmann::json& mj, const std::string& source) {
-  const auto refuse = [&](const std::string& why) {
-    throw std::invalid_argument(source + ": " + why + ": no compensation written");
-  };
-  if (mj.contains("status") && mj["status"] != "ok" && mj["status"] != "not_physical")  // the reader says why not physical
-    refuse("identify did not solve it (status " + mj["status"].dump() +
-           (mj.contains("error") && mj["error"].is_string() ? ": " + mj["error"].get<std::string>() : std::string()) + ")");
   ModelFile file;
   try {
     file = model_file_from_json(mj, source);

@@ -99,9 +99,12 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   out.source = source;
   if (!j.is_object()) fail(source, "a model file must be a JSON object");
   const bool from_identify = written_by_identify(j);
-  // not_physical: solved, and refused below by the one physical check
-  if (from_identify && j.at("status") != "ok" && j.at("status") != "not_physical")
-    fail(source, "identify's status is " + j.at("status").dump() + ", not \"ok\": the file holds no identified model");
+  // Any file with identify's status (not_physical: solved, and refused
+  // below by the one physical check).
+  if (j.contains("status") && j.at("status") != "ok" && j.at("status") != "not_physical")
+    fail(source, "identify did not solve it (status " + j.at("status").dump() +
+                     (j.contains("error") && j.at("error").is_string() ? ": " + j.at("error").get<std::string>() : std::string()) +
+                     "): the file holds no identified model");
   out.drive.mass_kg = number_at(j, "m", "", source);
   out.drive.pos = direction_from_json(j, "pos", from_identify, out);
   out.drive.neg = direction_from_json(j, "neg", from_identify, out);
