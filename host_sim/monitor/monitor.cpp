@@ -238,8 +238,8 @@ void count_tracked(MonitorResult& out, const Monitor& health) {
       TrackedCount& c = out.tracked[static_cast<std::size_t>(i)];
       const bool core_rule = feedid::tracked_value(ep.estimate, i, v, se);
       if (carried(ep, i)) ++c.carried;
-      else if (core_rule) ++c.law_differs;
-      else ++c.flagged;
+      else if (core_rule && i != 0 && ep.law_differs[i <= 4 ? 0 : 1]) ++c.law_differs;
+      else ++c.flagged;  // by the core's flags, or an Fc under an unresolved slope (coulomb_extrapolated)
     }
   }
   for (int i = 0; i < feedid::kTrackedCount; ++i) {

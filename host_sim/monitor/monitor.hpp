@@ -54,7 +54,7 @@ struct LogLaw {
 /// How many epochs carried a tracked parameter, and why the others did not.
 struct TrackedCount {
   int carried = 0;       ///< compared with the reference (or forming it)
-  int flagged = 0;       ///< identified, but flagged (standard error over a quarter, negative, ...)
+  int flagged = 0;       ///< identified, but flagged (standard error over a quarter, negative, an Fc whose slope is unresolved, ...)
   int law_differs = 0;   ///< the epoch's friction law was not the log's
   bool referenced = false;
 };

@@ -279,6 +279,31 @@ TEST(Monitor, ACoulombForceUnderAnUnresolvedSlopeIsNotCompared) {
   EXPECT_TRUE(host::carried(ep, fc_neg));
 }
 
+// GIVEN a log whose epochs are counted per parameter, THEN an epoch's Fc
+// left out for its unresolved slope is counted as flagged, never as
+// "another friction law" (the law is the log's).
+TEST(Monitor, AnFcLeftOutForItsSlopeIsCountedFlagged) {
+  const MonitorResult r = monitor_simulated(production(3), "feedid_monitor_counts.csv");
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  int extrapolated_any = 0;
+  for (int d = 0; d < 2; ++d) {
+    const int fc = d == 0 ? 2 : 6;
+    int extrapolated = 0, other_law = 0;
+    for (const host::MonitorEpoch& ep : r.epochs) {
+      if (!ep.error.empty()) continue;
+      const DirectionEstimate<double>& de = d == 0 ? ep.estimate.pos : ep.estimate.neg;
+      double v = 0, se = 0;
+      const bool core_rule = tracked_value(ep.estimate, fc, v, se);
+      other_law += core_rule && ep.law_differs[static_cast<std::size_t>(d)];
+      extrapolated += core_rule && !ep.law_differs[static_cast<std::size_t>(d)] && (de.flags & flag_viscous_uncertain) != 0;
+    }
+    EXPECT_EQ(r.tracked[static_cast<std::size_t>(fc)].law_differs, other_law) << "direction " << d;
+    EXPECT_GE(r.tracked[static_cast<std::size_t>(fc)].flagged, extrapolated) << "direction " << d;
+    extrapolated_any += extrapolated;
+  }
+  EXPECT_GT(extrapolated_any, 0) << "the log has an Fc under an unresolved slope";
+}
+
 TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
   for (std::uint64_t seed : {1u, 2u, 3u}) {
     const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_free.csv");
