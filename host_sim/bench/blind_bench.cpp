@@ -166,7 +166,7 @@ double draw_catalogue_effect(Effect which, Rng& rng, const EffectScale& s, Effec
   switch (which) {
     case Effect::offset: {
       const double sign = rng.sign();  // draws in a fixed order (operand order is unspecified)
-      e.offset_N = sign * rng.uniform(3.0, 20.0);
+      e.load.offset_N = sign * rng.uniform(3.0, 20.0);
       break;
     }
     case Effect::position_ripple:
@@ -878,7 +878,7 @@ nlohmann::json effects_json(const Effects& e, const DriveParams& d) {
     if (!effect_on(e, info.effect)) continue;
     nlohmann::json& x = j[info.name];
     switch (info.effect) {
-      case Effect::offset: x = {{"force_N", e.offset_N}}; break;
+      case Effect::offset: x = {{"force_N", e.load.offset_N}}; break;
       case Effect::position_ripple:
         x = {{"period_m", e.ripple_period_m}, {"amplitude_N", e.ripple_amplitude_N}, {"phase_rad", e.ripple_phase_rad}};
         break;

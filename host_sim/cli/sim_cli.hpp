@@ -13,7 +13,7 @@ namespace feedid::host {
 /// Effect options of `simulate` (and `demo`): --offset, --ripple-*, ...
 inline void add_effect_options(CLI::App* c, Effects& e) {
   const char* g = "Sim-to-real effects (SI; each off at zero)";
-  c->add_option("--offset", e.offset_N,
+  c->add_option("--offset", e.load.offset_N,
                 "constant load force F0 (N): the drive needs +F0 more in both directions and at rest "
                 "(gravity on an axis inclined uphill in +, cable drag, sensor offset)")->group(g)->capture_default_str();
   c->add_option("--ripple-amplitude", e.ripple_amplitude_N,

@@ -94,10 +94,10 @@ double continuous_period(const LoggedRun& run) {
 /// The plant's effects: the model's load (its constant force and an arm's
 /// weight) added to those asked for.
 Effects with_load(const ModelLoad& load, Effects e) {
-  e.offset_N += load.offset_N;
+  e.load.offset_N += load.offset_N;
   if (load.gravity_N != 0.0) {
-    e.gravity_N = load.gravity_N;
-    e.gravity_angle0_rad = load.gravity_angle0_rad;
+    e.load.gravity_N = load.gravity_N;
+    e.load.gravity_angle0_rad = load.gravity_angle0_rad;
   }
   return e;
 }

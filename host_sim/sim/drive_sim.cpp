@@ -64,9 +64,9 @@ void require_finite(double v, const char* field, const char* unit) {
 
 void validate_effects(const SimConfig& c) {
   const Effects& e = c.effects;
-  require_finite(e.offset_N, "effects.offset_N", "N");
-  require_finite(e.gravity_N, "effects.gravity_N", "N");
-  require_finite(e.gravity_angle0_rad, "effects.gravity_angle0_rad", "rad");
+  require_finite(e.load.offset_N, "effects.load.offset_N", "N");
+  require_finite(e.load.gravity_N, "effects.load.gravity_N", "N");
+  require_finite(e.load.gravity_angle0_rad, "effects.load.gravity_angle0_rad", "rad");
 
   require_finite(e.ripple_amplitude_N, "effects.ripple_amplitude_N", "N");
   require_finite(e.ripple_phase_rad, "effects.ripple_phase_rad", "rad");
@@ -185,7 +185,7 @@ void validate(const SimConfig& c) {
 
 bool effect_on(const Effects& e, Effect which) {
   switch (which) {
-    case Effect::offset: return e.offset_N != 0.0;
+    case Effect::offset: return e.load.offset_N != 0.0;
     case Effect::position_ripple: return e.ripple_amplitude_N != 0.0;
     case Effect::position_friction: return e.position_friction_N != 0.0;
     case Effect::thermal_drift: return e.drift_fraction != 0.0;
@@ -207,7 +207,7 @@ std::vector<std::string> active_effects(const Effects& e) {
 }
 
 double load_force(const Effects& e, double t_s, double x_m) {
-  double f = ModelLoad{e.offset_N, e.gravity_N, e.gravity_angle0_rad}.at(x_m);
+  double f = e.load.at(x_m);
   if (e.ripple_amplitude_N != 0.0)
     f += e.ripple_amplitude_N * std::sin(2.0 * kPi * x_m / e.ripple_period_m + e.ripple_phase_rad);
   if (e.disturbance_amplitude_N != 0.0)

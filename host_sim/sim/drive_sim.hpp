@@ -57,15 +57,13 @@ using ExtraForce = std::function<double(double t_s, double x_m, double v_m_s)>;
 /// positive F_load needs positive drive force to hold the axis (like gravity on
 /// an axis inclined so that + is uphill).
 struct Effects {
-  // --- offset (in F_load) -------------------------------------------------
-  /// Constant load force F0 (N): F_load += F0. Gravity on an inclined axis,
-  /// cable drag, current-sensor offset. The recorded force shifts by +F0 in
-  /// both directions and at rest.
-  double offset_N = 0.0;
-  /// An arm's weight, F_load += G cos(x - q0) with x in rad (ModelLoad; a
-  /// model identified with --gravity angle replays with it). 0: none.
-  double gravity_N = 0.0;
-  double gravity_angle0_rad = 0.0;
+  // --- offset and an arm's weight (in F_load) ------------------------------
+  /// F_load += load.at(x): a constant force F0 (gravity on an inclined axis,
+  /// cable drag, current-sensor offset: the recorded force shifts by +F0 in
+  /// both directions and at rest) and an arm's weight G cos(x - q0), x in
+  /// rad (a model identified with --gravity angle replays with it). The
+  /// models' rule (ModelLoad), not a copy of it.
+  ModelLoad load;
 
   // --- position ripple (in F_load) ----------------------------------------
   /// Amplitude A (N) of F_load += A sin(2 pi x / P + phi) (cogging, screw pitch error).

@@ -49,7 +49,7 @@ Drag drift_drag(const nlohmann::json& p) {
 bool into_plant(const std::string& kind, const nlohmann::json& p, double mass_kg, Effects& fx, std::vector<Drag>& drags,
                 std::string& note) {
   if (kind == effect_name(Effect::offset)) {
-    fx.offset_N += p.value("force_N", 0.0);
+    fx.load.offset_N += p.value("force_N", 0.0);
     note = "a constant load force";
   } else if (kind == effect_name(Effect::quadratic_viscous)) {
     fx.quadratic_c2_Ns2_m2 = p.value("c2", 0.0);

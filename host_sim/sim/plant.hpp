@@ -35,7 +35,7 @@ class DrivePlant {
       : d_(d), e_(e), extra_(extra), change_(change) {
     plain_friction_ = e.drift_fraction == 0.0 && e.position_friction_N == 0.0 && e.quadratic_c2_Ns2_m2 == 0.0 &&
                       e.presliding_force_N == 0.0;
-    loads_ = e.offset_N != 0.0 || e.gravity_N != 0.0 || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
+    loads_ = e.load.any() || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
              e.wander_force_N > 0.0;
     two_mass_ = e.compliance_frequency_hz > 0.0;
     m1_ = d.mass_kg;

@@ -237,7 +237,7 @@ TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
 // and names no effect from it.
 TEST(DiagnoseEffects, OffsetIsReportedAsAmbiguousNotNamed) {
   host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 30.0}, 6);
-  cfg.effects.offset_N = 8.0;
+  cfg.effects.load.offset_N = 8.0;
   const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.effect, "none") << host::summary(r);

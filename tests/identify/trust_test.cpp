@@ -144,7 +144,7 @@ TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
 // (Fc+ - Fc-)/2, with the Coulomb force about (Fc+ + Fc-)/2.
 TEST(Trust, ANegativeCoulombForceFromALoadNamesTheLoad) {
   SimConfig sc = test::sim_config(test::SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 30.0});
-  sc.effects.offset_N = 40.0;
+  sc.effects.load.offset_N = 40.0;
   const IdentifyResult r = identify(simulate(sc), IdentifyOptions{});
   ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
   ASSERT_FALSE(not_physical(r).empty());

@@ -119,7 +119,7 @@ TEST(SimEffects, AllOffReproducesTheTraceAndExtraForceStillWorks) {
   // GIVEN the default drive, once plain and once with every effect field set and reset to zero
   SimConfig plain = config(8.0);
   SimConfig reset = plain;
-  reset.effects.offset_N = 3.0;
+  reset.effects.load.offset_N = 3.0;
   reset.effects = Effects{};
   // THEN the traces are identical sample for sample
   const Trace a = simulate(plain), b = simulate(reset);
@@ -131,7 +131,7 @@ TEST(SimEffects, AllOffReproducesTheTraceAndExtraForceStillWorks) {
   // AND a constant ExtraForce is exactly the offset effect (same place in the equations)
   SimConfig hook = plain, off = plain;
   hook.extra_force = [](double, double, double) { return 12.0; };
-  off.effects.offset_N = 12.0;
+  off.effects.load.offset_N = 12.0;
   const Trace h = simulate(hook), o = simulate(off);
   for (std::size_t k = 0; k < h.samples.size(); ++k) {
     ASSERT_EQ(h.samples[k].x_m, o.samples[k].x_m);
@@ -142,7 +142,7 @@ TEST(SimEffects, AllOffReproducesTheTraceAndExtraForceStillWorks) {
 
 TEST(SimEffects, ActiveEffectNamesAreTheDiagnosisCatalogue) {
   Effects e;
-  e.offset_N = 1;
+  e.load.offset_N = 1;
   e.ripple_amplitude_N = 1;
   e.position_friction_N = 1;
   e.drift_fraction = 0.1;
@@ -160,7 +160,7 @@ TEST(SimEffects, ActiveEffectNamesAreTheDiagnosisCatalogue) {
 TEST(SimEffects, OffsetShiftsTheForceEquallyInBothDirections) {
   // GIVEN the same drive and seed without and with a 12 N offset
   SimConfig c0 = config(30.0), c1 = c0;
-  c1.effects.offset_N = 12.0;
+  c1.effects.load.offset_N = 12.0;
   const Trace a = simulate(c0), b = simulate(c1);
   // WHEN the rigid model's residual is averaged over steady cruise, per direction
   for (double dir : {1.0, -1.0}) {
@@ -183,7 +183,7 @@ TEST(SimEffects, OffsetActsAtRestToo) {
   // GIVEN an offset larger than the static friction (Fc + Fs = 33 N): the axis
   // would slide back if the drive did not hold it
   SimConfig c = config(20.0, 0.0);
-  c.effects.offset_N = 60.0;
+  c.effects.load.offset_N = 60.0;
   const Trace tr = simulate(c);
   // THEN at standstill (no encoder step for 50 ms either side) the drive pushes with
   // 60 N - 33.5 N at least (less a little for creep below one encoder step)
@@ -444,7 +444,7 @@ TEST(SimEffects, InvalidEffectParametersNameFieldAndUnit) {
             std::string::npos);
   EXPECT_NE(message([](Effects& e) { e.drift_fraction = 0.3; e.drift_time_constant_s = 0; }).find("effects.drift_time_constant_s (s)"),
             std::string::npos);
-  EXPECT_NE(message([](Effects& e) { e.offset_N = std::nan(""); }).find("effects.offset_N (N)"), std::string::npos);
+  EXPECT_NE(message([](Effects& e) { e.load.offset_N = std::nan(""); }).find("effects.load.offset_N (N)"), std::string::npos);
 }
 
 }  // namespace
