@@ -2,7 +2,8 @@
 """Coverage of the monitor's per-epoch standard errors (issue 32): simulated
 300 s logs with known truth (drives, noise, rates and logging conventions
 drawn per log; production, sine and ladder motion in turn); for every epoch
-and every parameter it compared (identifiable), whether truth lies within
+and every parameter it compared (identifiable; m, sigma and Fc, then Fs
+and vs), whether truth lies within
 estimate +- 1.96 se. Usage:
     python3 host_sim/bench/monitor_coverage.py build/bin/feedid LOGS SEED TMPDIR
 """
@@ -30,7 +31,7 @@ for i in range(n):
         if 'error' in ep: skipped += 1; continue
         items = [('m', ep['m'], ep['m_se'], ep['m_identifiable'], tr['m'])]
         for d in ('pos', 'neg'):
-            for k in ('sigma', 'fc'):
+            for k in ('sigma', 'fc', 'fs', 'vs'):
                 items.append((k + d, ep[d][k], ep[d][k + '_se'], ep[d]['identifiable'][k], tr[d][k]))
         for name, v, se, ok, truth in items:
             if not ok: continue
@@ -42,8 +43,12 @@ for i in range(n):
                 print('  miss', i, prog, ep['t_start_s'], name, v, se, truth)
     print(i, prog, rate, fl, vl, file=sys.stderr)
 print('epochs', epochs, 'skipped', skipped)
+main = ['m', 'sigmapos', 'sigmaneg', 'fcpos', 'fcneg']
+stribeck = ['fspos', 'fsneg', 'vspos', 'vsneg']
 for p in progs:
-    for name in ['m', 'sigmapos', 'sigmaneg', 'fcpos', 'fcneg']:
+    for name in main + stribeck:
         k = (p, name)
         if k in tot: print('%-11s %-9s %4d/%4d = %.1f %%' % (p, name, hit[k], tot[k], 100.0 * hit[k] / tot[k]))
-T = sum(tot.values()); H = sum(hit.values()); print('all %d/%d = %.1f %%' % (H, T, 100.0 * H / T))
+T = sum(v for k, v in tot.items() if k[1] in main); H = sum(v for k, v in hit.items() if k[1] in main)
+print('all %d/%d = %.1f %%' % (H, T, 100.0 * H / T))
+T = sum(tot.values()); H = sum(hit.values()); print('all with Fs and vs %d/%d = %.1f %%' % (H, T, 100.0 * H / T))
