@@ -101,40 +101,6 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
     return push_general_path(dt, s.position_m, v, u);
   }
 
-  /// push() of a sample off the usual path: not initialised, a chain's
-  /// first samples, after a rejection, or one that vet() must judge. The
-  /// sample's fields by value: the caller's sample then needs no place in
-  /// memory on the usual path.
-  FEEDID_RARE Status push_general_path(T dt_s, T position_m, T velocity_m_s, T force_N) {
-    Sample<T> s;
-    s.dt_s = dt_s;
-    s.position_m = position_m;
-    s.velocity_m_s = velocity_m_s;
-    s.force_N = force_N;
-    if (!initialized_) return Status::not_initialized;
-    bool interval = false;
-    T dt_general = T(0), v_general = T(0);
-    const Status st = push_general(s, interval, dt_general, v_general);
-    if (interval) {
-      skipped_dt_ = T(0);
-      step<false>(dt_general, v_general, s.force_N);
-    }
-    // Set on every acceptance (has_prev_ or the source may have changed);
-    // cleared by every rejection (skipped_dt_ or time_lost_ may have).
-    set_fast_path(st == Status::ok && has_prev_ && cfg_.velocity_source == VelocitySource::measured &&
-                  u_history_ == ForcePairing<T>::history);
-    return st;
-  }
-
-  /// The fast path on (`on`) and 0 < dt <= max_gap_s, for a dt of bits b, is
-  /// b - 1 < fast_gap_bits_ in unsigned integers: the bits of a positive
-  /// float order as its value; +0 wraps to the largest integer; negatives,
-  /// infinity and NaN lie above any positive finite limit (max_gap_s > 0,
-  /// check()); and 0 fails every dt.
-  void set_fast_path(bool on) {
-    fast_gap_bits_ = on ? port::detail::to_bits(cfg_.max_gap_s) : GapBits(0);
-  }
-
   /// Folds the open section and window (the section then no longer counts
   /// for the paper method) and computes the estimate. Bounded work: about
   /// 3 x 2 x (24 + max_vs_iterations) friction fits of Bands points.
@@ -335,6 +301,40 @@ template <typename T, int Bands = 32, int Candidates = 16, bool PaperMethod = pa
       return "velocity_source is not a known value";
     if (!ForcePairing<T>{}.init(c.force_lag_samples)) return "force_lag_samples must be in [-5, 0]";
     return nullptr;
+  }
+
+  /// push() of a sample off the usual path: not initialised, a chain's
+  /// first samples, after a rejection, or one that vet() must judge. The
+  /// sample's fields by value: the caller's sample then needs no place in
+  /// memory on the usual path.
+  FEEDID_RARE Status push_general_path(T dt_s, T position_m, T velocity_m_s, T force_N) {
+    Sample<T> s;
+    s.dt_s = dt_s;
+    s.position_m = position_m;
+    s.velocity_m_s = velocity_m_s;
+    s.force_N = force_N;
+    if (!initialized_) return Status::not_initialized;
+    bool interval = false;
+    T dt_general = T(0), v_general = T(0);
+    const Status st = push_general(s, interval, dt_general, v_general);
+    if (interval) {
+      skipped_dt_ = T(0);
+      step<false>(dt_general, v_general, s.force_N);
+    }
+    // Set on every acceptance (has_prev_ or the source may have changed);
+    // cleared by every rejection (skipped_dt_ or time_lost_ may have).
+    set_fast_path(st == Status::ok && has_prev_ && cfg_.velocity_source == VelocitySource::measured &&
+                  u_history_ == ForcePairing<T>::history);
+    return st;
+  }
+
+  /// The fast path on (`on`) and 0 < dt <= max_gap_s, for a dt of bits b, is
+  /// b - 1 < fast_gap_bits_ in unsigned integers: the bits of a positive
+  /// float order as its value; +0 wraps to the largest integer; negatives,
+  /// infinity and NaN lie above any positive finite limit (max_gap_s > 0,
+  /// check()); and 0 fails every dt.
+  void set_fast_path(bool on) {
+    fast_gap_bits_ = on ? port::detail::to_bits(cfg_.max_gap_s) : GapBits(0);
   }
 
   /// push() for every case (first samples, gaps, velocity from position) up
