@@ -335,10 +335,11 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   if (out.error.empty() && !out.referenced) {
     std::size_t identified = 0;
     for (const MonitorEpoch& ep : out.epochs) identified += ep.error.empty();
-    out.error = "nothing was monitored: " + std::to_string(identified) + " of " + std::to_string(out.epochs.size()) +
-                " epochs of " + std::to_string(opt.detector.epoch_s) + " s could be identified, and a reference needs " +
-                std::to_string(opt.detector.reference_epochs) +
-                " that carry a parameter (a longer log, more motion in both directions, or a longer --epoch-s)";
+    std::ostringstream o;  // the epoch's length as given (10 s, not 10.000000 s)
+    o << "nothing was monitored: " << identified << " of " << out.epochs.size() << " epochs of " << opt.detector.epoch_s
+      << " s could be identified, and a reference needs " << opt.detector.reference_epochs
+      << " that carry a parameter (a longer log, more motion in both directions, or a longer --epoch-s)";
+    out.error = o.str();
   }
   out.rows_skipped = in.rows_skipped();
   out.rows_repeated = in.rows_repeated();
