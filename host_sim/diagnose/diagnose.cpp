@@ -372,12 +372,12 @@ struct Stage {
 /// or the fitted one's (the first base column).
 double stage_mass(const Stage& st, const Vec& theta) { return st.base.fixed.empty() ? st.given_mass_kg : theta(0); }
 
-/// The effect's nonlinear parameter by least squares with the current
-/// model's terms (vs held): grid on coarse segments (the basin), then
-/// discrete refinement or golden section in log on fine ones.
 /// Width in log(p) at which a continuous parameter's search stops.
 constexpr double kParameterLogTolerance = 1e-3;
 
+/// The effect's nonlinear parameter by least squares with the current
+/// model's terms (vs held): grid on coarse segments (the basin), then
+/// discrete refinement or golden section in log on fine ones.
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
