@@ -424,7 +424,9 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                                 {"force_lag_s", c.force_lag_s},
                                 {"velocity_lag_s", std::isfinite(c.velocity_lag_s) ? nlohmann::json(c.velocity_lag_s) : nlohmann::json(nullptr)},
                                 {"velocity_filter_hz", c.velocity_filter_hz},
-                                {"velocity_source", c.velocity_column ? "column" : "position"},
+                                {"velocity_source", c.stated.velocity_source == VelocitySource::given    ? "given"
+                                                    : c.stated.velocity_source == VelocitySource::column ? "column"
+                                                                                                         : "position"},
                                 {"found_at_epoch", c.found_at_epoch},
                                 {"times_found", c.times_found},
                                 {"times_changed", c.times_changed},
