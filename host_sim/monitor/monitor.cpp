@@ -23,12 +23,7 @@ using Monitor = feedid::ChangeMonitor<double, 64>;
 LogConventions conventions_of(const IdentifyResult& r, const IdentifyOptions& searched, int epoch) {
   LogConventions c;
   c.fixed = true;
-  c.force_sign = r.signals.force_sign.sign;
-  c.force_lag_s = r.signals.force_lag_s;
-  c.velocity_lag_s = r.signals.velocity_lag_s;
-  c.velocity_filter_hz = r.signals.velocity_filter_hz;
   c.stated = with_conventions_of(r.signals, searched);
-  c.velocity_column = c.stated.velocity_source == VelocitySource::column;
   c.found_at_epoch = epoch;
   return c;
 }
@@ -77,9 +72,10 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   if (r.error.empty() && searching) {
     LogConventions found = conventions_of(r, options, epoch);
     found.times_found = conv.times_found + 1;
-    found.times_changed = conv.times_changed + (conv.fixed && (found.force_sign != conv.force_sign ||
-                                                                found.velocity_column != conv.velocity_column ||
-                                                                found.velocity_filter_hz != conv.velocity_filter_hz));
+    const IdentifyOptions &now = found.stated, &was = conv.stated;
+    found.times_changed = conv.times_changed + (conv.fixed && (now.force_sign != was.force_sign ||
+                                                                now.velocity_source != was.velocity_source ||
+                                                                now.velocity_filter_hz != was.velocity_filter_hz));
     conv = found;
   }
   buf.swap(t.samples);
@@ -420,10 +416,11 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
   for (const auto& a : r.alarms) alarms.push_back(alarm_json(a));
   const LogConventions& c = r.conventions;
   nlohmann::json conventions = {{"fixed", c.fixed},
-                                {"force_sign", c.force_sign},
-                                {"force_lag_s", c.force_lag_s},
-                                {"velocity_lag_s", std::isfinite(c.velocity_lag_s) ? nlohmann::json(c.velocity_lag_s) : nlohmann::json(nullptr)},
-                                {"velocity_filter_hz", c.velocity_filter_hz},
+                                {"force_sign", c.stated.force_sign},
+                                {"force_lag_s", c.stated.force_lag_s},
+                                {"velocity_lag_s", std::isfinite(c.stated.velocity_lag_s) ? nlohmann::json(c.stated.velocity_lag_s)
+                                                                                          : nlohmann::json(nullptr)},
+                                {"velocity_filter_hz", c.stated.velocity_filter_hz},
                                 {"velocity_source", c.stated.velocity_source == VelocitySource::given    ? "given"
                                                     : c.stated.velocity_source == VelocitySource::column ? "column"
                                                                                                          : "position"},

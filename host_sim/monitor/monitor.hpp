@@ -62,10 +62,11 @@ struct TrackedCount {
 /// A log's conventions as the epochs are told them (IdentifyOptions).
 struct LogConventions {
   bool fixed = false;
-  int force_sign = 0;
-  double force_lag_s = 0.0, velocity_lag_s = 0.0, velocity_filter_hz = 0.0;
-  bool velocity_column = false;  ///< the drive's velocity column, not a derivative of position
-  IdentifyOptions stated;        ///< the epochs' options with these stated (with_conventions_of)
+  /// The epochs' options with the found conventions stated
+  /// (with_conventions_of): force_sign, force_lag_s, velocity_lag_s (NaN:
+  /// none found), velocity_filter_hz (0: the velocity column) and
+  /// velocity_source.
+  IdentifyOptions stated;
   int found_at_epoch = -1;   ///< the epoch they were last found on
   int times_found = 0;       ///< the first time and every re-check
   int times_changed = 0;     ///< re-checks that found other conventions

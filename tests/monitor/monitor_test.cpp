@@ -318,10 +318,10 @@ TEST(Monitor, ConventionsAreFoundOnceAndStatedToEveryLaterEpoch) {
   ASSERT_TRUE(r.conventions.fixed);
   EXPECT_EQ(r.conventions.found_at_epoch, 0);
   EXPECT_EQ(r.conventions.times_found, 1) << "24 epochs, a re-check every 60";
-  EXPECT_EQ(r.conventions.force_sign, 1);
+  EXPECT_EQ(r.conventions.stated.force_sign, 1);
   // A period-averaged force at 2 kHz: its lag is a fraction of a period.
-  EXPECT_LT(std::fabs(r.conventions.force_lag_s), 1e-3);
-  EXPECT_GT(r.conventions.velocity_filter_hz, 0.0);
+  EXPECT_LT(std::fabs(r.conventions.stated.force_lag_s), 1e-3);
+  EXPECT_GT(r.conventions.stated.velocity_filter_hz, 0.0);
   const nlohmann::json j = to_json(r, MonitorOptions{});
   EXPECT_EQ(j["conventions"]["times_found"], 1);
 }
