@@ -52,6 +52,7 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
   s.force_lag_origin = Signals::LagOrigin::convention;
   if (std::isfinite(opt.force_lag_s)) {
     lag = opt.force_lag_s / dt + column_lag;
+    se = opt.force_lag_se_s > 0 ? opt.force_lag_se_s / dt : 0.0;
     s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
     const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt), held);
@@ -497,6 +498,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
 
 IdentifyOptions with_conventions_of(const Signals& found, IdentifyOptions o) {
   o.force_lag_s = found.force_lag_s;
+  o.force_lag_se_s = found.force_lag_origin == Signals::LagOrigin::estimated ? found.force_lag_se_s : 0.0;
   o.force_sign = found.force_sign.sign;
   if (std::isfinite(found.velocity_lag_s)) o.velocity_lag_s = found.velocity_lag_s;
   if (found.velocity_filter_hz > 0) {

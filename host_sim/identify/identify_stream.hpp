@@ -10,7 +10,7 @@
 namespace feedid::host {
 
 struct StreamOptions {
-  double head_s = 60.0;    ///< the head that sets conventions, velocity filter and band edges (s)
+  double head_s = kConventionsHead_s;  ///< the head that sets conventions, velocity filter and band edges (s)
   double chunk_s = 30.0;   ///< samples filtered and pushed per chunk (s)
   double margin_s = 1.0;   ///< overlap at chunk edges, so the zero-phase filter never sees an edge it invents (s)
 };

@@ -124,7 +124,8 @@ Uncertainty widen_standard_errors(IdentifyResult& r, const IdentifyOptions& opt)
 std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
                                              const std::array<double, 9>& theta, double& lag_se_periods) {
   const double dt = s.period_s();
-  const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated;
+  // A stated lag with a standard error was estimated on another stretch of the log.
+  const bool estimated = s.force_lag_origin == Signals::LagOrigin::estimated || s.force_lag_se_s > 0;
   lag_se_periods = estimated ? std::hypot(s.force_lag_se_s / dt, kLagAccuracy) : 0.0;
   return timing_se(s, cfg, method, theta, lag_se_periods);
 }

@@ -59,7 +59,7 @@ struct Signals {
   /// Lag of v (what the core sees) behind the motion, before any whole-sample
   /// delay of the alignment (periods; NaN unknown).
   double core_velocity_lag = 0.0;
-  double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated, not estimated
+  double force_lag_se_s = 0.0;        ///< its standard error (s); 0 when stated exactly
   /// Where the lag came from; only an estimated one adds a timing term to the standard errors.
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log

@@ -132,6 +132,25 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }
 
+// GIVEN a stated lag that was estimated on another stretch of the same log
+// (monitor's head: force_lag_se_s), THEN the standard errors carry its
+// uncertainty as they do for a lag identify estimates; stated exactly, not.
+TEST(ForceLag, AStatedLagWithAStandardErrorWidensTheStandardErrors) {
+  const host::Trace trace =
+      host::simulate(logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 3, 10.0));
+  host::IdentifyOptions exact;
+  exact.force_lag_s = -1.0 / 2000.0;
+  host::IdentifyOptions carried = exact;
+  carried.force_lag_se_s = 0.3 / 2000.0;
+  const host::IdentifyResult a = host::identify(trace, exact), b = host::identify(trace, carried);
+  ASSERT_TRUE(a.error.empty() && b.error.empty()) << a.error << b.error;
+  EXPECT_EQ(a.estimate.mass_kg, b.estimate.mass_kg) << "the se moves no parameter";
+  EXPECT_EQ(a.se_timing[0], 0.0);
+  EXPECT_GT(b.se_timing[0], 0.0);
+  EXPECT_GT(b.estimate.mass_se_kg, a.estimate.mass_se_kg);
+  EXPECT_NEAR(b.signals.force_lag_se_s, carried.force_lag_se_s, 1e-15);
+}
+
 // GIVEN velocity logged through a k-sample moving average or a first-order
 // low-pass, THEN its lag behind the motion is found against the position
 // column (a moving average: 0.5 + (k - 1)/2 periods; a discrete low-pass
