@@ -49,6 +49,42 @@ IdentifyOptions epoch_options(const MonitorOptions& opt, const LogConventions& c
   return c.fixed ? c.stated : log_options(opt);
 }
 
+/// A trace of `rows` as the stream reads them.
+Trace trace_of(std::vector<TraceSample>&& rows, const CsvStream& in, const char* source) {
+  Trace t;
+  t.samples = std::move(rows);
+  t.has_position = in.has_position();
+  t.has_velocity = in.has_velocity();
+  t.time_unit_stated = in.time_unit_stated();
+  t.source = source;
+  return t;
+}
+
+/// An epoch's rows, held while the conventions are found on the head they begin.
+struct PendingEpoch {
+  std::vector<TraceSample> rows;
+  double temperature = NAN, load = NAN;  ///< the epoch means of the covariate columns
+};
+
+/// The conventions found on the pending epochs pooled (the log's head, or a
+/// re-check's), `epoch` the first one's index; `conv` as it was where the
+/// head does not identify (the epochs then search their own, identify_epoch).
+void find_conventions_on_head(const std::vector<PendingEpoch>& head, const CsvStream& in, const MonitorOptions& opt,
+                              int epoch, LogConventions& conv) {
+  std::vector<TraceSample> rows;
+  for (const PendingEpoch& p : head) rows.insert(rows.end(), p.rows.begin(), p.rows.end());
+  const IdentifyOptions options = log_options(opt);
+  const IdentifyResult r = identify(trace_of(std::move(rows), in, "head"), options);
+  if (!r.error.empty()) return;
+  LogConventions found = conventions_of(r, options, epoch);
+  found.times_found = conv.times_found + 1;
+  const IdentifyOptions &now = found.stated, &was = conv.stated;
+  found.times_changed = conv.times_changed + (conv.fixed && (now.force_sign != was.force_sign ||
+                                                              now.velocity_source != was.velocity_source ||
+                                                              now.velocity_filter_hz != was.velocity_filter_hz));
+  conv = found;
+}
+
 /// An epoch's samples identified on their own, with the log's conventions
 /// (found here when they are not fixed or due for a re-check).
 MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, const MonitorOptions& opt,
@@ -57,12 +93,7 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   e.t_start_s = buf.front().t_s;
   e.t_end_s = buf.back().t_s;
   e.samples = buf.size();
-  Trace t;
-  t.samples.swap(buf);
-  t.has_position = in.has_position();
-  t.has_velocity = in.has_velocity();
-  t.time_unit_stated = in.time_unit_stated();
-  t.source = "epoch";
+  Trace t = trace_of(std::move(buf), in, "epoch");
   const bool searching = conventions_due(opt, conv, epoch);
   const IdentifyOptions options = searching ? log_options(opt) : epoch_options(opt, conv);
   const IdentifyResult r = identify(t, options);
@@ -78,8 +109,6 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
                                                                 now.velocity_filter_hz != was.velocity_filter_hz));
     conv = found;
   }
-  buf.swap(t.samples);
-  buf.clear();  // keeps its capacity: one epoch's memory, reused
   return e;
 }
 
@@ -144,17 +173,27 @@ void vote(LogLaw& law, const MonitorEpoch& ep, int needed) {
 class CovariateModel {
  public:
   /// Value less the covariates' modelled effect; then the epoch joins the fit if it agrees.
-  double compensate(double x, double se, const std::array<double, 2>& c) {
+  /// `forming`: the parameter's reference is still forming, and takes the
+  /// slopes the epochs draw so far, significant or not: a reference formed
+  /// during a warm-up from values left as they were sat 2.4 % below the
+  /// later compensated ones, and a step's alarm was dated to the warm-up.
+  double compensate(double x, double se, const std::array<double, 2>& c, bool forming) {
     if (!anchored_) {
       c0_ = c;
       anchored_ = true;
     }
     const feedid::Vector<double, 3> z = centred(c);
-    const feedid::Vector<double, 3> b = coefficients();
-    const double predicted = b.v[0] + b.v[1] * z.v[1] + b.v[2] * z.v[2];
+    const feedid::Vector<double, 3> b = coefficients(true);
+    // Agreement is judged against the line the epochs so far draw, slopes
+    // not yet significant included: judged against the intercept alone, a
+    // warm-up's epochs left the fit once they had drifted 2 %, before their
+    // slope was significant, and the slope was never learnt.
+    const feedid::Vector<double, 3> line = coefficients(false);
+    const double predicted = line.v[0] + line.v[1] * z.v[1] + line.v[2] * z.v[2];
     const bool agrees = n_ == 0 || std::fabs(x - predicted) <= std::max(3.0 * se, 0.02 * std::fabs(predicted));
     if (agrees) add(x, se, z);
-    return x - b.v[1] * z.v[1] - b.v[2] * z.v[2];
+    const feedid::Vector<double, 3>& slopes = forming ? line : b;
+    return x - slopes.v[1] * z.v[1] - slopes.v[2] * z.v[2];
   }
 
  private:
@@ -173,8 +212,9 @@ class CovariateModel {
     ++n_;
   }
   /// Intercept and slopes; a covariate the fitted epochs do not spread
-  /// (constant, or not read) keeps a slope of 0.
-  feedid::Vector<double, 3> coefficients() const {
+  /// (constant, or not read) keeps a slope of 0, and so, where
+  /// `significant_only`, does one they do not show beyond 3 standard errors.
+  feedid::Vector<double, 3> coefficients(bool significant_only) const {
     feedid::Vector<double, 3> b;
     if (n_ == 0) return b;
     b.v[0] = rhs_.v[0] / normal_.a[0][0];
@@ -194,6 +234,7 @@ class CovariateModel {
     // A slope the fitted epochs do not show beyond 3 standard errors is
     // noise, and extrapolated it raised alarms of its own (vs, Fs on a
     // warm-up log): it stays 0.
+    if (!significant_only) return b;
     const feedid::Vector<double, 3> var = feedid::cholesky_inverse_diagonal(m);
     for (int k = 1; k < 3; ++k)
       if (!(std::fabs(b.v[k]) > 3.0 * std::sqrt(var.v[k]))) b.v[k] = 0.0;
@@ -208,7 +249,7 @@ class CovariateModel {
 
 /// An epoch's estimate with each carried parameter's covariate effect taken out.
 feedid::Estimate<double> compensated(feedid::Estimate<double> e, const MonitorEpoch& ep,
-                                     std::array<CovariateModel, feedid::kTrackedCount>& models) {
+                                     std::array<CovariateModel, feedid::kTrackedCount>& models, const Monitor& health) {
   if (!std::isfinite(ep.temperature) && !std::isfinite(ep.load)) return e;
   const std::array<double, 2> c = {ep.temperature, ep.load};
   for (int i = 0; i < feedid::kTrackedCount; ++i) {
@@ -216,7 +257,9 @@ feedid::Estimate<double> compensated(feedid::Estimate<double> e, const MonitorEp
     if (!feedid::tracked_value(e, i, v, se)) continue;
     // Temperature moves friction, not mass: a mass slope fitted on epochs
     // whose mass is known to 7 % only extrapolated into alarms.
-    const double x = models[static_cast<std::size_t>(i)].compensate(v, se, i == 0 ? std::array<double, 2>{NAN, c[1]} : c);
+    double ref = 0.0, ref_se = 0.0;
+    const bool forming = !health.reference(i, ref, ref_se);
+    const double x = models[static_cast<std::size_t>(i)].compensate(v, se, i == 0 ? std::array<double, 2>{NAN, c[1]} : c, forming);
     feedid::DirectionEstimate<double>& d = i <= 4 ? e.pos : e.neg;
     double* field[4] = {&d.viscous_Ns_m, &d.coulomb_N, &d.breakaway_N, &d.stribeck_velocity_m_s};
     *(i == 0 ? &e.mass_kg : field[(i - 1) % 4]) = x;
@@ -288,6 +331,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     return out;
   }
   std::vector<TraceSample> buf;
+  std::vector<PendingEpoch> pending;  // epochs waiting for the head's conventions
   TraceSample s;
   std::array<double, 2> covariate_sum{};  // the epoch's temperature and load, summed row by row
   std::size_t compared = 0;  // epochs handed to the change monitor; the rest wait for the log's law
@@ -298,31 +342,46 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
       if (!ep.error.empty()) continue;
       for (std::size_t d = 0; d < 2; ++d) ep.law_differs[d] = ep.stribeck[d] != out.law.stribeck[d];
       int fresh = 0;
-      (void)health.update(compensated(as_compared(ep), ep, covariates), ep.t_start_s, ep.t_end_s, fresh);
+      (void)health.update(compensated(as_compared(ep), ep, covariates, health), ep.t_start_s, ep.t_end_s, fresh);
       for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));
     }
   };
-  auto close_epoch = [&] {
-    if (buf.size() < 2) {
-      covariate_sum = {};
-      return buf.clear();
+  auto identify_pending = [&] {
+    for (PendingEpoch& p : pending) {
+      out.epochs.push_back(identify_epoch(p.rows, in, opt, static_cast<int>(out.epochs.size()), out.conventions));
+      out.epochs.back().temperature = p.temperature;
+      out.epochs.back().load = p.load;
+      vote(out.law, out.epochs.back(), opt.detector.reference_epochs);
+      if (out.law.fixed[0] && out.law.fixed[1]) compare_up_to(out.epochs.size());
+      if (opt.progress) opt.progress(out.epochs.back().t_end_s);
     }
-    const double rows = static_cast<double>(buf.size());
-    out.epochs.push_back(identify_epoch(buf, in, opt, static_cast<int>(out.epochs.size()), out.conventions));
-    if (in.has_temperature()) out.epochs.back().temperature = covariate_sum[0] / rows;
-    if (in.has_load()) out.epochs.back().load = covariate_sum[1] / rows;
+    pending.clear();
+  };
+  // next_t_s: the row after the epoch (infinite at the log's end). While
+  // the conventions are due, epochs wait until they span the head.
+  auto close_epoch = [&](double next_t_s) {
+    if (buf.size() >= 2) {
+      const double rows = static_cast<double>(buf.size());
+      pending.push_back({std::move(buf), in.has_temperature() ? covariate_sum[0] / rows : NAN,
+                         in.has_load() ? covariate_sum[1] / rows : NAN});
+    }
+    buf = {};
     covariate_sum = {};
-    vote(out.law, out.epochs.back(), opt.detector.reference_epochs);
-    if (out.law.fixed[0] && out.law.fixed[1]) compare_up_to(out.epochs.size());
-    if (opt.progress) opt.progress(out.epochs.back().t_end_s);
+    if (pending.empty()) return;
+    const int first = static_cast<int>(out.epochs.size());
+    if (conventions_due(opt, out.conventions, first)) {
+      if (next_t_s - pending.front().rows.front().t_s < kConventionsHead_s) return;
+      find_conventions_on_head(pending, in, opt, first, out.conventions);
+    }
+    identify_pending();
   };
   while (in.next(s)) {
-    if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch();
+    if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch(s.t_s);
     buf.push_back(s);
     covariate_sum[0] += in.has_temperature() ? in.temperature() : 0.0;
     covariate_sum[1] += in.has_load() ? in.load() : 0.0;
   }
-  close_epoch();
+  close_epoch(INFINITY);
   for (std::size_t d = 0; d < 2; ++d)
     if (!out.law.fixed[d]) fix_law(out.law, d);  // the log ended first: the votes there are
   compare_up_to(out.epochs.size());

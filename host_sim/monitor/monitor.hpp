@@ -22,8 +22,10 @@ struct MonitorOptions {
   feedid::MonitorConfig<double> detector{};   ///< epoch length, reference epochs, CUSUM k and h
   IdentifyOptions identify;                   ///< how each epoch is identified
   /// The log's conventions (force sign, force and velocity lags, velocity
-  /// cut-off) are found on the first epoch that identifies and then stated
-  /// to every epoch, found afresh every this many epochs (0: never again).
+  /// cut-off) are found on the head (kConventionsHead_s: its epochs wait
+  /// for them) and then stated to every epoch, with the lag's standard
+  /// error; found afresh on the head of every this many epochs (0: never
+  /// again). Where a head does not identify, the first epoch that does sets them.
   int recheck_conventions_every = 60;
   std::function<void(double t_s)> progress;   ///< after each epoch, with its end time
 };

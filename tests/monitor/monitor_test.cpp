@@ -279,13 +279,9 @@ TEST(Monitor, ACoulombForceUnderAnUnresolvedSlopeIsNotCompared) {
   EXPECT_TRUE(host::carried(ep, fc_neg));
 }
 
-// GIVEN a log whose epochs are counted per parameter, THEN an epoch's Fc
-// left out for its unresolved slope is counted as flagged, never as
-// "another friction law" (the law is the log's).
-TEST(Monitor, AnFcLeftOutForItsSlopeIsCountedFlagged) {
-  const MonitorResult r = monitor_simulated(production(3), "feedid_monitor_counts.csv");
-  ASSERT_TRUE(r.error.empty()) << r.error;
-  int extrapolated_any = 0;
+/// Checks monitor's counts of the Fc left out per direction, and adds the
+/// epochs whose Fc was left out for an unresolved slope.
+void count_fc_left_out(const MonitorResult& r, int& extrapolated_any) {
   for (int d = 0; d < 2; ++d) {
     const int fc = d == 0 ? 2 : 6;
     int extrapolated = 0, other_law = 0;
@@ -301,7 +297,22 @@ TEST(Monitor, AnFcLeftOutForItsSlopeIsCountedFlagged) {
     EXPECT_GE(r.tracked[static_cast<std::size_t>(fc)].flagged, extrapolated) << "direction " << d;
     extrapolated_any += extrapolated;
   }
-  EXPECT_GT(extrapolated_any, 0) << "the log has an Fc under an unresolved slope";
+}
+
+// GIVEN a log whose epochs are counted per parameter, THEN an epoch's Fc
+// left out for its unresolved slope is counted as flagged, never as
+// "another friction law" (the law is the log's).
+TEST(Monitor, AnFcLeftOutForItsSlopeIsCountedFlagged) {
+  int extrapolated_any = 0;
+  // Until a log has such an epoch (seed 3 had one while the conventions
+  // came from the first epoch; with them from the head, seed 1 has).
+  for (std::uint64_t seed : {3u, 1u, 2u, 4u}) {
+    if (extrapolated_any > 0) break;
+    const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_counts.csv");
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    count_fc_left_out(r, extrapolated_any);
+  }
+  EXPECT_GT(extrapolated_any, 0) << "a log has an Fc under an unresolved slope";
 }
 
 TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
@@ -309,6 +320,10 @@ TEST(Monitor, ChangeFreeProductionLogsRaiseNone) {
     const MonitorResult r = monitor_simulated(production(seed), "feedid_monitor_free.csv");
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_TRUE(r.alarms.empty()) << "seed " << seed << "\n" << trend_table(r);
+    // The conventions come from the head, the lag with its standard error
+    // (which the epochs' standard errors then carry).
+    EXPECT_EQ(r.conventions.found_at_epoch, 0);
+    EXPECT_GT(r.conventions.stated.force_lag_se_s, 0.0) << "seed " << seed;
   }
 }
 
