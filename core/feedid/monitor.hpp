@@ -97,6 +97,12 @@ template <typename T> struct MonitorConfig {
   T relative_floor = T(0.01);
   /// Length of an epoch (s): each is identified alone (HealthTracker, `feedid monitor --epoch-s`).
   T epoch_s = T(10);
+  /// Alarm on the break-away force and the Stribeck velocity too. Off by
+  /// default: read off the few slow bands an epoch of ordinary motion
+  /// visits, they scatter from epoch to epoch beyond their standard errors
+  /// (100 simulated machine-hours, docs/monitor.md: 20 alarms on Fs and vs
+  /// in 75 change-free hours, none on m, sigma or Fc).
+  bool watch_stribeck = false;
 };
 
 template <typename T> struct ChangeAlarm {
@@ -135,7 +141,7 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     if (!initialized_) return Status::not_initialized;
     for (int i = 0; i < kTrackedCount; ++i) {
       T value, se;
-      if (!tracked_value(e, i, value, se)) continue;
+      if (!watched(i) || !tracked_value(e, i, value, se)) continue;
       if (step(tracks_[i], value, se, t_start_s) && alarms_ < MaxAlarms) {
         alarm_[alarms_] = make_alarm(i);
         alarm_[alarms_++].raised_t_s = t_end_s;
@@ -155,6 +161,11 @@ template <typename T, int MaxAlarms = 16> class ChangeMonitor {
     value = t.ref;
     se = t.ref_se;
     return true;
+  }
+  /// Whether tracked index i is compared (Fs and vs only where watch_stribeck asks).
+  bool watched(int i) const {
+    const Tracked p = parameter_of(i);
+    return cfg_.watch_stribeck || (p != Tracked::breakaway && p != Tracked::stribeck_velocity);
   }
   static Tracked parameter_of(int i) { return i == 0 ? Tracked::mass : static_cast<Tracked>(1 + (i - 1) % 4); }
   static int8_t direction_of(int i) { return i == 0 ? 0 : (i <= 4 ? 1 : -1); }

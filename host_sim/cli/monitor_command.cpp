@@ -31,6 +31,9 @@ struct MonitorCommand : Command {
         ->capture_default_str()->check(CLI::Range(3, 16));
     app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
         ->capture_default_str();
+    app->add_flag("--watch-stribeck", opt.detector.watch_stribeck,
+                  "alarm on the break-away force and Stribeck velocity too (off: their epochs scatter beyond their "
+                  "standard errors, docs/monitor.md)");
     app->add_option("--temperature", cols.temperature,
                     "column of the axis temperature: each reference is modelled against its epoch mean, so a warm-up "
                     "does not alarm (docs/monitor.md)");

@@ -493,6 +493,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                    {"reference_epochs", opt.detector.reference_epochs},
                    {"cusum_allowance", opt.detector.allowance},
                    {"cusum_threshold", opt.detector.threshold},
+                   {"watch_stribeck", opt.detector.watch_stribeck},
                    {"rule", "each epoch identified alone; the first reference_epochs epochs a parameter can carry are "
                             "its reference; two-sided CUSUM of (epoch - reference) / (c sqrt(se^2 + se_ref^2)), c the "
                             "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference"}};

@@ -88,6 +88,33 @@ TEST(ChangeMonitor, AFivePercentStepInOneCoulombForceIsNamedWithinTwoEpochsOrThr
   EXPECT_LE(raised_at, 22) << "at most three epochs after the step";
 }
 
+// GIVEN a 20 % step in the break-away force, THEN the default monitor
+// does not compare Fs (nor vs) at all, and with watch_stribeck names it.
+TEST(ChangeMonitor, StribeckParametersAlarmOnlyWhereWatched) {
+  auto with_dip = [](std::mt19937_64& rng, int k) {
+    Estimate<double> e = epoch(rng);
+    std::normal_distribution<double> n(0.0, 1.0);
+    e.pos.flags = 0;
+    e.pos.breakaway_N = (k >= 20 ? 12.0 : 10.0) + 0.05 * n(rng);
+    e.pos.breakaway_se = 0.05;
+    e.pos.stribeck_velocity_m_s = 0.002 + 1e-5 * n(rng);
+    e.pos.stribeck_velocity_se = 1e-5;
+    return e;
+  };
+  for (const bool watch : {false, true}) {
+    MonitorConfig<double> c;
+    c.watch_stribeck = watch;
+    ChangeMonitor<double> m;
+    ASSERT_EQ(m.init(c), Status::ok);
+    std::mt19937_64 rng(5);
+    feed_until_alarm(m, 40, [&](int k) { return with_dip(rng, k); });
+    double ref = 0, se = 0;
+    if (!watch) EXPECT_FALSE(m.reference(3, ref, se)) << "Fs+ is not even referenced";
+    ASSERT_EQ(m.alarm_count(), watch ? 1 : 0);
+    if (watch) EXPECT_EQ(m.alarm(0).parameter, Tracked::breakaway);
+  }
+}
+
 TEST(ChangeMonitor, OneStrayEpochCannotRaiseAnAlarm) {
   ChangeMonitor<double> m;
   ASSERT_EQ(m.init(MonitorConfig<double>{}), Status::ok);
