@@ -12,11 +12,11 @@ direction, with the sign of the step, raised after the step and at most
 import argparse, json, os, random, subprocess, tempfile
 
 
-def draw(rnd, i):
+def draw(rnd, i, duration_s=300, change_window_s=(100, 220)):
     step = i < 8
     prog = ['production', 'ladder', 'sine', 'production'][i % 4] if step else ['production', 'sine', 'ladder'][i % 3]
     fcp = rnd.uniform(15, 70)
-    args = ['--program', prog, '--duration', '300', '--rate', str(rnd.choice([1000, 2000, 4000])),
+    args = ['--program', prog, '--duration', str(duration_s), '--rate', str(rnd.choice([1000, 2000, 4000])),
             '--force-log', rnd.choice(['held', 'instant', 'averaged']),
             '--velocity-log', rnd.choice(['backward', 'average', 'lowpass']),
             '--mass', '%.2f' % rnd.uniform(50, 180), '--fc-pos', '%.2f' % fcp, '--fc-neg', '%.2f' % (fcp * rnd.uniform(0.85, 1.15)),
@@ -27,7 +27,7 @@ def draw(rnd, i):
     change = None
     if step:
         frac = rnd.uniform(0.05, 0.15) * rnd.choice([-1, 1])
-        change = {'t': round(rnd.uniform(100, 220), 1), 'frac': round(frac, 3), 'dir': rnd.choice(['pos', 'neg'])}
+        change = {'t': round(rnd.uniform(*change_window_s), 1), 'frac': round(frac, 3), 'dir': rnd.choice(['pos', 'neg'])}
         args += ['--change-time', str(change['t']), '--change-coulomb-fraction', str(change['frac']),
                  '--change-direction', change['dir']]
     return prog, args, change
