@@ -49,6 +49,18 @@ IdentifyOptions epoch_options(const MonitorOptions& opt, const LogConventions& c
   return c.fixed ? c.stated : log_options(opt);
 }
 
+/// The conventions result r found (searched with `searched`, on `epoch`
+/// and on), counted as found and, where they differ, as changed.
+void take_conventions(const IdentifyResult& r, const IdentifyOptions& searched, int epoch, LogConventions& conv) {
+  LogConventions found = conventions_of(r, searched, epoch);
+  found.times_found = conv.times_found + 1;
+  const IdentifyOptions &now = found.stated, &was = conv.stated;
+  found.times_changed = conv.times_changed + (conv.fixed && (now.force_sign != was.force_sign ||
+                                                              now.velocity_source != was.velocity_source ||
+                                                              now.velocity_filter_hz != was.velocity_filter_hz));
+  conv = found;
+}
+
 /// A trace of `rows` as the stream reads them.
 Trace trace_of(std::vector<TraceSample>&& rows, const CsvStream& in, const char* source) {
   Trace t;
@@ -76,13 +88,7 @@ void find_conventions_on_head(const std::vector<PendingEpoch>& head, const CsvSt
   const IdentifyOptions options = log_options(opt);
   const IdentifyResult r = identify(trace_of(std::move(rows), in, "head"), options);
   if (!r.error.empty()) return;
-  LogConventions found = conventions_of(r, options, epoch);
-  found.times_found = conv.times_found + 1;
-  const IdentifyOptions &now = found.stated, &was = conv.stated;
-  found.times_changed = conv.times_changed + (conv.fixed && (now.force_sign != was.force_sign ||
-                                                              now.velocity_source != was.velocity_source ||
-                                                              now.velocity_filter_hz != was.velocity_filter_hz));
-  conv = found;
+  take_conventions(r, options, epoch, conv);
 }
 
 /// An epoch's samples identified on their own, with the log's conventions
@@ -100,15 +106,7 @@ MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, 
   e.error = r.error;
   if (r.error.empty()) e.estimate = r.estimate;
   for (int d = 0; d < 2; ++d) e.stribeck[static_cast<std::size_t>(d)] = r.friction_model[static_cast<std::size_t>(d)].stribeck;
-  if (r.error.empty() && searching) {
-    LogConventions found = conventions_of(r, options, epoch);
-    found.times_found = conv.times_found + 1;
-    const IdentifyOptions &now = found.stated, &was = conv.stated;
-    found.times_changed = conv.times_changed + (conv.fixed && (now.force_sign != was.force_sign ||
-                                                                now.velocity_source != was.velocity_source ||
-                                                                now.velocity_filter_hz != was.velocity_filter_hz));
-    conv = found;
-  }
+  if (r.error.empty() && searching) take_conventions(r, options, epoch, conv);
   return e;
 }
 
