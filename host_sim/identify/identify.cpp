@@ -498,7 +498,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
 
 IdentifyOptions with_conventions_of(const Signals& found, IdentifyOptions o) {
   o.force_lag_s = found.force_lag_s;
-  o.force_lag_se_s = found.force_lag_origin == Signals::LagOrigin::estimated ? found.force_lag_se_s : 0.0;
+  o.force_lag_se_s = found.force_lag_se_s;  // an estimated lag's, or one stated with it; 0 otherwise
   o.force_sign = found.force_sign.sign;
   if (std::isfinite(found.velocity_lag_s)) o.velocity_lag_s = found.velocity_lag_s;
   if (found.velocity_filter_hz > 0) {

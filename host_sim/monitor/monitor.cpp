@@ -28,10 +28,13 @@ LogConventions conventions_of(const IdentifyResult& r, const IdentifyOptions& se
   return c;
 }
 
-/// Whether this epoch finds the conventions: none fixed yet, or a re-check due.
+/// Whether this epoch finds the conventions: none fixed yet, or a re-check
+/// due. Re-checks are at least two heads apart, so that short epochs
+/// neither search every head nor search inside the batch a head served.
 bool conventions_due(const MonitorOptions& opt, const LogConventions& c, int epoch) {
   const int every = opt.recheck_conventions_every;
-  return !c.fixed || (every > 0 && epoch - c.found_at_epoch >= every);
+  const double apart_s = std::max(every * opt.detector.epoch_s, 2.0 * kConventionsHead_s);
+  return !c.fixed || (every > 0 && (epoch - c.found_at_epoch) * opt.detector.epoch_s >= apart_s * (1.0 - 1e-9));
 }
 
 /// The identify options every epoch starts from: a gravity term only where
@@ -186,9 +189,15 @@ class CovariateModel {
     // not yet significant included: judged against the intercept alone, a
     // warm-up's epochs left the fit once they had drifted 2 %, before their
     // slope was significant, and the slope was never learnt.
-    const feedid::Vector<double, 3> line = coefficients(false);
+    // The line's own uncertainty where it predicts counts beside the
+    // epoch's: a slope drawn by a few epochs over a small covariate spread,
+    // projected far, would otherwise turn every later epoch away and never
+    // be corrected.
+    double line_var = 0.0;
+    const feedid::Vector<double, 3> line = coefficients(false, &z, &line_var);
     const double predicted = line.v[0] + line.v[1] * z.v[1] + line.v[2] * z.v[2];
-    const bool agrees = n_ == 0 || std::fabs(x - predicted) <= std::max(3.0 * se, 0.02 * std::fabs(predicted));
+    const bool agrees =
+        n_ == 0 || std::fabs(x - predicted) <= std::max(3.0 * std::sqrt(se * se + line_var), 0.02 * std::fabs(predicted));
     if (agrees) add(x, se, z);
     const feedid::Vector<double, 3>& slopes = forming ? line : b;
     return x - slopes.v[1] * z.v[1] - slopes.v[2] * z.v[2];
@@ -212,7 +221,9 @@ class CovariateModel {
   /// Intercept and slopes; a covariate the fitted epochs do not spread
   /// (constant, or not read) keeps a slope of 0, and so, where
   /// `significant_only`, does one they do not show beyond 3 standard errors.
-  feedid::Vector<double, 3> coefficients(bool significant_only) const {
+  /// `at`, `predicted_var`: the variance of the line's value at covariates `at`.
+  feedid::Vector<double, 3> coefficients(bool significant_only, const feedid::Vector<double, 3>* at = nullptr,
+                                         double* predicted_var = nullptr) const {
     feedid::Vector<double, 3> b;
     if (n_ == 0) return b;
     b.v[0] = rhs_.v[0] / normal_.a[0][0];
@@ -229,6 +240,12 @@ class CovariateModel {
     }
     if (!feedid::cholesky(m, 1e-9)) return b;
     b = feedid::cholesky_solve(m, r);
+    if (at && predicted_var) {
+      feedid::Vector<double, 3> a;
+      for (int i = 0; i < 3; ++i) a.v[i] = spread[i] ? at->v[i] : 0.0;
+      const feedid::Vector<double, 3> va = feedid::cholesky_solve(m, a);
+      *predicted_var = a.v[0] * va.v[0] + a.v[1] * va.v[1] + a.v[2] * va.v[2];
+    }
     // A slope the fitted epochs do not show beyond 3 standard errors is
     // noise, and extrapolated it raised alarms of its own (vs, Fs on a
     // warm-up log): it stays 0.
@@ -282,6 +299,7 @@ void count_tracked(MonitorResult& out, const Monitor& health) {
   for (int i = 0; i < feedid::kTrackedCount; ++i) {
     double v = 0.0, se = 0.0;
     out.tracked[static_cast<std::size_t>(i)].referenced = health.reference(i, v, se);
+    out.tracked[static_cast<std::size_t>(i)].watched = health.watched(i);
     out.referenced = out.referenced || out.tracked[static_cast<std::size_t>(i)].referenced;
   }
 }
@@ -368,7 +386,8 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     if (pending.empty()) return;
     const int first = static_cast<int>(out.epochs.size());
     if (conventions_due(opt, out.conventions, first)) {
-      if (next_t_s - pending.front().rows.front().t_s < kConventionsHead_s) return;
+      // (less a rounding's worth: t - t0 of the row 60 s on can round below 60)
+      if (next_t_s - pending.front().rows.front().t_s < kConventionsHead_s * (1.0 - 1e-9)) return;
       find_conventions_on_head(pending, in, opt, first, out.conventions);
     }
     identify_pending();
@@ -475,6 +494,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
   nlohmann::json conventions = {{"fixed", c.fixed},
                                 {"force_sign", c.stated.force_sign},
                                 {"force_lag_s", c.stated.force_lag_s},
+                                {"force_lag_se_s", c.stated.force_lag_se_s},
                                 {"velocity_lag_s", std::isfinite(c.stated.velocity_lag_s) ? nlohmann::json(c.stated.velocity_lag_s)
                                                                                           : nlohmann::json(nullptr)},
                                 {"velocity_filter_hz", c.stated.velocity_filter_hz},
@@ -494,14 +514,15 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                    {"watch_stribeck", opt.detector.watch_stribeck},
                    {"rule", "each epoch identified alone; the first reference_epochs epochs a parameter can carry are "
                             "its reference; two-sided CUSUM of (epoch - reference) / (c sqrt(se^2 + se_ref^2)), c the "
-                            "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference"}};
+                            "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference; "
+                            "m, sigma and Fc watched, Fs and vs only with watch_stribeck"}};
   j["status"] = watch_status(r);
   j["epochs_skipped"] = r.epochs_skipped;
   nlohmann::json tracked;
   for (int i = 0; i < feedid::kTrackedCount; ++i) {
     const TrackedCount& c = r.tracked[static_cast<std::size_t>(i)];
-    tracked[tracked_label(i)] = {{"compared", c.carried}, {"flagged", c.flagged}, {"law_differs", c.law_differs},
-                                 {"referenced", c.referenced}};
+    tracked[tracked_label(i)] = {{"compared", c.watched ? c.carried : 0}, {"carried", c.carried}, {"flagged", c.flagged},
+                                 {"law_differs", c.law_differs}, {"referenced", c.referenced}, {"watched", c.watched}};
   }
   j["tracked"] = tracked;
   j["friction_law"] = {{"pos", r.law.stribeck[0] ? "stribeck" : "coulomb_viscous"},

@@ -55,10 +55,11 @@ struct LogLaw {
 
 /// How many epochs carried a tracked parameter, and why the others did not.
 struct TrackedCount {
-  int carried = 0;       ///< compared with the reference (or forming it)
+  int carried = 0;       ///< carried by the epoch: compared with the reference (or forming it) where watched
   int flagged = 0;       ///< identified, but flagged (standard error over a quarter, negative, an Fc whose slope is unresolved, ...)
   int law_differs = 0;   ///< the epoch's friction law was not the log's
   bool referenced = false;
+  bool watched = true;   ///< compared at all (Fs and vs: only with --watch-stribeck)
 };
 
 /// A log's conventions as the epochs are told them (IdentifyOptions).

@@ -139,6 +139,9 @@ bool monitor_option(const std::string& key, const py::handle& value, MonitorOpti
     m.detector.reference_epochs = whole_in(value, key, 3, feedid::ChangeMonitor<double>::kMaxReferenceEpochs);
   } else if (key == "threshold") {
     m.detector.threshold = number(value, key);
+  } else if (key == "watch_stribeck") {
+    if (!py::isinstance<py::bool_>(value)) throw py::value_error(key + ": True or False");
+    m.detector.watch_stribeck = value.cast<bool>();
   } else {
     return false;
   }

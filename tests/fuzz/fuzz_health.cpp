@@ -26,6 +26,7 @@ namespace {
 template <typename T> feedid::MonitorConfig<T> monitor_config(FuzzedDataProvider& in) {
   feedid::MonitorConfig<T> c;
   c.epoch_s = near<T>(in, 0.05);  // short epochs, so that inputs close several
+  c.watch_stribeck = in.ConsumeBool();  // the Stribeck tracks too
   if (!in.ConsumeBool()) return c;
   c.reference_epochs = in.ConsumeIntegralInRange<int>(0, 20);
   c.allowance = near<T>(in, 1.0);

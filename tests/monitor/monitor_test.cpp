@@ -110,6 +110,7 @@ TEST(ChangeMonitor, StribeckParametersAlarmOnlyWhereWatched) {
     feed_until_alarm(m, 40, [&](int k) { return with_dip(rng, k); });
     double ref = 0, se = 0;
     if (!watch) EXPECT_FALSE(m.reference(3, ref, se)) << "Fs+ is not even referenced";
+    if (!watch) EXPECT_FALSE(m.reference(4, ref, se)) << "nor vs+";
     ASSERT_EQ(m.alarm_count(), watch ? 1 : 0);
     if (watch) EXPECT_EQ(m.alarm(0).parameter, Tracked::breakaway);
   }
@@ -366,6 +367,37 @@ TEST(Monitor, ConventionsAreFoundOnceAndStatedToEveryLaterEpoch) {
   EXPECT_GT(r.conventions.stated.velocity_filter_hz, 0.0);
   const nlohmann::json j = to_json(r, MonitorOptions{});
   EXPECT_EQ(j["conventions"]["times_found"], 1);
+  EXPECT_GT(j["conventions"]["force_lag_se_s"].get<double>(), 0.0);
+}
+
+// GIVEN a log of 700 s, THEN its conventions are those identify finds on
+// its first minute (to the bit), and found again on the minute from epoch 60.
+TEST(Monitor, ConventionsComeFromTheFirstMinuteAndAgainAfterSixtyEpochs) {
+  SimConfig c = production(2);
+  c.motion.duration_s = 700.0;
+  const host::Trace trace = simulate(c);
+  const MonitorResult r = monitor_simulated(c, "feedid_monitor_head.csv");
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  EXPECT_EQ(r.conventions.times_found, 2);
+  EXPECT_EQ(r.conventions.found_at_epoch, 60);
+  host::Trace head = trace, recheck = trace;
+  head.samples.clear();
+  recheck.samples.clear();
+  for (const host::TraceSample& s : trace.samples) {
+    if (s.t_s < 60.0) head.samples.push_back(s);
+    if (s.t_s >= 600.0 && s.t_s < 660.0) recheck.samples.push_back(s);
+  }
+  const host::IdentifyResult at_recheck = host::identify(recheck, host::IdentifyOptions{});
+  ASSERT_TRUE(at_recheck.error.empty()) << at_recheck.error;
+  EXPECT_EQ(r.conventions.stated.force_lag_s, at_recheck.signals.force_lag_s);
+  EXPECT_EQ(r.conventions.stated.force_lag_se_s, at_recheck.signals.force_lag_se_s);
+  // The first head's: the monitor of the first 300 s alone (one head, no re-check).
+  c.motion.duration_s = 300.0;
+  const MonitorResult first = monitor_simulated(c, "feedid_monitor_head300.csv");
+  const host::IdentifyResult at_head = host::identify(head, host::IdentifyOptions{});
+  ASSERT_TRUE(at_head.error.empty()) << at_head.error;
+  EXPECT_EQ(first.conventions.times_found, 1);
+  EXPECT_EQ(first.conventions.stated.force_lag_s, at_head.signals.force_lag_s);
 }
 
 TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
