@@ -184,7 +184,7 @@ class CovariateModel {
       anchored_ = true;
     }
     const feedid::Vector<double, 3> z = centred(c);
-    const feedid::Vector<double, 3> b = coefficients(true);
+    const Fit fit = fitted_at(z);
     // Agreement is judged against the line the epochs so far draw, slopes
     // not yet significant included: judged against the intercept alone, a
     // warm-up's epochs left the fit once they had drifted 2 %, before their
@@ -193,13 +193,11 @@ class CovariateModel {
     // epoch's: a slope drawn by a few epochs over a small covariate spread,
     // projected far, would otherwise turn every later epoch away and never
     // be corrected.
-    double line_var = 0.0;
-    const feedid::Vector<double, 3> line = coefficients(false, &z, &line_var);
-    const double predicted = line.v[0] + line.v[1] * z.v[1] + line.v[2] * z.v[2];
-    const bool agrees =
-        n_ == 0 || std::fabs(x - predicted) <= std::max(3.0 * std::sqrt(se * se + line_var), 0.02 * std::fabs(predicted));
+    const double predicted = fit.line.v[0] + fit.line.v[1] * z.v[1] + fit.line.v[2] * z.v[2];
+    const bool agrees = n_ == 0 || std::fabs(x - predicted) <=
+                                       std::max(3.0 * std::sqrt(se * se + fit.predicted_var), 0.02 * std::fabs(predicted));
     if (agrees) add(x, se, z);
-    const feedid::Vector<double, 3>& slopes = forming ? line : b;
+    const feedid::Vector<double, 3>& slopes = forming ? fit.line : fit.significant;
     return x - slopes.v[1] * z.v[1] - slopes.v[2] * z.v[2];
   }
 
@@ -218,42 +216,42 @@ class CovariateModel {
     }
     ++n_;
   }
-  /// Intercept and slopes; a covariate the fitted epochs do not spread
-  /// (constant, or not read) keeps a slope of 0, and so, where
-  /// `significant_only`, does one they do not show beyond 3 standard errors.
-  /// `at`, `predicted_var`: the variance of the line's value at covariates `at`.
-  feedid::Vector<double, 3> coefficients(bool significant_only, const feedid::Vector<double, 3>* at = nullptr,
-                                         double* predicted_var = nullptr) const {
-    feedid::Vector<double, 3> b;
-    if (n_ == 0) return b;
-    b.v[0] = rhs_.v[0] / normal_.a[0][0];
+  /// The fit so far: intercept and slopes as the epochs draw them (`line`;
+  /// a covariate they do not spread, constant or not read, keeps a slope of
+  /// 0), the variance of the line's value at covariates z, and the slopes
+  /// they show beyond 3 standard errors (`significant`; the others 0).
+  struct Fit {
+    feedid::Vector<double, 3> line, significant;
+    double predicted_var = 0.0;
+  };
+  Fit fitted_at(const feedid::Vector<double, 3>& z) const {
+    Fit f;
+    if (n_ == 0) return f;
+    f.line.v[0] = rhs_.v[0] / normal_.a[0][0];
+    f.significant = f.line;
     bool spread[3] = {true, false, false};
     for (int k = 1; k < 3; ++k) {
       const double mean = normal_.a[0][k] / normal_.a[0][0];
       spread[k] = n_ >= 3 && normal_.a[k][k] / normal_.a[0][0] - mean * mean > 1e-12 * (1.0 + normal_.a[k][k] / normal_.a[0][0]);
     }
     feedid::SymMatrix<double, 3> m;
-    feedid::Vector<double, 3> r;
+    feedid::Vector<double, 3> r, a;
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) m.a[i][j] = spread[i] && spread[j] ? normal_.a[i][j] : (i == j ? 1.0 : 0.0);
       r.v[i] = spread[i] ? rhs_.v[i] : 0.0;
+      a.v[i] = spread[i] ? z.v[i] : 0.0;
     }
-    if (!feedid::cholesky(m, 1e-9)) return b;
-    b = feedid::cholesky_solve(m, r);
-    if (at && predicted_var) {
-      feedid::Vector<double, 3> a;
-      for (int i = 0; i < 3; ++i) a.v[i] = spread[i] ? at->v[i] : 0.0;
-      const feedid::Vector<double, 3> va = feedid::cholesky_solve(m, a);
-      *predicted_var = a.v[0] * va.v[0] + a.v[1] * va.v[1] + a.v[2] * va.v[2];
-    }
+    if (!feedid::cholesky(m, 1e-9)) return f;
+    f.line = f.significant = feedid::cholesky_solve(m, r);
+    const feedid::Vector<double, 3> va = feedid::cholesky_solve(m, a);
+    f.predicted_var = a.v[0] * va.v[0] + a.v[1] * va.v[1] + a.v[2] * va.v[2];
     // A slope the fitted epochs do not show beyond 3 standard errors is
     // noise, and extrapolated it raised alarms of its own (vs, Fs on a
-    // warm-up log): it stays 0.
-    if (!significant_only) return b;
+    // warm-up log): it is compensated with only while a reference forms.
     const feedid::Vector<double, 3> var = feedid::cholesky_inverse_diagonal(m);
     for (int k = 1; k < 3; ++k)
-      if (!(std::fabs(b.v[k]) > 3.0 * std::sqrt(var.v[k]))) b.v[k] = 0.0;
-    return b;
+      if (!(std::fabs(f.line.v[k]) > 3.0 * std::sqrt(var.v[k]))) f.significant.v[k] = 0.0;
+    return f;
   }
   feedid::SymMatrix<double, 3> normal_;
   feedid::Vector<double, 3> rhs_;
