@@ -27,11 +27,12 @@ void put_load(nlohmann::json& model, const ModelLoad& load) {
 
 double sliding_friction(const DirectionFriction& f, double direction, double v_m_s) {
   const double r = v_m_s / f.stribeck_velocity_m_s;
-  // Beyond kExpUnderflow, exp(-r^2) is exactly 0 in double: skipping it
-  // changes no bit, and the block observations call this per sample, most
-  // of them far above vs, where exp took its slow underflow path.
-  constexpr double kExpUnderflow = 750.0;
-  const double dip = f.breakaway_N * (r * r > kExpUnderflow ? 0.0 : std::exp(-r * r));
+  // Beyond r^2 = 40, exp(-r^2) < 4.3e-18: the dip is below half a unit
+  // in the last place of the Coulomb force it is added to (for Fs up to 25
+  // Fc), so skipping exp changes no bit of the sum. The block observations
+  // call this per sample, most of them far above vs.
+  constexpr double kDipBelowRounding = 40.0;
+  const double dip = f.breakaway_N * (r * r > kDipBelowRounding ? 0.0 : std::exp(-r * r));
   return direction * (f.coulomb_N + dip) + f.viscous_Ns_m * v_m_s;
 }
 

@@ -32,23 +32,58 @@ TravelForces travel_forces(const std::vector<double>& t, const std::vector<doubl
   return w;
 }
 
+/// The force at which the travel, summed in order of force, passes
+/// `travel` (< the total): weighted quickselect, reordering f.
+double force_at_travel(std::vector<ForceOverTravel>& f, double travel) {
+  auto first = f.begin(), last = f.end();
+  const auto by_force = [](const ForceOverTravel& a, const ForceOverTravel& b) { return a.force < b.force; };
+  while (last - first > 1) {
+    const auto mid = first + (last - first) / 2;
+    std::nth_element(first, mid, last, by_force);
+    double lower = 0.0;
+    for (auto it = first; it != mid; ++it) lower += it->travel;
+    if (lower > travel) {
+      last = mid;
+    } else {
+      travel -= lower;
+      first = mid;
+    }
+  }
+  return first->force;
+}
+
 /// The travel-weighted mean of the forces with kSignTrimmedShare of the
 /// travel cut off at either end of their range (a step straddling a cut
-/// counts with the part inside).
+/// counts with the part inside). The two cut forces are selected, not
+/// sorted for: a sort of every moving sample was a twentieth of identify.
 double trimmed_mean(std::vector<ForceOverTravel> f) {
-  std::sort(f.begin(), f.end(), [](const ForceOverTravel& a, const ForceOverTravel& b) { return a.force < b.force; });
+  if (f.empty()) return 0.0;
   double total = 0.0;
   for (const auto& s : f) total += s.travel;
   const double lo = kSignTrimmedShare * total, hi = (1.0 - kSignTrimmedShare) * total;
-  double below = 0.0, sum = 0.0, kept = 0.0;
+  const double f_lo = force_at_travel(f, lo), f_hi = force_at_travel(f, hi);
+  // Forces strictly between the cuts lie wholly inside; each cut force's
+  // steps (ties included) span [travel below it, that plus their own].
+  double sum = 0.0, kept = 0.0, below_lo = 0.0, at_lo = 0.0, below_hi = 0.0, at_hi = 0.0;
   for (const auto& s : f) {
-    const double inside = std::min(below + s.travel, hi) - std::max(below, lo);
+    if (s.force < f_lo) below_lo += s.travel;
+    else if (s.force == f_lo) at_lo += s.travel;
+    if (s.force < f_hi) below_hi += s.travel;
+    else if (s.force == f_hi) at_hi += s.travel;
+    if (s.force > f_lo && s.force < f_hi) {
+      sum += s.force * s.travel;
+      kept += s.travel;
+    }
+  }
+  auto add_cut = [&](double force, double below, double at) {
+    const double inside = std::min(below + at, hi) - std::max(below, lo);
     if (inside > 0.0) {
-      sum += s.force * inside;
+      sum += force * inside;
       kept += inside;
     }
-    below += s.travel;
-  }
+  };
+  add_cut(f_lo, below_lo, at_lo);
+  if (f_hi != f_lo) add_cut(f_hi, below_hi, at_hi);
   return kept > 0.0 ? sum / kept : 0.0;
 }
 
