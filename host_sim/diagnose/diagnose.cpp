@@ -63,38 +63,24 @@ Signals aligned_signals(const Trace& trace, const DiagnoseOptions& opt, Diagnose
 
 bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& folds, const DiagnoseOptions& opt,
                    DiagnoseResult& out) {
-  Trace id_trace;
-  id_trace.source = trace.source + " (identification folds)";
-  id_trace.has_velocity = true;
-  id_trace.has_position = true;  // logged, or integrated from the velocity column (aligned_signals)
-  for (std::size_t k = 0; k < sig.t.size(); ++k)
-    if (!diag::Folds::heldout(folds.of(sig.t[k]))) id_trace.samples.push_back({sig.t[k], sig.x[k], sig.v[k], sig.u[k]});
+  // The identification folds of the signals aligned_signals prepared: their
+  // conventions and velocity as they are, not conditioned again (issue 29).
+  std::vector<char> identification(sig.t.size());
+  for (std::size_t k = 0; k < sig.t.size(); ++k) identification[k] = !diag::Folds::heldout(folds.of(sig.t[k]));
   IdentifyOptions idopt = opt.identify;
-  // The signals are aligned already (velocity delayed if the lag was
-  // positive): what is left of the lag goes to the core as stated.
-  idopt.force_lag_s = sig.force_lag_samples / sig.sample_rate_hz;
-  // The velocity aligned_signals made, delayed by whole samples when the
-  // force lag was positive, which the base's convention naming must know
-  // (or a period mean reads as held).
-  idopt.velocity_source = VelocitySource::given;
   // The base fit below refits the friction terms, vs on the core's grid;
   // a Stribeck law dropped by identify's model selection (vs = 0) left it
   // nothing to refit, and two effects of 66 went `unexplained`.
   idopt.select_friction_model = false;
-  idopt.force_sign = 1;  // aligned_signals oriented the force already
-  idopt.velocity_lag_s = (sig.core_velocity_lag + sig.velocity_delay_samples) / sig.sample_rate_hz;
-  // id_trace's position is integrated where the log has none: no arm's angle to place a gravity term at.
+  // Without a position column x is integrated: no arm's angle to place a gravity term at.
   if (!trace.has_position && idopt.gravity == GravityTerm::automatic) idopt.gravity = GravityTerm::none;
   if (!trace.has_position && idopt.gravity == GravityTerm::angle) {
     out.error = trace.source + ": " + kGravityAngleNeedsPosition;
     return false;
   }
   if (opt.model && !(out.error = opt.model->load.refusal(trace.source, trace.has_position)).empty()) return false;
-  out.base = identify(id_trace, idopt);
-  // The identification folds reach the core as a measured column; say where it came from.
-  out.base.signals.velocity_origin = sig.velocity_origin;
-  out.base.signals.force_sign = sig.force_sign;
-  out.base.signals.position_wrap = sig.position_wrap;
+  out.base = identify_prepared(select_samples(sig, identification), idopt, trace.source + " (identification folds)");
+  out.base.force_outliers = out.force_outliers;  // bridged on the whole trace, before the split
   if (!out.base.error.empty()) out.error = out.base.error;
   return out.error.empty();
 }

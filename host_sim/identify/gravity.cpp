@@ -171,26 +171,44 @@ AngleFit fit_angle(const IdentifyResult& r) {
   return f;
 }
 
-/// The trace with the load g(q) taken off the force as logged (in the
-/// logged force's sign, which conditioning may have found reversed).
-Trace without_load(const Trace& trace, int force_sign, double a, double b, double c) {
-  Trace out = trace;
-  for (TraceSample& s : out.samples) s.u_N -= force_sign * (a * std::cos(s.x_m) + b * std::sin(s.x_m) + c);
-  return out;
+/// The prepared signals with the load a cos q + b sin q + c taken off the
+/// force (oriented: the load is a force on the motion, whatever sign the
+/// log had). Where the alignment delayed the motion by whole samples (a
+/// positive force lag), the load is read at the angle as logged, which
+/// sits that many samples later in x.
+Signals without_load(Signals s, double a, double b, double c) {
+  const std::size_t n = s.x.size(), d = static_cast<std::size_t>(std::max(s.velocity_delay_samples, 0));
+  const double span_max = s.sample_rate_hz > 0 ? 5.0 * static_cast<double>(d) / s.sample_rate_hz : 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t at = k + d < n && s.t[k + d] - s.t[k] <= span_max ? k + d : k;  // delay_motion's rule, undone
+    s.u[k] -= a * std::cos(s.x[at]) + b * std::sin(s.x[at]) + c;
+  }
+  return s;
 }
 
-double travel_span(const Trace& trace) {
-  if (trace.samples.empty()) return 0.0;
-  auto [lo, hi] = std::minmax_element(trace.samples.begin(), trace.samples.end(),
-                                      [](const TraceSample& p, const TraceSample& q) { return p.x_m < q.x_m; });
-  return hi->x_m - lo->x_m;
+double travel_span(const Signals& s) {
+  if (s.x.empty()) return 0.0;
+  auto [lo, hi] = std::minmax_element(s.x.begin(), s.x.end());
+  return *hi - *lo;
 }
+
+/// The prepared signals the rounds start from, where to say so, and the
+/// options each round identifies with (no gravity term: that is the rounds').
+struct Rounds {
+  const Signals& prepared;
+  const IdentifyOptions& base;
+  const std::string& source;
+  const std::vector<std::size_t>& run_starts;
+  IdentifyResult without(double a, double b, double c) const {
+    return identify_prepared(without_load(prepared, a, b, c), base, source, run_starts);
+  }
+};
 
 /// Each direction's Coulomb term takes the load with opposite signs, and a
 /// load beyond the friction turns one negative and the fit's law with it:
 /// so G is refitted on the friction fitted without the last G until its step
 /// is a tenth of its standard error.
-IdentifyResult with_constant(const Trace& trace, IdentifyOptions base, IdentifyResult r0) {
+IdentifyResult with_constant(const Rounds& rounds, IdentifyResult r0) {
   auto half_difference = [](const IdentifyResult& r) { return 0.5 * (r.estimate.pos.coulomb_N - r.estimate.neg.coulomb_N); };
   auto its_se = [](const IdentifyResult& r) { return 0.5 * std::hypot(r.estimate.pos.coulomb_se, r.estimate.neg.coulomb_se); };
   double G = 0.0;
@@ -198,7 +216,7 @@ IdentifyResult with_constant(const Trace& trace, IdentifyOptions base, IdentifyR
   for (int round = 0; round < kMaxRounds; ++round) {
     const double step = half_difference(r);
     G += step;
-    IdentifyResult next = identify(without_load(trace, r0.signals.force_sign.sign, 0.0, 0.0, G), base);
+    IdentifyResult next = rounds.without(0.0, 0.0, G);
     if (!next.error.empty()) return r0;
     r = std::move(next);
     if (std::fabs(step) < 0.1 * its_se(r) && round > 0) break;
@@ -209,8 +227,8 @@ IdentifyResult with_constant(const Trace& trace, IdentifyOptions base, IdentifyR
   return r;
 }
 
-IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResult r0, bool automatic) {
-  const double span = travel_span(trace);
+IdentifyResult with_angle(const Rounds& rounds, IdentifyResult r0, bool automatic) {
+  const double span = travel_span(rounds.prepared);
   if (automatic && span < kGravityMinSpan_rad) {
     std::ostringstream o;
     o << "none: the axis turns " << std::setprecision(2) << span << " rad, too little to tell G cos(q - q0) from friction";
@@ -230,7 +248,7 @@ IdentifyResult with_angle(const Trace& trace, IdentifyOptions base, IdentifyResu
     b += f.b;
     const bool settled = std::hypot(f.a, f.b) < 0.1 * std::sqrt(f.cov[0][0] + f.cov[1][1]);
     if (settled && round > 0) break;
-    IdentifyResult next = identify(without_load(trace, r0.signals.force_sign.sign, a, b, 0.0), base);
+    IdentifyResult next = rounds.without(a, b, 0.0);
     if (!next.error.empty()) { f.ok = false; break; }
     r = std::move(next);
   }
@@ -287,14 +305,16 @@ bool gravity_from_name(const std::string& name, GravityTerm& g) {
   return false;
 }
 
-IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& opt) {
+IdentifyResult identify_with_gravity(Signals prepared, const IdentifyOptions& opt, const std::string& source,
+                                     const std::vector<std::size_t>& run_starts) {
   IdentifyOptions base = opt;
   base.gravity = GravityTerm::none;
-  IdentifyResult r0 = identify(trace, base);
+  IdentifyResult r0 = identify_prepared(prepared, base, source, run_starts);
   if (!r0.error.empty() || opt.gravity == GravityTerm::none) return r0;
-  if (opt.gravity == GravityTerm::constant) return with_constant(trace, base, std::move(r0));
+  const Rounds rounds{prepared, base, source, run_starts};
+  if (opt.gravity == GravityTerm::constant) return with_constant(rounds, std::move(r0));
   const bool rotary = opt.units.position == "rad";
-  if (rotary && !trace.has_position) {  // an angle integrated from the velocity has no zero: cos(q - q0) has no q
+  if (rotary && !prepared.has_position) {  // an angle integrated from the velocity has no zero: cos(q - q0) has no q
     if (opt.gravity == GravityTerm::angle) r0.error = kGravityAngleNeedsPosition;
     else r0.gravity.note = "none: the log has no position, so the arm's angle is unknown";
     return r0;
@@ -304,7 +324,7 @@ IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& 
     if (opt.gravity == GravityTerm::angle) r0.error = "--gravity angle needs a rotary axis (--axis rotary, position in rad)";
     return r0;
   }
-  return with_angle(trace, base, std::move(r0), opt.gravity == GravityTerm::automatic);
+  return with_angle(rounds, std::move(r0), opt.gravity == GravityTerm::automatic);
 }
 
 }  // namespace feedid::host

@@ -7,8 +7,8 @@
 
 namespace feedid::host {
 
-/// identify() with opt.gravity's term (identify() calls this when it is not
-/// none):
+/// identify_prepared() with opt.gravity's term (identify_prepared() calls
+/// this when it is not none):
 /// - constant: G = (Fc+ - Fc-) / 2, the assumption being Coulomb friction
 ///   the same both ways (the data cannot tell a constant load from
 ///   asymmetric friction: SysId's kG makes the same assumption);
@@ -18,7 +18,10 @@ namespace feedid::host {
 /// - automatic: angle on a rotary axis that turns at least kGravityMinSpan_rad
 ///   where G is at least kGravityMinZ standard errors and a tenth of the
 ///   Coulomb friction; else none, said why.
-IdentifyResult identify_with_gravity(const Trace& trace, const IdentifyOptions& opt);
+/// Every round identifies the prepared signals with the load taken off
+/// (identify_prepared): the conventions found once serve all of them.
+IdentifyResult identify_with_gravity(Signals prepared, const IdentifyOptions& opt, const std::string& source,
+                                     const std::vector<std::size_t>& run_starts);
 
 /// Why --gravity angle is refused on a log without position: an angle
 /// integrated from the velocity has no zero, so cos(q - q0) has no q.

@@ -577,15 +577,11 @@ std::vector<feedid::Diagnostics> per_run(const std::vector<feedid::Diagnostics>&
 }  // namespace
 
 IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
-  if (opt.gravity != GravityTerm::none) return identify_with_gravity(logged, opt);
   IdentifyResult r;
   r.units = opt.units;
   // Every stage sees the trace with its force outliers bridged (force_outliers.hpp).
-  const Trace trace = bridge_force_outliers(logged, opt.units.force, r.force_outliers);
-  r.rows_skipped = trace.rows_skipped;
-  r.rows_repeated = trace.rows_repeated;
-  r.skipped_rows = trace.skipped_rows;
-  r.runs = trace.runs;
+  ForceOutliers outliers;
+  const Trace trace = bridge_force_outliers(logged, opt.units.force, outliers);
   const std::size_t n = trace.samples.size();
   const std::uint64_t pushed_before = core_samples_pushed();
   constexpr std::size_t min_samples = 100;
@@ -593,14 +589,35 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
     r.status = feedid::Status::insufficient_data;
     r.error = trace.source + ": trace too short to identify: " + std::to_string(n) + " samples (need at least " +
               std::to_string(min_samples) + " and motion in both directions)";
+  } else {
+    std::vector<std::size_t> run_starts;
+    for (const TraceRun& tr : trace.runs) run_starts.push_back(tr.first);
+    r = identify_prepared(prepare_signals(trace, opt), opt, trace.source, run_starts);
+  }
+  r.force_outliers = std::move(outliers);
+  r.rows_skipped = trace.rows_skipped;
+  r.rows_repeated = trace.rows_repeated;
+  r.skipped_rows = trace.skipped_rows;
+  r.runs = trace.runs;
+  if (n > 0) r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(n);
+  return r;
+}
+
+IdentifyResult identify_prepared(Signals prepared, const IdentifyOptions& opt, const std::string& source,
+                                 const std::vector<std::size_t>& run_starts) {
+  if (opt.gravity != GravityTerm::none) return identify_with_gravity(std::move(prepared), opt, source, run_starts);
+  IdentifyResult r;
+  r.units = opt.units;
+  const std::uint64_t pushed_before = core_samples_pushed();
+  r.signals = std::move(prepared);
+  const Signals& s = r.signals;
+  if (s.t.size() < 2) {
+    r.status = feedid::Status::insufficient_data;
+    r.error = source + ": no samples to identify";
     return r;
   }
-  r.signals = prepare_signals(trace, opt);
-  const Signals& s = r.signals;
   r.duration_s = s.t.back() - s.t.front();
   r.config = auto_config(s, opt);
-  std::vector<std::size_t> run_starts;
-  for (const TraceRun& tr : trace.runs) run_starts.push_back(tr.first);
   CoreRun run = run_core(s, r.config, opt, 0, static_cast<std::size_t>(-1), run_starts);
   r.run_diagnostics = per_run(run.counters_at);
   if (run.status == feedid::Status::invalid_config) {
@@ -619,7 +636,7 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
   fill_friction_curve(*run.core, r);
   if (r.status == feedid::Status::insufficient_data) {
     std::ostringstream o;
-    o << trace.source << ": not enough motion to identify: " << r.duration_s << " s of data, "
+    o << source << ": not enough motion to identify: " << r.duration_s << " s of data, "
       << r.estimate.pos.time_in_bands_s << " s moving positive and " << r.estimate.neg.time_in_bands_s
       << " s moving negative above " << r.config.velocity_min_m_s << " " << r.units.velocity()
       << "; each direction needs data in at least 5 velocity bands (what to record: docs/recording.md)";
@@ -641,7 +658,7 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
     r.se_cutoff = u.cutoff_se;
   }
   refit_mass_on_blocks(r, pairs);
-  r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(n);
+  r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(s.t.size());
   return r;
 }
 

@@ -258,7 +258,20 @@ double paired_force(const std::vector<double>& u, const feedid::ForcePairing<dou
 /// The core configuration the data calls for (docs/reference.md explains each choice).
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt);
 
+/// Bridges the trace's force outliers, prepares its signals (prepare_signals:
+/// the one conditioning, the velocity cut-off and the force lag) and
+/// identifies them (identify_prepared).
 IdentifyResult identify(const Trace& trace, const IdentifyOptions& opt);
+
+/// Identifies signals prepared already (prepare_signals, or a selection of
+/// them: select_samples) without conditioning them again: the core's pass,
+/// the block mass, the standard errors, and opt.gravity's term (gravity.hpp;
+/// its rounds take the load off these signals, not off a trace). `source`
+/// names them in errors; run_starts: the first sample of each pooled
+/// recording, for the per-run counters. Diagnose's identification folds
+/// come here, not through a rebuilt trace (issue 29).
+IdentifyResult identify_prepared(Signals prepared, const IdentifyOptions& opt, const std::string& source,
+                                 const std::vector<std::size_t>& run_starts = {});
 
 /// Replaces the core's mass (from its acceleration windows, whose raw
 /// end velocities carry quantisation noise that attenuates m: -0.7 % at

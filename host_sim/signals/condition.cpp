@@ -204,6 +204,21 @@ double velocity_noise(const std::vector<double>& v, const std::vector<double>& t
   return nd > 0 ? std::sqrt(d2 / (6.0 * static_cast<double>(nd))) : 0.0;
 }
 
+Signals select_samples(const Signals& s, const std::vector<char>& keep) {
+  Signals kept = s;  // conventions and provenance; the columns compacted in place
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < s.t.size(); ++k) {
+    if (k >= keep.size() || !keep[k]) continue;
+    kept.t[j] = s.t[k];
+    kept.x[j] = s.x[k];
+    kept.v[j] = s.v[k];
+    kept.u[j] = s.u[k];
+    ++j;
+  }
+  for (std::vector<double>* column : {&kept.t, &kept.x, &kept.v, &kept.u}) column->resize(j);
+  return kept;
+}
+
 std::vector<std::pair<std::size_t, std::size_t>> stretches(const Signals& s) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
   for (std::size_t a = 0; a < s.t.size();) {

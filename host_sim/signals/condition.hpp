@@ -135,6 +135,12 @@ struct ConditionOptions {
 /// columns, naming the trace.
 Signals condition(const Trace& trace, const ConditionOptions& opt);
 
+/// The samples of s where keep[k] is non-zero, with s's conventions and
+/// provenance: what was left out between two kept samples is a gap in
+/// time (Signals::gap_before), so no filter, integral or force tap spans
+/// it. Diagnose's identification folds (identify_prepared).
+Signals select_samples(const Signals& s, const std::vector<char>& keep);
+
 /// Half-open sample ranges [first, second) between the gaps of s
 /// (Signals::gap_before), in order: the stretches no filter or difference
 /// may span.
