@@ -2,6 +2,7 @@
 #include "csv_table.hpp"
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -153,6 +154,14 @@ Number read_number(std::string_view text, bool decimal_comma, double& value) {
       if (copy[i] == ',') copy[i] = '.';
     p = copy;
   }
+  // The common case, a plain decimal number, by from_chars (correctly
+  // rounded, as strtod is, so the value is the same bit for bit): strtod
+  // was a fifth of identify's command on a 2 kHz CSV. What from_chars does
+  // not take whole (a leading '+' or space, hex, inf, nan, a value beyond
+  // range) goes to strtod, whose rules and messages stay the reader's.
+  if (const auto [ptr, ec] = std::from_chars(p, p + text.size(), value);
+      ec == std::errc() && ptr == p + text.size() && std::isfinite(value))
+    return Number::ok;
   char* end = nullptr;
   errno = 0;
   value = std::strtod(p, &end);

@@ -5,6 +5,7 @@
 // file that cannot be read names file:line.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -243,6 +244,32 @@ TEST(CsvFormats, NotesArePrintableAndBounded) {
   ASSERT_TRUE(r.ok) << r.error;
   ASSERT_EQ(r.trace.notes.size(), 1u);
   EXPECT_TRUE(is_bounded_printable(r.trace.notes[0])) << r.trace.notes[0];
+}
+
+}  // namespace
+}  // namespace feedid::host
+
+namespace feedid::host {
+namespace {
+
+// GIVEN numbers written every way a logger or a hand may write them, THEN
+// each reads to the value strtod gives, bit for bit: the reader's fast
+// path (from_chars) and its fallback (strtod) agree, and what only strtod
+// takes (a leading '+', hex, a denormal) still reads.
+TEST(CsvNumbers, EveryWrittenFormReadsAsStrtodReadsIt) {
+  const std::vector<std::string> forms = {"1.5",     "+1.5",   "-0.25",  ".5",     "5.",      "1e3",
+                                          "1E-3",    "-2.5e+2", "0x1p3",  "1e-310", "123456789.123456789",
+                                          "0.1",     "7",      "-0",     "3.14159265358979323846"};
+  std::string text = "t,x,u\n";
+  for (std::size_t i = 0; i < forms.size(); ++i)
+    text += std::to_string(i) + "," + std::to_string(i) + "," + forms[i] + "\n";
+  CsvColumns cols;
+  cols.velocity.clear();
+  const CsvResult r = parse_trace_csv(text, "forms.csv", cols);
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.trace.samples.size(), forms.size());
+  for (std::size_t i = 0; i < forms.size(); ++i)
+    EXPECT_EQ(r.trace.samples[i].u_N, std::strtod(forms[i].c_str(), nullptr)) << forms[i];
 }
 
 }  // namespace
