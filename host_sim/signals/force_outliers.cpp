@@ -109,6 +109,9 @@ bool clip_level(const std::vector<double>& u, double sign, double& level) {
   // The kSaturationSpikes + 1 extreme distinct values, the most extreme first.
   std::vector<double> extremes;
   for (double x : u) {
+    // Full, the list takes only a value beyond its least extreme: the
+    // common sample is turned away by one comparison, not a search and a sort.
+    if (extremes.size() > kSaturationSpikes && !(sign * x > sign * extremes.back())) continue;
     if (!std::isfinite(x) || std::find(extremes.begin(), extremes.end(), x) != extremes.end()) continue;
     extremes.push_back(x);
     std::sort(extremes.begin(), extremes.end(), [sign](double a, double b) { return sign * a > sign * b; });
