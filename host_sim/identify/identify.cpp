@@ -678,8 +678,9 @@ namespace {
 double block_mass_cutoff_spread(const IdentifyResult& r, double mass_kg) {
   double sum = 0.0;
   int used = 0;
+  Signals rival;  // one copy, its velocity derived again for each rival
+  if (!r.signals.velocity_filter_rivals_hz.empty()) rival = r.signals;
   for (double fc : r.signals.velocity_filter_rivals_hz) {
-    Signals rival = r.signals;
     derive_velocity(rival, fc);
     const BlockMass b = block_mass(rival, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
     if (!b.ok) continue;

@@ -77,11 +77,9 @@ std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& 
   const double lag = timing_probe_lag(s);
   feedid::Config<double> c = cfg;
   c.force_lag_samples = lag;
-  Signals shifted = s;
-  shifted.force_lag_samples = lag;
   IdentifyOptions quiet;
   quiet.method = method;
-  const CoreRun run = run_core(shifted, c, quiet);
+  const CoreRun run = run_core(s, c, quiet);  // the core pairs by c's lag: the samples need no copy
   if (run.status != feedid::Status::ok) return out;
   const auto at = parameters(run.estimate);
   for (int i = 0; i < 9; ++i) out[i] = std::fabs(at[i] - theta[i]) / kTimingProbeStep * lag_uncertainty;
@@ -137,8 +135,9 @@ std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Con
   IdentifyOptions quiet;
   quiet.method = method;
   quiet.select_friction_model = false;  // the law chosen on the data, refitted below as the jackknife does
+  Signals rival;  // one copy, its velocity derived again for each rival
+  if (!s.velocity_filter_rivals_hz.empty()) rival = s;
   for (double fc : s.velocity_filter_rivals_hz) {
-    Signals rival = s;
     derive_velocity(rival, fc);
     CoreRun run = run_core(rival, cfg, quiet);
     if (run.status != feedid::Status::ok) continue;
