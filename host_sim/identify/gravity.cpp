@@ -173,16 +173,12 @@ AngleFit fit_angle(const IdentifyResult& r) {
 
 /// The prepared signals with the load a cos q + b sin q + c taken off the
 /// force (oriented: the load is a force on the motion, whatever sign the
-/// log had). Where the alignment delayed the motion by whole samples (a
-/// positive force lag), the load is read at the angle as logged, which
-/// sits that many samples later in x.
+/// log had), at the angle x as aligned with the force: where the alignment
+/// delayed the motion by whole samples (a force logged late), a force
+/// sample carries the load of that earlier angle, which is where x puts it
+/// (and where fit_angle and diagnose's load prediction read it).
 Signals without_load(Signals s, double a, double b, double c) {
-  const std::size_t n = s.x.size(), d = static_cast<std::size_t>(std::max(s.velocity_delay_samples, 0));
-  const double span_max = s.sample_rate_hz > 0 ? 5.0 * static_cast<double>(d) / s.sample_rate_hz : 0.0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t at = k + d < n && s.t[k + d] - s.t[k] <= span_max ? k + d : k;  // delay_motion's rule, undone
-    s.u[k] -= a * std::cos(s.x[at]) + b * std::sin(s.x[at]) + c;
-  }
+  for (std::size_t k = 0; k < s.u.size(); ++k) s.u[k] -= a * std::cos(s.x[k]) + b * std::sin(s.x[k]) + c;
   return s;
 }
 

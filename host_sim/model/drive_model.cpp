@@ -27,12 +27,14 @@ void put_load(nlohmann::json& model, const ModelLoad& load) {
 
 double sliding_friction(const DirectionFriction& f, double direction, double v_m_s) {
   const double r = v_m_s / f.stribeck_velocity_m_s;
-  // Beyond r^2 = 40, exp(-r^2) < 4.3e-18: the dip is below half a unit
-  // in the last place of the Coulomb force it is added to (for Fs up to 25
-  // Fc), so skipping exp changes no bit of the sum. The block observations
-  // call this per sample, most of them far above vs.
-  constexpr double kDipBelowRounding = 40.0;
-  const double dip = f.breakaway_N * (r * r > kDipBelowRounding ? 0.0 : std::exp(-r * r));
+  // The block observations call this per sample, most of them far above
+  // vs, where exp is all but 0. Beyond r^2 = 40, exp(-r^2) < 4.3e-18, so
+  // for Fs <= 13 |Fc| the dip is below half a unit in the last place of Fc
+  // (at least 2^-54 |Fc|) and Fc + dip rounds to Fc: skipping exp changes
+  // no bit. Beyond r^2 = 750, exp(-r^2) is exactly 0 in double.
+  const bool below_rounding = r * r > 40.0 && f.breakaway_N <= 13.0 * std::fabs(f.coulomb_N);
+  // A break-away that is not finite still spoils the force, as the formula's product does.
+  const double dip = f.breakaway_N * (below_rounding || r * r > 750.0 ? 0.0 : std::exp(-r * r));
   return direction * (f.coulomb_N + dip) + f.viscous_Ns_m * v_m_s;
 }
 

@@ -138,7 +138,9 @@ Signals condition(const Trace& trace, const ConditionOptions& opt);
 /// The samples of s where keep[k] is non-zero, with s's conventions and
 /// provenance: what was left out between two kept samples is a gap in
 /// time (Signals::gap_before), so no filter, integral or force tap spans
-/// it. Diagnose's identification folds (identify_prepared).
+/// it, provided it lasts longer than Signals::max_step_s; a shorter hole
+/// is bridged, as conditioning bridges dropped rows. Diagnose's
+/// identification folds (seconds each; identify_prepared).
 Signals select_samples(const Signals& s, const std::vector<char>& keep);
 
 /// Half-open sample ranges [first, second) between the gaps of s

@@ -32,6 +32,19 @@ TEST(DriveModel, FrictionEqualsTheFormulaBitForBitAcrossTheUnderflow) {
       EXPECT_EQ(stribeck_friction(p, v), friction_as_written(f, d, v)) << "v = " << v;
     }
   }
+  // AND so for a break-away far above the Coulomb force (the skip's bound
+  // is 13 |Fc|) and for no Coulomb force at all, where exp is never skipped
+  // before it underflows
+  for (const DirectionFriction& f : {DirectionFriction{0.0, 1.27, 31.9, 1.4e-4},
+                                     DirectionFriction{700.0, 2.45, 31.85, 1.4e-4},  // Fs = 13 Fc: skipped
+                                     DirectionFriction{0.0, 31.9 / 13.0, 31.9, 1.4e-4},
+                                     DirectionFriction{0.0, 0.0, 5.0, 1.4e-4}}) {
+    DriveParams q = p;
+    q.pos = f;
+    for (double r = 6.0; r <= 30.0; r += 0.0011)
+      EXPECT_EQ(stribeck_friction(q, r * f.stribeck_velocity_m_s), friction_as_written(f, 1, r * f.stribeck_velocity_m_s))
+          << "Fc = " << f.coulomb_N << ", r = " << r;
+  }
   // AND a break-away that is not finite still spoils the force, as the formula's product does
   p.pos.breakaway_N = std::nan("");
   EXPECT_TRUE(std::isnan(stribeck_friction(p, 100.0 * p.pos.stribeck_velocity_m_s)));
