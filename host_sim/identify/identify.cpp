@@ -334,9 +334,21 @@ double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max
 /// Velocity as the core sees it: position through the zero-phase
 /// Butterworth at cut-off fc (at most 0.4 of the rate), then central
 /// differences: no lag, and the encoder's counts averaged over about 1/fc.
+namespace {
+/// The zero-phase derivative of s.x at cut-off fc_hz (at most 0.4 of the rate).
+std::vector<double> derived_velocity(const Signals& s, double fc_hz) {
+  return zero_phase_velocity(s.x, s.t, std::min(fc_hz, 0.4 * s.sample_rate_hz), s.sample_rate_hz, s.max_step_s());
+}
+}  // namespace
+
 void derive_velocity(Signals& s, double fc_hz) {
   s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
-  s.v = zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, s.max_step_s());
+  s.v = derived_velocity(s, fc_hz);
+}
+
+void derive_rival_velocities(Signals& s) {
+  s.rival_velocities.clear();
+  for (double fc : s.velocity_filter_rivals_hz) s.rival_velocities.push_back(derived_velocity(s, fc));
 }
 
 namespace {
@@ -493,6 +505,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   raw.velocity_filter_origin = o.str();
   Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
   chosen.velocity_filter_rivals_hz = choice.rivals_hz;
+  derive_rival_velocities(chosen);
   return chosen;
 }
 
@@ -610,6 +623,8 @@ IdentifyResult identify_prepared(Signals prepared, const IdentifyOptions& opt, c
   r.units = opt.units;
   const std::uint64_t pushed_before = core_samples_pushed();
   r.signals = std::move(prepared);
+  // Signals built by hand with rival cut-offs and no columns for them get them here.
+  if (r.signals.rival_velocities.size() != r.signals.velocity_filter_rivals_hz.size()) derive_rival_velocities(r.signals);
   const Signals& s = r.signals;
   if (s.t.size() < 2) {
     r.status = feedid::Status::insufficient_data;
@@ -678,10 +693,10 @@ namespace {
 double block_mass_cutoff_spread(const IdentifyResult& r, double mass_kg) {
   double sum = 0.0;
   int used = 0;
-  Signals rival;  // one copy, its velocity derived again for each rival
-  if (!r.signals.velocity_filter_rivals_hz.empty()) rival = r.signals;
-  for (double fc : r.signals.velocity_filter_rivals_hz) {
-    derive_velocity(rival, fc);
+  Signals rival;  // one copy, its velocity each rival's in turn
+  if (!r.signals.rival_velocities.empty()) rival = r.signals;
+  for (const std::vector<double>& v : r.signals.rival_velocities) {
+    rival.v = v;
     const BlockMass b = block_mass(rival, to_drive_params(r.estimate), r.config.velocity_min_m_s, r.residual_block_s);
     if (!b.ok) continue;
     sum += (b.mass_kg - mass_kg) * (b.mass_kg - mass_kg);

@@ -210,6 +210,10 @@ double block_length_s(const Signals& s);
 /// 0.4 of the rate; filters.hpp), stretch by stretch between time gaps.
 void derive_velocity(Signals& s, double fc_hz);
 
+/// Sets s.rival_velocities: the velocity at each of
+/// s.velocity_filter_rivals_hz, derived from s.x as derive_velocity does.
+void derive_rival_velocities(Signals& s);
+
 /// The same configuration in another precision, field by field (float on
 /// target, double on host; a force limit beyond float's range is clamped).
 template <typename To, typename From> feedid::Config<To> config_as(const feedid::Config<From>& c) {

@@ -135,10 +135,10 @@ std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Con
   IdentifyOptions quiet;
   quiet.method = method;
   quiet.select_friction_model = false;  // the law chosen on the data, refitted below as the jackknife does
-  Signals rival;  // one copy, its velocity derived again for each rival
-  if (!s.velocity_filter_rivals_hz.empty()) rival = s;
-  for (double fc : s.velocity_filter_rivals_hz) {
-    derive_velocity(rival, fc);
+  Signals rival;  // one copy, its velocity each rival's in turn
+  if (!s.rival_velocities.empty()) rival = s;
+  for (const std::vector<double>& v : s.rival_velocities) {
+    rival.v = v;
     CoreRun run = run_core(rival, cfg, quiet);
     if (run.status != feedid::Status::ok) continue;
     bool ok = true;

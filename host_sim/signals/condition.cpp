@@ -213,9 +213,11 @@ Signals select_samples(const Signals& s, const std::vector<char>& keep) {
     kept.x[j] = s.x[k];
     kept.v[j] = s.v[k];
     kept.u[j] = s.u[k];
+    for (std::size_t i = 0; i < s.rival_velocities.size(); ++i) kept.rival_velocities[i][j] = s.rival_velocities[i][k];
     ++j;
   }
   for (std::vector<double>* column : {&kept.t, &kept.x, &kept.v, &kept.u}) column->resize(j);
+  for (std::vector<double>& column : kept.rival_velocities) column.resize(j);
   return kept;
 }
 

@@ -51,6 +51,11 @@ struct Signals {
   /// FilterChoice::rivals_hz); the parameters' spread over them is a term
   /// of their standard errors.
   std::vector<double> velocity_filter_rivals_hz;
+  /// The velocity at each of those cut-offs, sample by sample, derived as
+  /// v was (identify.hpp, derive_rival_velocities): derived once, so the
+  /// standard errors' rival passes and a selection of the samples
+  /// (select_samples: diagnose's folds) read the same columns.
+  std::vector<std::vector<double>> rival_velocities;
   /// Lag of the force behind the velocity as the core pairs them (sample
   /// periods, in [-5, 0]): force_lag_s / dt less velocity_delay_samples.
   double force_lag_samples = -1.0;

@@ -57,6 +57,12 @@ TEST(IdentifyPrepared, SamplesLeftOutOfASelectionPlayNoPart) {
   EXPECT_TRUE(kept.gap_before(at_cut));
   EXPECT_EQ(kept.force_lag_samples, s.force_lag_samples);
   EXPECT_EQ(kept.velocity_filter_hz, s.velocity_filter_hz);
+  // The rival cut-offs' velocities, derived once on the whole signals,
+  // are selected with the samples, not derived again across the hole.
+  ASSERT_FALSE(s.velocity_filter_rivals_hz.empty());
+  ASSERT_EQ(kept.rival_velocities.size(), s.velocity_filter_rivals_hz.size());
+  EXPECT_EQ(kept.rival_velocities[0][at_cut], s.rival_velocities[0][first_after_hole]);
+  EXPECT_EQ(kept.rival_velocities[0].size(), kept.t.size());
 
   host::Signals corrupted = s;
   for (std::size_t k = 0; k < s.t.size(); ++k)
