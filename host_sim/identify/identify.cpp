@@ -491,10 +491,14 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
                                nullptr, &held);
   if (stated) return s;
   const feedid::Config<double> edges = auto_config(s, search);
-  const FilterChoice choice = choose_velocity_filter(s, edges);
+  // On a long log the scan runs on stretches spread over it (scan_selection);
+  // the column is scored on the same samples.
+  const std::vector<char> scanned = scan_selection(s);
+  const bool whole = s.t.size() <= kScanSamplesMax;
+  const FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges);
   if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, &held);
-    if (block_fit_ssr(column, edges) < choice.least_block_ssr) {
+    if (block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       return column;
     }

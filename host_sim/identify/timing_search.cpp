@@ -276,4 +276,18 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
 
 double block_fit_ssr(const Signals& s, const feedid::Config<double>& cfg) { return fit_cost(s, cfg).ssr; }
 
+std::vector<char> scan_selection(const Signals& s) {
+  const std::size_t n = s.t.size();
+  if (n <= kScanSamplesMax) return std::vector<char>(n, 1);
+  std::vector<char> keep(n, 0);
+  // At most half the log, so that the holes between stretches are as long
+  // as the stretches: gaps no filter or integral spans (select_samples).
+  const std::size_t pieces = kJackknifeChunks, piece = std::min(kScanSamplesMax, n / 2) / pieces;
+  for (std::size_t p = 0; p < pieces; ++p) {
+    const std::size_t first = (n - piece) * p / (pieces - 1);  // the first at the start, the last at the end
+    std::fill(keep.begin() + static_cast<std::ptrdiff_t>(first), keep.begin() + static_cast<std::ptrdiff_t>(first + piece), 1);
+  }
+  return keep;
+}
+
 }  // namespace feedid::host

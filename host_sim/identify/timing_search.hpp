@@ -82,6 +82,21 @@ struct FilterChoice {
 /// (uncertainty.hpp).
 FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
 
+/// Most samples the cut-off scan identifies on: 2^20, 131 s at 8 kHz,
+/// more than any trace the method's coverage, the blind benchmark and the
+/// monitor's head were validated on (at most 90 s at 8 kHz), so none of
+/// them changes; a longer log is scanned on kJackknifeChunks stretches
+/// spread over it (scan_selection), each chunk of the scan's jackknife
+/// one of them. The scan identified at every cut-off on every sample: on
+/// 10 minutes at 8 kHz it was a quarter of identify's time.
+constexpr std::size_t kScanSamplesMax = std::size_t{1} << 20;
+
+/// The samples the cut-off scan (and the velocity column's score against
+/// it) runs on: all of s up to kScanSamplesMax, else kJackknifeChunks
+/// equal stretches spread evenly over it, kScanSamplesMax or half of s in
+/// all, whichever is less.
+std::vector<char> scan_selection(const Signals& s);
+
 /// Sum of squared 10 ms block residuals (N^2) of the model the core
 /// identifies on `s` as paired, at cfg's band edges: the measure the lag
 /// search and the velocity choice minimise. Infinite if nothing identifies.

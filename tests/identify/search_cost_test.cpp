@@ -7,10 +7,12 @@
 // friction; and identify counts its passes of the core (counts.core_passes).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "identify/identify.hpp"
 #include "identify/timing_search.hpp"
+#include "signals/condition.hpp"
 #include "test_support.hpp"
 
 namespace feedid::test {
@@ -92,6 +94,45 @@ TEST(SharedFriction, LagSearchHoldingAnotherSearchsFrictionFindsTheSameLag) {
   ASSERT_TRUE(shared.ok);
   EXPECT_EQ(shared.evaluations, 0);
   EXPECT_NEAR(shared.lag_samples, own.lag_samples, std::max(own.se_samples, 0.01));
+}
+
+}  // namespace
+}  // namespace feedid::test
+
+namespace feedid::test {
+namespace {
+
+/// Signals of n samples at 8 kHz with nothing but their time.
+host::Signals clock_of(std::size_t n) {
+  host::Signals s;
+  s.sample_rate_hz = 8000.0;
+  for (std::size_t k = 0; k < n; ++k) s.t.push_back(static_cast<double>(k) / 8000.0);
+  s.x = s.v = s.u = s.t;
+  return s;
+}
+
+// GIVEN a log no longer than kScanSamplesMax THEN the cut-off scan sees
+// every sample; GIVEN a longer one THEN it sees kJackknifeChunks stretches
+// spread from the log's start to its end, at most kScanSamplesMax samples
+// and half the log, separated by gaps no filter or integral spans.
+TEST(ScanSelection, ALongLogIsScannedOnStretchesSpreadOverIt) {
+  const host::Signals short_log = clock_of(1000);
+  const std::vector<char> all = host::scan_selection(short_log);
+  EXPECT_EQ(std::count(all.begin(), all.end(), 1), 1000);
+
+  for (std::size_t n : {host::kScanSamplesMax + 7, 3 * host::kScanSamplesMax}) {
+    const host::Signals log = clock_of(n);
+    const std::vector<char> keep = host::scan_selection(log);
+    const auto kept = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
+    EXPECT_LE(kept, std::min(host::kScanSamplesMax, n / 2));
+    EXPECT_GE(kept, std::min(host::kScanSamplesMax, n / 2) - host::kJackknifeChunks);
+    EXPECT_EQ(keep.front(), 1);
+    EXPECT_EQ(keep.back(), 1);
+    const host::Signals scanned = host::select_samples(log, keep);
+    std::size_t gaps = 0;
+    for (std::size_t k = 1; k < scanned.t.size(); ++k) gaps += scanned.gap_before(k) ? 1 : 0;
+    EXPECT_EQ(gaps, static_cast<std::size_t>(host::kJackknifeChunks - 1)) << n << " samples";
+  }
 }
 
 }  // namespace
