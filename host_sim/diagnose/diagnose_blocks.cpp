@@ -127,6 +127,11 @@ double Observations::force_integral(double t, std::size_t& j) const {
   const std::vector<double>& ts = s_.t;
   const std::size_t n = ts.size();
   j = std::min(j, n - 1);
+  // A jump by the sample rate first: the delay family asks for times up
+  // to 25 periods past its hint, once per segment per delay tried. The
+  // walks below then settle on the same sample as before.
+  if (t > ts[j] && s_.sample_rate_hz > 0)
+    j = std::min(n - 1, j + static_cast<std::size_t>((t - ts[j]) * s_.sample_rate_hz));
   while (j > 0 && ts[j] > t) --j;
   while (j + 1 < n && ts[j + 1] <= t) ++j;
   if (j + 1 >= n || t <= ts[j]) return force_integral_[j] + (t - ts[j]) * force_lp_[j];
