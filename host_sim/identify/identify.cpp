@@ -331,11 +331,10 @@ BlockMass block_mass(const Signals& s, const DriveParams& p, double v_min, doubl
 
 double block_length_s(const Signals& s) { return s.sample_rate_hz > 0 ? std::max(0.01, 8.0 / s.sample_rate_hz) : 0.01; }
 
+namespace {
 /// Velocity as the core sees it: position through the zero-phase
 /// Butterworth at cut-off fc (at most 0.4 of the rate), then central
 /// differences: no lag, and the encoder's counts averaged over about 1/fc.
-namespace {
-/// The zero-phase derivative of s.x at cut-off fc_hz (at most 0.4 of the rate).
 std::vector<double> derived_velocity(const Signals& s, double fc_hz) {
   return zero_phase_velocity(s.x, s.t, std::min(fc_hz, 0.4 * s.sample_rate_hz), s.sample_rate_hz, s.max_step_s());
 }
@@ -493,8 +492,8 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   const feedid::Config<double> edges = auto_config(s, search);
   // On a long log the scan runs on stretches spread over it (scan_selection);
   // the column is scored on the same samples.
-  const std::vector<char> scanned = scan_selection(s);
   const bool whole = s.t.size() <= kScanSamplesMax;
+  const std::vector<char> scanned = whole ? std::vector<char>{} : scan_selection(s);
   const FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges);
   if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, &held);
