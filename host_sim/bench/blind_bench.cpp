@@ -917,9 +917,10 @@ nlohmann::json effects_json(const Effects& e, const DriveParams& d) {
   return j;
 }
 
-/// --plants and --programs as lists; throws std::invalid_argument naming a bad entry.
-CaseMix parse_mix(const BlindOptions& opt) {
-  CaseMix mix;
+/// --plants and --programs as lists; the error names a bad entry.
+Outcome<CaseMix> parse_mix(const BlindOptions& opt) {
+  Outcome<CaseMix> out;
+  CaseMix& mix = out.value;
   auto items = [](const std::string& list) {
     std::vector<std::string> out;
     std::stringstream in(list);
@@ -927,10 +928,18 @@ CaseMix parse_mix(const BlindOptions& opt) {
       if (!item.empty()) out.push_back(item);
     return out;
   };
-  for (const auto& p : items(opt.plants)) mix.plants.push_back(parse_plant(p));
-  for (const auto& p : items(opt.programs)) mix.programs.push_back(parse_program(p));
-  if (mix.plants.empty() || mix.programs.empty()) throw std::invalid_argument("--plants and --programs need at least one entry each");
-  return mix;
+  for (const auto& p : items(opt.plants)) {
+    const Outcome<PlantKind> plant = parse_plant(p);
+    if (!plant.ok()) return refused<CaseMix>(plant.error);
+    mix.plants.push_back(plant.value);
+  }
+  for (const auto& p : items(opt.programs)) {
+    const Outcome<Program> program = parse_program(p);
+    if (!program.ok()) return refused<CaseMix>(program.error);
+    mix.programs.push_back(program.value);
+  }
+  if (mix.plants.empty() || mix.programs.empty()) return refused<CaseMix>("--plants and --programs need at least one entry each");
+  return out;
 }
 
 /// One case's trace as CSV and its answer key as JSON, to look at a verdict.
@@ -1095,13 +1104,12 @@ int run_blind_bench(const BlindOptions& opt) {
   std::vector<std::string> deal;
   if (!label_deal(opt, deal)) return 2;
   const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed, deal);
-  CaseMix mix;
-  try {
-    mix = parse_mix(opt);
-  } catch (const std::invalid_argument& ex) {
-    std::fprintf(stderr, "error: %s\n", ex.what());
+  const Outcome<CaseMix> parsed = parse_mix(opt);
+  if (!parsed.ok()) {
+    std::fprintf(stderr, "error: %s\n", parsed.error.c_str());
     return 2;
   }
+  const CaseMix& mix = parsed.value;
   if (opt.write_case > 0) return write_case(opt, schedule, mix);
 
   std::printf("blind benchmark: %d cases, seed %llu, %d threads\n", opt.cases,

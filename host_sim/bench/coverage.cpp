@@ -36,7 +36,7 @@ constexpr ForceLog kForceLogs[] = {ForceLog::held, ForceLog::instant, ForceLog::
 
 /// One trace's outcome: per parameter the error, the standard error and
 /// whether the tool called it identifiable.
-struct Outcome {
+struct CaseOutcome {
   int drive = 0, force = 0;
   std::string velocity;   ///< how velocity was logged
   bool position = true;   ///< position column given to identify
@@ -95,8 +95,8 @@ ParamVector se_of(const feedid::Estimate<double>& e) {
           e.neg.viscous_se, e.neg.coulomb_se, e.neg.breakaway_se, e.neg.stribeck_velocity_se};
 }
 
-Outcome run_case(int drive, int force, std::uint64_t seed, const CoverageOptions& opt, bool with_lm) {
-  Outcome o;
+CaseOutcome run_case(int drive, int force, std::uint64_t seed, const CoverageOptions& opt, bool with_lm) {
+  CaseOutcome o;
   o.drive = drive;
   o.force = force;
   const SimConfig cfg = case_config(kDrives[drive], kForceLogs[force], seed, opt.duration_s);
@@ -134,9 +134,9 @@ struct ParamStats {
   double rmse_ratio() const { return lm_n > 0 && lm_err2 > 0 ? std::sqrt(core_err2_lm / lm_err2) : 0.0; }
 };
 
-std::array<ParamStats, 9> tally(const std::vector<Outcome>& v, const std::function<bool(const Outcome&)>& keep) {
+std::array<ParamStats, 9> tally(const std::vector<CaseOutcome>& v, const std::function<bool(const CaseOutcome&)>& keep) {
   std::array<ParamStats, 9> s{};
-  for (const Outcome& o : v) {
+  for (const CaseOutcome& o : v) {
     if (!o.ok || !keep(o)) continue;
     for (int i = 0; i < 9; ++i) {
       ParamStats& p = s[i];
@@ -162,9 +162,9 @@ std::string pct(double x) {
   return b;
 }
 
-std::string markdown(const std::vector<Outcome>& all, const CoverageOptions& opt, int failed) {
+std::string markdown(const std::vector<CaseOutcome>& all, const CoverageOptions& opt, int failed) {
   std::ostringstream o;
-  const auto total = tally(all, [](const Outcome&) { return true; });
+  const auto total = tally(all, [](const CaseOutcome&) { return true; });
   o << "| parameter | identified | flagged | 95 % coverage | RMS of err/se | RMSE core / LM (" << total[0].lm_n
     << " traces) |\n|---|---|---|---|---|---|\n";
   for (int i = 0; i < 9; ++i) {
@@ -182,7 +182,7 @@ std::string markdown(const std::vector<Outcome>& all, const CoverageOptions& opt
   for (int d = 0; d < static_cast<int>(std::size(kDrives)); ++d) {
     o << "| " << kDrives[d].name << " |";
     for (int f = 0; f < 3; ++f) {
-      const auto s = tally(all, [&](const Outcome& x) { return x.drive == d && x.force == f; });
+      const auto s = tally(all, [&](const CaseOutcome& x) { return x.drive == d && x.force == f; });
       double worst = 1.0;
       int worst_i = 0;
       for (int i = 0; i < 9; ++i)
@@ -203,7 +203,7 @@ int run_coverage(const CoverageOptions& opt) {
   for (int d = 0; d < static_cast<int>(std::size(kDrives)); ++d)
     for (int f = 0; f < 3; ++f)
       for (int s = 0; s < opt.seeds; ++s) jobs.push_back({d, f, s});
-  std::vector<Outcome> out(jobs.size());
+  std::vector<CaseOutcome> out(jobs.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex progress_lock;
   auto worker = [&]() {
@@ -222,7 +222,7 @@ int run_coverage(const CoverageOptions& opt) {
   for (int i = 0; i < std::max(1, opt.threads); ++i) pool.emplace_back(worker);
   for (auto& th : pool) th.join();
 
-  const int failed = static_cast<int>(std::count_if(out.begin(), out.end(), [](const Outcome& o) { return !o.ok; }));
+  const int failed = static_cast<int>(std::count_if(out.begin(), out.end(), [](const CaseOutcome& o) { return !o.ok; }));
   const std::string md = markdown(out, opt, failed);
   std::fputs(md.c_str(), stdout);
   if (!opt.markdown_path.empty()) {
@@ -231,7 +231,7 @@ int run_coverage(const CoverageOptions& opt) {
   }
   if (!opt.json_path.empty()) {
     nlohmann::json j = nlohmann::json::array();
-    for (const Outcome& o : out) {
+    for (const CaseOutcome& o : out) {
       if (!o.ok) { j.push_back({{"ok", false}}); continue; }
       j.push_back({{"ok", true}, {"drive", kDrives[o.drive].name}, {"force_log", force_log_name(kForceLogs[o.force])},
                    {"velocity_log", o.velocity}, {"position", o.position}, {"err", o.err}, {"se", o.se},

@@ -17,13 +17,8 @@ namespace {
 
 /// Runs the circle test, prints the glitches, writes JSON and plot; the exit code.
 int run_circle_report(const CircleOptions& opt) {
-  CircleResult r;
-  try {
-    r = run_circle(opt);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
+  const CircleResult r = run_circle(opt);
+  if (!r.error.empty()) return bad_input(r.error);
   std::printf("circle R %.4g mm at %.4g mm/s, %g Hz; models %s\n", opt.radius_m * 1e3, opt.feed_m_s * 1e3, opt.rate_hz,
               opt.model_paths.empty() ? "identified from the simulated drives" : "from the --model files");
   std::printf("  %-12s %9s %9s %9s %9s %9s\n", "run", "0 deg", "90 deg", "180 deg", "270 deg", "RMS");
@@ -34,15 +29,9 @@ int run_circle_report(const CircleOptions& opt) {
   std::string err;
   if (!opt.json_path.empty()) {
     err = write_whole_file(opt.json_path, json_as_written(to_json(r, opt)).dump(2) + "\n");
-    if (!err.empty()) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!err.empty()) return output_failed(err);
   }
-  if (!opt.plot_path.empty() && !write_circle_plot(r, opt, opt.plot_path, err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
-    return 1;
-  }
+  if (!opt.plot_path.empty() && !write_circle_plot(r, opt, opt.plot_path, err)) return output_failed(err);
   return 0;
 }
 

@@ -22,6 +22,20 @@
 
 namespace feedid::host::cli {
 
+int bad_input(const std::string& why) {
+  std::fprintf(stderr, "error: %s\n", why.c_str());
+  return 2;
+}
+
+int output_failed(const std::string& why) {
+  std::fprintf(stderr, "error: %s\n", why.c_str());
+  return 1;
+}
+
+void warn(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
 void add_sim_options(CLI::App* c, SimConfig& s) {
   auto& d = s.drive;
   c->add_option("--mass", d.mass_kg, "equivalent mass (kg)")->capture_default_str();
@@ -37,11 +51,11 @@ void add_sim_options(CLI::App* c, SimConfig& s) {
   c->add_option("--duration", s.motion.duration_s, "trace length (s)")->capture_default_str();
   c->add_option("--slowest-speed", s.motion.slowest_speed_m_s, "lowest stroke peak speed (m/s)")->capture_default_str();
   c->add_option("--fastest-speed", s.motion.fastest_speed_m_s, "highest stroke peak speed (m/s)")->capture_default_str();
-  c->add_option_function<std::string>("--program", [&s](const std::string& v) { s.motion.program = parse_program(v); },
+  c->add_option_function<std::string>("--program", [&s](const std::string& v) { s.motion.program = parse_program(v).value; },
                                       "motion: ladder (reciprocating strokes at log-spaced speeds, default), sine (reciprocation whose "
                                       "amplitude and speed change every 2-4 cycles) or production (rapids, feeds, jogs, dwells)")
       ->check(CLI::IsMember({"ladder", "sine", "production"}));
-  c->add_option_function<std::string>("--plant", [&s](const std::string& v) { s.plant = parse_plant(v); },
+  c->add_option_function<std::string>("--plant", [&s](const std::string& v) { s.plant = parse_plant(v).value; },
                                       "closed (the drive under its cascaded controller, default) or open (inverse dynamics "
                                       "along the reference: no controller, no stick/slip; docs/diagnosis.md)")
       ->check(CLI::IsMember({"closed", "open"}));
@@ -54,10 +68,10 @@ void add_sim_options(CLI::App* c, SimConfig& s) {
   c->add_option("--velocity-bandwidth", s.controller.velocity_bandwidth_hz, "velocity loop bandwidth (Hz)")->capture_default_str();
   c->add_option("--seed", s.seed, "random seed")->capture_default_str();
   LoggingParams& lg = s.logging;
-  c->add_option_function<std::string>("--force-log", [&lg](const std::string& v) { lg.force = parse_force_log(v); },
+  c->add_option_function<std::string>("--force-log", [&lg](const std::string& v) { lg.force = parse_force_log(v).value; },
                                       "force logged as held (command over the next period, default), instant (at the tick) or averaged (over the last period)")
       ->check(CLI::IsMember({"held", "instant", "averaged"}));
-  c->add_option_function<std::string>("--velocity-log", [&lg](const std::string& v) { lg.velocity = parse_velocity_log(v); },
+  c->add_option_function<std::string>("--velocity-log", [&lg](const std::string& v) { lg.velocity = parse_velocity_log(v).value; },
                                       "velocity logged as backward (position difference, default), average (moving average) or lowpass (first order)")
       ->check(CLI::IsMember({"backward", "average", "lowpass"}));
   c->add_option("--velocity-log-samples", lg.velocity_average_samples, "samples of the logged moving average")->capture_default_str();
@@ -256,9 +270,10 @@ std::string output_over_input(const CLI::App& sub) {
   return "";
 }
 
-Trace run_simulation(const SimConfig& cfg) {
+Outcome<Trace> run_simulation(const SimConfig& cfg) {
+  if (std::string why = sim_config_error(cfg); !why.empty()) return refused<Trace>(std::move(why));
   Progress p("simulate");
-  return simulate(cfg, cfg.motion.duration_s > 120 ? std::function<void(double)>(std::ref(p)) : nullptr);
+  return {simulate(cfg, cfg.motion.duration_s > 120 ? std::function<void(double)>(std::ref(p)) : nullptr), ""};
 }
 
 void note_force_outliers(const ForceOutliers& out, const Units& units) {

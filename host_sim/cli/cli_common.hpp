@@ -18,6 +18,15 @@
 
 namespace feedid::host::cli {
 
+/// The CLI's one way to end on an error (io/outcome.hpp): prints "error: "
+/// and why on stderr and returns the exit code, 2 for bad input (a file, a
+/// column, an option, a trace that cannot be identified)...
+int bad_input(const std::string& why);
+/// ... and 1 for an output that could not be written.
+int output_failed(const std::string& why);
+/// Each warning (an unknown key in a file) on stderr.
+void warn(const std::vector<std::string>& warnings);
+
 /// The drive, controller, motion and sensor options of simulate and demo.
 void add_sim_options(CLI::App* c, SimConfig& s);
 
@@ -52,8 +61,8 @@ bool write_json(const std::string& path, const nlohmann::json& j, const std::vec
 /// before any command runs.
 std::string output_over_input(const CLI::App& sub);
 
-/// simulate() with progress on stderr.
-Trace run_simulation(const SimConfig& cfg);
+/// simulate() with progress on stderr, or why the options cannot be simulated.
+Outcome<Trace> run_simulation(const SimConfig& cfg);
 
 /// Prints the identify summary, writes its JSON if asked; the exit code.
 int report_identify(const IdentifyResult& r, const std::string& json_path, const DriveParams* truth);

@@ -21,21 +21,12 @@ namespace {
 /// writes the table; the exit code.
 int run_compensate(const std::string& model_path, const std::string& out_path, const std::string& format,
                    CompensateOptions opt) {
-  nlohmann::json mj;
-  try {
-    mj = read_json_file(model_path);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  ModelCompensation c;
-  try {
-    c = compensate_model(mj, opt, model_path);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  for (const std::string& w : c.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const Outcome<nlohmann::json> read = read_json_file(model_path);
+  if (!read.ok()) return bad_input(read.error);
+  const nlohmann::json& mj = read.value;
+  const ModelCompensation c = compensate_model(mj, opt, model_path);
+  if (!c.error.empty()) return bad_input(c.error);
+  warn(c.warnings);
   const CompensationTable& t = c.table;
   if (c.force_negated)
     std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "
@@ -46,10 +37,7 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     std::cout << text;
   } else {
     const std::string err = write_whole_file(out_path, text, {model_path});
-    if (!err.empty()) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!err.empty()) return output_failed(err);
     // In the model's own units (identify states them: rad/s and V for a SysId log).
     const nlohmann::json units = mj.value("units", nlohmann::json::object());
     std::printf("%zu points per direction up to %.4g %s; largest interpolation error %.3g %s; wrote %s\n",

@@ -39,13 +39,15 @@ struct DemoCommand : Command {
     std::printf("   unmodelled effects in the simulated drive (hidden from identify/diagnose): ");
     for (const auto& e : fx) std::printf("%s ", e.c_str());
     std::printf("%s\n   truth: %s\n", fx.empty() ? "none" : "", effects_json(sim.effects, sim.drive).dump().c_str());
-    const Trace t = run_simulation(sim);
+    const Outcome<Trace> simulated = run_simulation(sim);
+    if (!simulated.ok()) return bad_input(simulated.error);
+    const Trace& t = simulated.value;
     std::printf("== identify (streaming core, double; the unmodelled effect biases some parameters):\n");
     const int rc = report_identify(identify(t, IdentifyOptions{}), json_path, &sim.drive);
     if (rc != 0) return rc;
     std::printf("== diagnose (base model on even time folds, judged on the odd ones):\n");
     const DiagnoseResult d = diagnose(t, DiagnoseOptions{});
-    if (!d.error.empty()) { std::fprintf(stderr, "error: %s\n", d.error.c_str()); return 2; }
+    if (!d.error.empty()) return bad_input(d.error);
     std::cout << summary(d);
     if (d.has_augmented_model) print_against_truth(d, sim.drive);
     return write_report(d, report_dir, "feedid demo");

@@ -44,31 +44,34 @@ struct DiagnoseCommand : Command {
   /// diagnose --model [--controller]: the given model's gap (gap/model_gap.hpp).
   int run_given_model(const CsvResult& csv) {
     opt.model = read_model_file(model_path);
-    for (const auto& w : opt.model->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!opt.model->error.empty()) return bad_input(opt.model->error);
+    warn(opt.model->warnings);
     if (!opt.model->effects.empty())
       std::fprintf(stderr, "note: %s: its %zu effect(s) are not the diagnosis's base (its mass, friction and load are): "
                    "the effects are named anew\n", model_path.c_str(), opt.model->effects.size());
     if (const std::string why = model_units_mismatch({{"units", opt.model->units}}, opt.identify.units); !why.empty())
-      throw std::invalid_argument(model_path + ": " + why);
+      return bad_input(model_path + ": " + why);
     std::optional<Controller> controller;
     std::optional<LoggedRun> run;
     ReplayOptions ropt;
     ropt.units = opt.identify.units;
     if (!controller_path.empty()) {
       if (in_path.size() != 1 || !input.in_list.empty())
-        throw std::invalid_argument("--controller: a replay takes one continuous recording (one --in)");
+        return bad_input("--controller: a replay takes one continuous recording (one --in)");
       controller = read_controller_file(controller_path);
-      for (const auto& w : controller->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+      if (!controller->error.empty()) return bad_input(controller->error);
+      warn(controller->warnings);
       run = read_logged_run(in_path.front(), cols, *controller);
+      if (!run->error.empty()) return bad_input(run->error);
       for (const auto& n : run->notes) std::fprintf(stderr, "note: %s\n", n.c_str());
     }
     const ModelGap g = model_gap(csv.trace, opt, controller ? &*controller : nullptr, run ? &*run : nullptr, ropt);
     if (!json_path.empty() && !write_json(json_path, to_json(g), with_inputs({model_path, controller_path}))) return 1;
-    if (!model_out_path.empty() && g.diagnosis.error.empty() &&
-        !write_json(model_out_path, model_with_effects(g.diagnosis, read_json_file(model_path)),
+    if (!model_out_path.empty() && g.error.empty() &&
+        !write_json(model_out_path, model_with_effects(g.diagnosis, read_json_file(model_path).value),
                     with_inputs({model_path, controller_path})))
       return 1;
-    if (!g.diagnosis.error.empty()) { std::fprintf(stderr, "error: %s\n", g.diagnosis.error.c_str()); return 2; }
+    if (!g.error.empty()) return bad_input(g.error);
     note_force_outliers(g.diagnosis.force_outliers, opt.identify.units);
     std::cout << summary(g);
     if (report_dir.empty()) return 0;
@@ -76,18 +79,15 @@ struct DiagnoseCommand : Command {
     if (!controller_path.empty()) command += " --controller " + controller_path;
     for (const auto& in : in_path) command += " --in " + in;
     std::string err;
-    if (!write_model_gap_report(g, report_dir, csv.trace.source, command + " --report " + report_dir, err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!write_model_gap_report(g, report_dir, csv.trace.source, command + " --report " + report_dir, err))
+      return output_failed(err);
     std::printf("report: %s/report.html\n", report_dir.c_str());
     return 0;
   }
   int run() override {
     if (method != "bands") {
-      std::fprintf(stderr, "error: diagnose --method %s: the diagnosis refits the bands model's terms and has no "
-                           "other method; use identify --method %s for that estimate\n", method.c_str(), method.c_str());
-      return 2;
+      return bad_input("diagnose --method " + method + ": the diagnosis refits the bands model's terms and has no "
+                       "other method; use identify --method " + method + " for that estimate");
     }
     CsvResult csv;
     if (!read_trace(in_path, input, cols, csv)) return 2;
@@ -95,13 +95,13 @@ struct DiagnoseCommand : Command {
     if (csv.trace.samples.size() > 500000) opt.progress = std::ref(p);
     opt.identify.units = input.units();
     if (!model_path.empty()) return run_given_model(csv);
-    if (!controller_path.empty()) throw std::invalid_argument("--controller needs --model (the model to replay)");
+    if (!controller_path.empty()) return bad_input("--controller needs --model (the model to replay)");
     const DiagnoseResult r = diagnose(csv.trace, opt);
     if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
     if (!model_out_path.empty() && r.error.empty() &&
         !write_json(model_out_path, model_with_effects(r, nlohmann::json()), with_inputs({})))
       return 1;
-    if (!r.error.empty()) { std::fprintf(stderr, "error: %s\n", r.error.c_str()); return 2; }
+    if (!r.error.empty()) return bad_input(r.error);
     note_force_outliers(r.force_outliers, opt.identify.units);
     std::cout << summary(r);
     return write_report(r, report_dir, csv.trace.source);

@@ -58,16 +58,19 @@ struct ReplayCommand : Command {
     app->add_flag("--fit-gains", fit_gains_always, "identify the gains from the logged command even when the file gives them (a check)");
   }
   int run() override {
-    if (!input.in_list.empty()) throw std::invalid_argument("--in-list: replay takes one continuous recording (--in)");
+    if (!input.in_list.empty()) return bad_input("--in-list: replay takes one continuous recording (--in)");
     const ModelFile model = read_model_file(model_path);
+    if (!model.error.empty()) return bad_input(model.error);
     const Controller controller = read_controller_file(controller_path);
-    for (const auto& w : model.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    for (const auto& w : controller.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!controller.error.empty()) return bad_input(controller.error);
+    warn(model.warnings);
+    warn(controller.warnings);
     opt.units = input.units();
     if (const std::string why = model_units_mismatch({{"units", model.units}}, opt.units); !why.empty())
-      throw std::invalid_argument(model_path + ": " + why);
+      return bad_input(model_path + ": " + why);
     const LoggedRun run = read_logged_run(in_path, cols, controller);
     const ReplayResult r = replay(model, controller, run, opt, fit_gains_always);
+    if (!r.error.empty()) return bad_input(r.error);
     std::printf("replay of %s in the loop of %s: %zu samples at %.6g s, %d plant substeps; %zu compared (first %d left out)\n",
                 in_path.c_str(), controller_path.c_str(), r.samples, r.dt_s, r.substeps, r.samples_compared, opt.drop_first);
     for (const auto& n : r.notes) std::printf("  note: %s\n", n.c_str());
@@ -81,15 +84,10 @@ struct ReplayCommand : Command {
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, controller, opt), {in_path, model_path, controller_path}))
       return 1;
     std::string err;
-    if (!plot_path.empty() && !write_svg(plot_path, replay_plot(r, "force", "Replay: " + in_path), err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!plot_path.empty() && !write_svg(plot_path, replay_plot(r, "force", "Replay: " + in_path), err))
+      return output_failed(err);
     const std::string command = "feedid replay --model " + model_path + " --controller " + controller_path + " --in " + in_path;
-    if (!report_dir.empty() && !write_replay_report(r, report_dir, in_path, command, err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!report_dir.empty() && !write_replay_report(r, report_dir, in_path, command, err)) return output_failed(err);
     return 0;
   }
 };

@@ -26,11 +26,13 @@ struct SimulateCommand : Command {
     app->add_option("--truth", truth_path, "also write the true parameters as JSON");
   }
   int run() override {
-    const Trace t = run_simulation(sim);
+    const Outcome<Trace> simulated = run_simulation(sim);
+    if (!simulated.ok()) return bad_input(simulated.error);
+    const Trace& t = simulated.value;
     std::string err;
     const ServiceChange& ch = sim.change;
     const ExtraColumn temperature{"temperature_C", [&ch](double t_s) { return ch.temperature_C(t_s); }};
-    if (!write_trace_csv(out_path, t, err, ch.warms_up() ? &temperature : nullptr)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+    if (!write_trace_csv(out_path, t, err, ch.warms_up() ? &temperature : nullptr)) return output_failed(err);
     if (!truth_path.empty()) {
       nlohmann::json tj = model_json(sim.drive);
       tj["effects"] = effects_json(sim.effects, sim.drive);

@@ -33,22 +33,22 @@ struct ValidateCommand : Command {
     app->add_option("--plot", plot_path, "write measured against predicted force as SVG");
   }
   int run() override {
-    // The one model reader replay and diagnose use; its errors reach main's handler.
+    // The one model reader replay and diagnose use.
     const ModelFile file = read_model_file(model_path);
-    for (const auto& w : file.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (!file.error.empty()) return bad_input(file.error);
+    warn(file.warnings);
     if (!file.effects.empty())
       std::fprintf(stderr, "warning: %s: its %zu effect(s) are not in validate's prediction (replay --model simulates "
                    "them)\n", model_path.c_str(), file.effects.size());
     const DriveParams& model = file.drive;
     opt.load = file.load;
     opt.units = input.units();
-    if (const std::string why = model_units_mismatch({{"units", file.units}}, opt.units); !why.empty()) {
-      std::fprintf(stderr, "error: %s: %s\n", model_path.c_str(), why.c_str());
-      return 2;
-    }
+    if (const std::string why = model_units_mismatch({{"units", file.units}}, opt.units); !why.empty())
+      return bad_input(model_path + ": " + why);
     CsvResult csv;
     if (!read_trace(in_path, input, cols, csv)) return 2;
     const ValidateResult r = validate(model, csv.trace, opt);
+    if (!r.error.empty()) return bad_input(r.error);
     std::printf("relative force error %.4f %% (decimated by %d, %zu samples; %.4f %% at full rate); RMS %.4g %s\n",
                 r.relative_error_pct, opt.decimate, r.samples_used, r.relative_error_full_pct, r.rms_error_N,
                 r.units.force.c_str());
@@ -61,10 +61,8 @@ struct ValidateCommand : Command {
     if (r.position_wrap.found()) std::printf("  position %s\n", r.position_wrap.describe().c_str());
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;
     std::string err;
-    if (!plot_path.empty() && !write_force_plot_svg(r, plot_path, "Cross-test: " + csv.trace.source, err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
+    if (!plot_path.empty() && !write_force_plot_svg(r, plot_path, "Cross-test: " + csv.trace.source, err))
+      return output_failed(err);
     return 0;
   }
 };

@@ -61,13 +61,16 @@ DriveParams scaled_friction(DriveParams m, double k) {
 }
 
 /// A drive identified from its own simulated speed-ladder trace.
-DriveParams identified_on_the_spot(const DriveParams& drive, double rate_hz) {
+Outcome<DriveParams> identified_on_the_spot(const DriveParams& drive, double rate_hz) {
   SimConfig c = axis_config(drive, rate_hz);
   c.motion.duration_s = 60.0;
   const IdentifyResult r = identify(simulate(c), IdentifyOptions{});
-  if (!r.error.empty()) throw std::runtime_error("identifying the simulated drive: " + r.error);
-  return to_drive_params(r.estimate);
+  if (!r.error.empty()) return refused<DriveParams>("identifying the simulated drive: " + r.error);
+  return {to_drive_params(r.estimate), ""};
 }
+
+/// The samples of the measured turn below which its glitches mean nothing.
+constexpr std::size_t kMinTurnSamples = 360;
 
 /// Wrapped difference a - b in (-pi, pi].
 double wrap(double d) { return d - 2.0 * kPi * std::floor((d + kPi) / (2.0 * kPi)); }
@@ -78,7 +81,8 @@ double median(std::vector<double> v) {
 }
 
 /// Both axes around the circle with the given compensation models (null:
-/// none); the second full turn is measured.
+/// none); the second full turn is measured (no figures where fewer than
+/// kMinTurnSamples sample it).
 CircleRun run_once(const CircleOptions& opt, const std::string& name, const std::array<DriveParams, 2>* comp) {
   const CirclePath path(opt.radius_m, opt.feed_m_s);
   const double dt = 1.0 / opt.rate_hz;
@@ -107,8 +111,7 @@ CircleRun run_once(const CircleOptions& opt, const std::string& name, const std:
       axes[a].step(t, r, r_next, u_ff);
     }
   }
-  if (run.angle_rad.size() < 360)
-    throw std::invalid_argument("--rate " + std::to_string(opt.rate_hz) + " Hz samples the measured turn fewer than 360 times");
+  if (run.angle_rad.size() < kMinTurnSamples) return run;
   // Glitch: the largest departure from the turn's median radius just after
   // each reversal (X at 0 and 180 degrees, Y at 90 and 270), where friction
   // changes sign and the loop lags behind it.
@@ -136,24 +139,36 @@ CircleOptions::CircleOptions() {
   drives[1].neg = {520.0, 19.5, 5.5, 2.2e-3};
 }
 
-CircleResult run_circle(const CircleOptions& opt) {
-  if (!(opt.radius_m > 0) || !(opt.feed_m_s > 0) || !(opt.rate_hz > 0))
-    throw std::invalid_argument("--radius, --feed and --rate must be positive");
+namespace {
+/// Why the options describe no circle test, or empty.
+std::string circle_refusal(const CircleOptions& opt) {
+  if (!(opt.radius_m > 0) || !(opt.feed_m_s > 0) || !(opt.rate_hz > 0)) return "--radius, --feed and --rate must be positive";
   if (!opt.model_paths.empty() && opt.model_paths.size() != 2)
-    throw std::invalid_argument("--model: give two (X, then Y), or none to identify the simulated drives");
-  if (!opt.models.empty() && opt.models.size() != 2) throw std::invalid_argument("models: give two (X, then Y)");
+    return "--model: give two (X, then Y), or none to identify the simulated drives";
+  if (!opt.models.empty() && opt.models.size() != 2) return "models: give two (X, then Y)";
+  return "";
+}
+
+/// Axis a's compensation model: given, read from its file, or identified
+/// on the simulated drive.
+Outcome<DriveParams> compensation_model(const CircleOptions& opt, int a) {
+  const auto i = static_cast<std::size_t>(a);
+  if (!opt.models.empty()) return {opt.models[i], ""};
+  if (opt.model_paths.empty()) return identified_on_the_spot(opt.drives[i], opt.rate_hz);
+  const ModelFile file = read_model_file(opt.model_paths[i]);
+  return {file.drive, file.error};
+}
+}  // namespace
+
+CircleResult run_circle(const CircleOptions& opt) {
   CircleResult out;
-  for (int a = 0; a < 2; ++a) {
-    if (!opt.models.empty()) {
-      out.models[a] = opt.models[static_cast<std::size_t>(a)];
-      continue;
-    }
-    if (opt.model_paths.empty()) {
-      out.models[a] = identified_on_the_spot(opt.drives[a], opt.rate_hz);
-      continue;
-    }
-    out.models[a] = read_model_file(opt.model_paths[a]).drive;
+  out.error = circle_refusal(opt);
+  for (int a = 0; a < 2 && out.error.empty(); ++a) {
+    const Outcome<DriveParams> m = compensation_model(opt, a);
+    out.models[a] = m.value;
+    out.error = m.error;
   }
+  if (!out.error.empty()) return out;
   const std::array<DriveParams, 2> plus = {scaled_friction(out.models[0], 1.0 + opt.wrong_fraction),
                                            scaled_friction(out.models[1], 1.0 + opt.wrong_fraction)};
   const std::array<DriveParams, 2> minus = {scaled_friction(out.models[0], 1.0 - opt.wrong_fraction),
@@ -162,6 +177,11 @@ CircleResult run_circle(const CircleOptions& opt) {
   out.runs.push_back(run_once(opt, "identified", &out.models));
   out.runs.push_back(run_once(opt, "wrong_plus", &plus));
   out.runs.push_back(run_once(opt, "wrong_minus", &minus));
+  if (out.runs.front().angle_rad.size() < kMinTurnSamples) {
+    out.error = "--rate " + std::to_string(opt.rate_hz) + " Hz samples the measured turn fewer than " +
+                std::to_string(kMinTurnSamples) + " times";
+    return out;
+  }
   out.glitch_reduction = 1.0 - max_glitch(out.runs[1]) / max_glitch(out.runs[0]);
   return out;
 }

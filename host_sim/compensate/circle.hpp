@@ -41,9 +41,10 @@ struct CircleResult {
   std::array<DriveParams, 2> models;  ///< the compensation models used
   std::vector<CircleRun> runs;        ///< none, identified, wrong_plus, wrong_minus
   double glitch_reduction = 0.0;      ///< 1 - max glitch identified / max glitch none
+  std::string error;                  ///< why the test did not run (io/outcome.hpp); empty when it did
 };
 
-/// Runs the four cases. Throws std::invalid_argument on bad options.
+/// Runs the four cases; `error` for bad options or a model file that cannot be read.
 CircleResult run_circle(const CircleOptions& opt);
 nlohmann::json to_json(const CircleResult& r, const CircleOptions& opt);
 /// The radial error of every run on a polar plot (error magnified).

@@ -99,12 +99,12 @@ double model_friction(const DriveParams& m, int dir, double speed_m_s) {
 }
 
 CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points) {
-  if (points < 2 || points > kMaxTablePoints)
-    throw std::invalid_argument("--points " + std::to_string(points) + ": a table has 2 to " +
-                                std::to_string(kMaxTablePoints) + " points");
-  if (!(max_speed_m_s > 0) || !std::isfinite(max_speed_m_s))
-    throw std::invalid_argument("max speed " + std::to_string(max_speed_m_s) + " m/s: must be positive (--max-speed)");
   CompensationTable t;
+  if (points < 2 || points > kMaxTablePoints)
+    t.error = "--points " + std::to_string(points) + ": a table has 2 to " + std::to_string(kMaxTablePoints) + " points";
+  else if (!(max_speed_m_s > 0) || !std::isfinite(max_speed_m_s))
+    t.error = "max speed " + std::to_string(max_speed_m_s) + " m/s: must be positive (--max-speed)";
+  if (!t.error.empty()) return t;
   t.model = model;
   t.max_speed_m_s = max_speed_m_s;
   for (int d = 0; d < 2; ++d) t.dir[d] = minimax_table(model, d, max_speed_m_s, points);
@@ -181,35 +181,20 @@ std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
   return o.str();
 }
 
-namespace {
-
-/// The model of mj through the one model reader (model/model_file.hpp), or
-/// invalid_argument naming `source` and why no table can be made from it:
-/// identify did not solve it, a key is missing, or it is not physical (the
-/// reader's rules).
-ModelFile compensable_model(const nlohmann::json& mj, const std::string& source) {
-  ModelFile file;
-  try {
-    file = model_file_from_json(mj, source);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string(e.what()) + ": no compensation written");  // e names the source
-  }
-  return file;  // the reader refuses a model that is not physical (it would push with the motion)
-}
-
-}  // namespace
-
 std::string unusable_model(const nlohmann::json& mj) {
-  try {
-    compensable_model(mj, "model");
-    return "";
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+  // The one model reader's rules (model/model_file.hpp): identify did not
+  // solve it, a key is missing, or it is not physical (it would push with the motion).
+  const ModelFile file = model_file_from_json(mj, "model");
+  return file.error.empty() ? "" : file.error + ": no compensation written";
 }
 
 ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions opt, const std::string& source) {
-  const ModelFile file = compensable_model(mj, source);
+  ModelCompensation c;
+  const ModelFile file = model_file_from_json(mj, source);
+  if (!file.error.empty()) {
+    c.error = file.error + ": no compensation written";  // the reader's error names the source
+    return c;
+  }
   // identify names the key in the model's units (velocity_max_rad_s on a rotary axis)
   const std::string top_speed = key_in_units("velocity_max_m_s", stated_units(mj));
   if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains(top_speed))
@@ -217,12 +202,16 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "--force-scale %g: must be finite and non-zero", opt.force_scale);
-    throw std::invalid_argument(buf);
+    c.error = buf;
+    return c;
   }
-  if (opt.max_speed_m_s <= 0)
-    throw std::invalid_argument(source + " has no config." + top_speed + " (a truth file?): give --max-speed");
-  ModelCompensation c;
+  if (opt.max_speed_m_s <= 0) {
+    c.error = source + " has no config." + top_speed + " (a truth file?): give --max-speed";
+    return c;
+  }
   c.table = make_compensation_table(file.drive, opt.max_speed_m_s, opt.points);
+  c.error = c.table.error;
+  if (!c.error.empty()) return c;
   c.warnings = file.warnings;
   if (file.load.any())
     c.warnings.push_back(source + ": the model's load (a constant force or an arm's weight) is not friction and is not "

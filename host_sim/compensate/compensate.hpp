@@ -32,6 +32,7 @@ struct CompensationTable {
   double max_interpolation_error_N = 0.0;      ///< largest |table - model| on [0, max speed], both directions
   double max_speed_m_s = 0.0;
   DriveParams model;
+  std::string error;  ///< why there is no table (io/outcome.hpp); empty when there is
 };
 
 /// Friction magnitude of the model in one direction (0: pos, 1: neg) at a
@@ -41,8 +42,8 @@ double model_friction(const DriveParams& m, int dir, double speed_m_s);
 /// The table whose largest linear-interpolation error against the model is
 /// smallest for `points` breakpoints per direction (minimax: the least
 /// error for which segments of greatest reach cover [0, max speed] in
-/// points - 1 steps, found by bisection). Throws std::invalid_argument on
-/// points outside 2..kMaxTablePoints or a max speed that is not positive.
+/// points - 1 steps, found by bisection). `error` for points outside
+/// 2..kMaxTablePoints or a max speed that is not positive.
 CompensationTable make_compensation_table(const DriveParams& model, double max_speed_m_s, int points);
 
 /// Largest |table - model| over n evenly spaced speeds in [0, max speed].
@@ -64,12 +65,13 @@ struct ModelCompensation {
   nlohmann::json json;
   bool force_negated = false;
   std::vector<std::string> warnings;  ///< the model reader's (an unknown key in a hand-written file)
+  std::string error;                  ///< why there is no table, naming the source; empty when there is
 };
 
 /// The table for a model JSON (identify's): up to opt.max_speed_m_s, or
-/// its config.velocity_max_m_s when that is 0. Throws std::invalid_argument
-/// naming `source` when the model cannot be compensated with
-/// (unusable_model), has no top speed, or opt cannot be applied.
+/// its config.velocity_max_m_s when that is 0. `error` names `source` when
+/// the model cannot be compensated with (unusable_model), has no top
+/// speed, or opt cannot be applied.
 ModelCompensation compensate_model(const nlohmann::json& model, CompensateOptions opt, const std::string& source);
 
 

@@ -966,8 +966,15 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
                 " samples (need at least 1000, moving in both directions)";
     return out;
   }
-  if (opt.folds < 2) throw std::invalid_argument("folds must be >= 2");
+  if (opt.folds < 2) {
+    out.error = "--folds must be >= 2";
+    return out;
+  }
   const Signals sig = aligned_signals(trace, opt, out);
+  if (!sig.error.empty()) {
+    out.error = sig.error;
+    return out;
+  }
   const diag::Folds folds = diag::make_folds(sig, opt.folds, auto_config(sig, opt.identify).velocity_min_m_s);
   out.folds = folds.count();
   out.fold_edges = folds.edges;

@@ -61,9 +61,15 @@ void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const 
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
   g.after = replay(base, c, run, with);
+  for (const std::string* e : {&g.before.error, &g.after.error})
+    if (g.error.empty()) g.error = *e;
+  if (!g.error.empty()) return;
   const std::vector<char> keep = heldout_samples(g.before.t, g.diagnosis.fold_edges);
   g.heldout_samples = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
-  if (g.heldout_samples < 100) throw std::invalid_argument(run.source + ": too few held-out samples to replay on");
+  if (g.heldout_samples < 100) {
+    g.error = run.source + ": too few held-out samples to replay on";
+    return;
+  }
   g.before_pct = figures_where(g.before, keep, false);
   g.before_same_pct = figures_where(g.before, keep, true);
   g.processing_pct = processing_where(g.before, keep);
@@ -111,17 +117,22 @@ nlohmann::json model_with_effects(const DiagnoseResult& r, const nlohmann::json&
 
 ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Controller* c, const LoggedRun* run,
                    const ReplayOptions& ropt) {
-  if (!opt.model) throw std::invalid_argument("model_gap: no model given");
   ModelGap g;
+  for (const std::string* e : {opt.model ? &opt.model->error : nullptr, c ? &c->error : nullptr, run ? &run->error : nullptr})
+    if (e && g.error.empty()) g.error = *e;
+  if (!opt.model) g.error = "model_gap: no model given";
+  if (!g.error.empty()) return g;
   g.diagnosis = diagnose(trace, opt);
-  if (!g.diagnosis.error.empty() || !c || !run) return g;
+  g.error = g.diagnosis.error;
+  if (!g.error.empty() || !c || !run) return g;
   replay_before_after(opt, *c, *run, ropt, g);
   return g;
 }
 
 nlohmann::json to_json(const ModelGap& g) {
   nlohmann::json j = to_json(g.diagnosis);
-  if (!g.replayed || !g.diagnosis.error.empty()) return j;
+  if (!g.error.empty()) j["error"] = g.error;
+  if (!g.replayed || !g.error.empty()) return j;
   nlohmann::json plant = nlohmann::json::array();
   for (const PlantEffect& p : g.plant) plant.push_back({{"kind", p.kind}, {"simulated", p.simulated}, {"note", p.note}});
   j["replay"] = {
@@ -151,7 +162,7 @@ nlohmann::json to_json(const ModelGap& g) {
 std::string summary(const ModelGap& g) {
   std::ostringstream o;
   o << summary(g.diagnosis);
-  if (!g.replayed || !g.diagnosis.error.empty()) return o.str();
+  if (!g.replayed || !g.error.empty()) return o.str();
   o << "replay in the drive's loop, held-out time (" << g.heldout_samples << " of " << g.before.samples_compared
     << " samples), relative error (%):\n";
   char buf[200];

@@ -34,6 +34,9 @@ nlohmann::json named_effects_json(const std::vector<NamedEffect>& named);
 nlohmann::json model_with_effects(const DiagnoseResult& r, const nlohmann::json& given);
 
 struct ModelGap {
+  /// Why there is no gap to report: an input's own error, the diagnosis's,
+  /// or a replay's; empty when the figures hold (io/outcome.hpp).
+  std::string error;
   DiagnoseResult diagnosis;
   bool replayed = false;
   std::size_t heldout_samples = 0;  ///< replayed samples in held-out folds (after the first drop_first)
@@ -53,8 +56,7 @@ struct ModelGap {
 };
 
 /// Diagnoses `trace` against opt.model (required) and, when `c` and `run`
-/// are given, replays before and after. Throws std::invalid_argument for a
-/// replay that cannot run (replay's errors).
+/// are given, replays before and after; `error` when either cannot run.
 ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Controller* c, const LoggedRun* run,
                    const ReplayOptions& ropt);
 

@@ -18,13 +18,19 @@
 namespace feedid::host {
 namespace {
 
-/// The lag a named --alignment states (sample periods); NaN for "auto".
+/// The lag a named --alignment states (sample periods); NaN for "auto"
+/// (and for a name alignment_refusal refuses).
 double named_lag(const std::string& name) {
-  if (name == "auto") return std::numeric_limits<double>::quiet_NaN();
   if (name == "held-backward") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_backward_velocity);
   if (name == "held-instant") return feedid::force_lag_of<double>(feedid::ForceAlignment::held_force_instant_velocity);
   if (name == "trapezoid") return feedid::force_lag_of<double>(feedid::ForceAlignment::trapezoid);
-  throw std::invalid_argument("--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'");
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+/// Why --alignment names no alignment, or empty.
+std::string alignment_refusal(const std::string& name) {
+  if (name == "auto" || std::isfinite(named_lag(name))) return "";
+  return "--alignment must be auto, held-backward, held-instant or trapezoid, not '" + name + "'";
 }
 
 /// The lag nearest `lag` whose force delay (lag + the velocity's own lag,
@@ -45,6 +51,7 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
 /// `found`: a search already run on these signals with another velocity
 /// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
 /// `held`: the friction shared between lag searches (estimate_force_lag).
+/// s.error where the lag lies beyond any logging's.
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
                  const LagEstimate* found = nullptr, HeldFriction* held = nullptr) {
   const double dt = s.period_s();
@@ -67,8 +74,10 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
       s.force_lag_origin = Signals::LagOrigin::assumed;
     }
   }
-  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0))
-    throw std::invalid_argument("force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]");
+  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0)) {
+    s.error = "force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]";
+    return;
+  }
   apply_force_lag(s, lag);
   s.force_lag_s = (lag - column_lag) * dt;
   s.force_lag_se_s = se * dt;
@@ -461,6 +470,8 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals raw = condition(trace, conditioning(opt));
+  if (raw.error.empty()) raw.error = alignment_refusal(opt.alignment);
+  if (!raw.error.empty()) return raw;
   const VelocityTiming timing = time_velocity_column(raw, trace, opt);
   if (raw.has_velocity_column && opt.velocity_source == VelocitySource::given) {
     raw.velocity_origin = "given";
@@ -488,7 +499,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   HeldFriction held;
   Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz,
                                nullptr, &held);
-  if (stated) return s;
+  if (stated || !s.error.empty()) return s;
   const feedid::Config<double> edges = auto_config(s, search);
   // On a long log the scan runs on stretches spread over it (scan_selection);
   // the column is scored on the same samples.
@@ -497,7 +508,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   const FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges);
   if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, &held);
-    if (block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
+    if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       return column;
     }
@@ -621,7 +632,8 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
 
 IdentifyResult identify_prepared(Signals prepared, const IdentifyOptions& opt, const std::string& source,
                                  const std::vector<std::size_t>& run_starts) {
-  if (opt.gravity != GravityTerm::none) return identify_with_gravity(std::move(prepared), opt, source, run_starts);
+  if (opt.gravity != GravityTerm::none && prepared.error.empty())
+    return identify_with_gravity(std::move(prepared), opt, source, run_starts);
   IdentifyResult r;
   r.units = opt.units;
   const std::uint64_t pushed_before = core_samples_pushed();
@@ -629,9 +641,9 @@ IdentifyResult identify_prepared(Signals prepared, const IdentifyOptions& opt, c
   // Signals built by hand with rival cut-offs and no columns for them get them here.
   if (r.signals.rival_velocities.size() != r.signals.velocity_filter_rivals_hz.size()) derive_rival_velocities(r.signals);
   const Signals& s = r.signals;
-  if (s.t.size() < 2) {
+  if (!s.error.empty() || s.t.size() < 2) {
     r.status = feedid::Status::insufficient_data;
-    r.error = source + ": no samples to identify";
+    r.error = s.error.empty() ? source + ": no samples to identify" : s.error;
     return r;
   }
   r.duration_s = s.t.back() - s.t.front();

@@ -185,6 +185,11 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   // outliers bridged; the core rejects those of every chunk by the head's
   // limit (auto_config's max_force_N), counting them as out of range.
   r.signals = prepare_signals(bridge_force_outliers(chunk, opt.units.force, r.force_outliers), opt);
+  if (!r.signals.error.empty()) {
+    r.status = feedid::Status::insufficient_data;
+    r.error = r.signals.error;
+    return r;
+  }
   r.force_outliers.rows = 0;
   r.force_outliers.first.clear();
   IdentifyOptions fixed = with_conventions_of(r.signals, opt);  // what the head chose, for every chunk
@@ -205,7 +210,15 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
     const double t_end = more ? chunk.samples.back().t_s - so.margin_s : INFINITY;
     const Trace kept = without_clipped_rows(chunk, t_pushed, t_end, head_peak, clipped);
     // A chunk that only pushes against the limit keeps too few rows to condition: nothing to push.
-    if (kept.samples.size() >= 2) cores->push(prepare_signals(kept, fixed), t_end, r.first_rejections);
+    if (kept.samples.size() >= 2) {
+      const Signals conditioned = prepare_signals(kept, fixed);
+      if (!conditioned.error.empty()) {
+        r.status = feedid::Status::insufficient_data;
+        r.error = conditioned.error;
+        return r;
+      }
+      cores->push(conditioned, t_end, r.first_rejections);
+    }
     t_pushed = t_end;
     t_last = chunk.samples.back().t_s;
     if (opt.progress) opt.progress(t_last - cores->t_first);

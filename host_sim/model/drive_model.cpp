@@ -124,13 +124,13 @@ nlohmann::json model_json(const DriveParams& p, const Units& units) {
   return {{"m", p.mass_kg}, {"pos", dir(p.pos)}, {"neg", dir(p.neg)}, {"units", units_json(units)}};
 }
 
-nlohmann::json read_json_file(const std::string& path) {
+Outcome<nlohmann::json> read_json_file(const std::string& path) {
   std::ifstream f(path);
-  if (!f) throw std::runtime_error(path + ": cannot open");
-  try {
-    return nlohmann::json::parse(f);
+  if (!f) return refused<nlohmann::json>(path + ": cannot open");
+  try {  // nlohmann reports a broken file (line, column) only by its exception
+    return {nlohmann::json::parse(f), ""};
   } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+    return refused<nlohmann::json>(path + ": not valid JSON: " + e.what());
   }
 }
 

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "feedid/types.hpp"
+#include "io/outcome.hpp"
 #include "io/units.hpp"
 
 namespace feedid::host {
@@ -83,8 +84,8 @@ std::vector<std::string> flag_names(uint32_t flags);
 /// The model part alone: {"m":..,"pos":{..},"neg":{..}} (also the truth format).
 nlohmann::json model_json(const DriveParams& p, const Units& units = {});
 
-/// A JSON file (a model, a truth file); throws std::runtime_error naming the
-/// file when it cannot be opened or parsed.
-nlohmann::json read_json_file(const std::string& path);
+/// A JSON file (a model, a truth file); the error names the file when it
+/// cannot be opened or parsed.
+Outcome<nlohmann::json> read_json_file(const std::string& path);
 
 }  // namespace feedid::host

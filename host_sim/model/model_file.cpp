@@ -4,8 +4,8 @@
 #include "effects.hpp"
 
 #include <cmath>
+#include <limits>
 #include <set>
-#include <stdexcept>
 
 namespace feedid::host {
 namespace {
@@ -14,16 +14,20 @@ namespace {
 /// sit among the report's own (standard errors, counts, input...).
 bool written_by_identify(const nlohmann::json& j) { return j.contains("status") && j.contains("standard_errors"); }
 
-[[noreturn]] void fail(const std::string& source, const std::string& what) {
-  throw std::runtime_error(source + ": " + what);
+/// Records the reader's first refusal (outcome.hpp); the reader returns at
+/// its next check, and what a helper returned after it is never used.
+void refuse(ModelFile& out, const std::string& what) {
+  if (out.error.empty()) out.error = out.source + ": " + what;
 }
 
-/// j[key] as a finite number; `where` is the key's path for messages.
-double number_at(const nlohmann::json& j, const char* key, const std::string& where, const std::string& source) {
-  if (!j.contains(key)) fail(source, "missing key '" + where + key + "'");
-  const nlohmann::json& v = j.at(key);
-  if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, "'" + where + key + "' must be a finite number");
-  return v.get<double>();
+/// j[key] as a finite number (NaN, refused, where it is not one); `where`
+/// is the key's path for messages.
+double number_at(const nlohmann::json& j, const char* key, const std::string& where, ModelFile& out) {
+  const nlohmann::json* v = j.contains(key) ? &j.at(key) : nullptr;
+  if (!v) refuse(out, "missing key '" + where + key + "'");
+  else if (!v->is_number() || !std::isfinite(v->get<double>())) refuse(out, "'" + where + key + "' must be a finite number");
+  else return v->get<double>();
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
 /// Keys of j outside `known`, each as a warning.
@@ -34,20 +38,24 @@ void warn_unknown(const nlohmann::json& j, const std::set<std::string>& known, c
 }
 
 DirectionFriction direction_from_json(const nlohmann::json& j, const char* name, bool from_identify, ModelFile& out) {
-  if (!j.contains(name) || !j.at(name).is_object()) fail(out.source, std::string("missing object '") + name + "'");
+  DirectionFriction f;
+  if (!j.contains(name) || !j.at(name).is_object()) {
+    refuse(out, std::string("missing object '") + name + "'");
+    return f;
+  }
   const nlohmann::json& o = j.at(name);
   const std::string w = std::string(name) + ".";
-  DirectionFriction f;
-  f.viscous_Ns_m = number_at(o, "sigma", w, out.source);
-  f.coulomb_N = number_at(o, "fc", w, out.source);
+  f.viscous_Ns_m = number_at(o, "sigma", w, out);
+  f.coulomb_N = number_at(o, "fc", w, out);
   const bool has_fs = o.contains("fs"), has_vs = o.contains("vs");
-  f.breakaway_N = has_fs ? number_at(o, "fs", w, out.source) : 0.0;
-  f.stribeck_velocity_m_s = has_vs ? number_at(o, "vs", w, out.source) : 0.0;
-  if (has_vs && !has_fs) fail(out.source, "'" + w + "vs' given without '" + w + "fs' (the Stribeck dip needs both)");
+  f.breakaway_N = has_fs ? number_at(o, "fs", w, out) : 0.0;
+  f.stribeck_velocity_m_s = has_vs ? number_at(o, "vs", w, out) : 0.0;
+  if (!out.error.empty()) return f;
+  if (has_vs && !has_fs) refuse(out, "'" + w + "vs' given without '" + w + "fs' (the Stribeck dip needs both)");
   // No dip: vs plays no part; 1 m/s keeps F(v) defined (to_drive_params' rule).
   if (f.breakaway_N == 0.0 && !(f.stribeck_velocity_m_s > 0.0)) f.stribeck_velocity_m_s = 1.0;
-  if (f.breakaway_N < 0.0) fail(out.source, "'" + w + "fs' must be >= 0 (static friction is fc + fs)");
-  if (!(f.stribeck_velocity_m_s > 0.0)) fail(out.source, "'" + w + "vs' must be > 0 when '" + w + "fs' is given");
+  if (f.breakaway_N < 0.0) refuse(out, "'" + w + "fs' must be >= 0 (static friction is fc + fs)");
+  if (!(f.stribeck_velocity_m_s > 0.0)) refuse(out, "'" + w + "vs' must be > 0 when '" + w + "fs' is given");
   if (!from_identify) warn_unknown(o, {"sigma", "fc", "fs", "vs"}, w, out);
   return f;
 }
@@ -56,19 +64,19 @@ DirectionFriction direction_from_json(const nlohmann::json& j, const char* name,
 /// "G", "angle0_rad", ...}) or by hand ({"G", "angle0_rad"}: the arm form;
 /// {"G"} alone: a constant). A constant G is a constant load: it adds to F0.
 void read_gravity(const nlohmann::json& g, bool from_identify, ModelFile& out) {
-  if (!g.is_object()) fail(out.source, "'gravity' must be an object");
+  if (!g.is_object()) return refuse(out, "'gravity' must be an object");
   const std::string form = g.contains("form") && g.at("form").is_string() ? g.at("form").get<std::string>()
                            : g.contains("angle0_rad")                      ? "angle"
                                                                             : "constant";
   if (form == "none") return;
   if (form != "constant" && form != "angle")
-    fail(out.source, "'gravity.form' is \"" + form + "\": none, constant or angle");
-  const double G = number_at(g, "G", "gravity.", out.source);
+    return refuse(out, "'gravity.form' is \"" + form + "\": none, constant or angle");
+  const double G = number_at(g, "G", "gravity.", out);
   if (form == "constant") {
     out.load.offset_N += G;
   } else {
     out.load.gravity_N = G;
-    out.load.gravity_angle0_rad = number_at(g, "angle0_rad", "gravity.", out.source);
+    out.load.gravity_angle0_rad = number_at(g, "angle0_rad", "gravity.", out);
   }
   if (!from_identify) warn_unknown(g, {"form", "G", "angle0_rad", "G_se", "angle0_se_rad", "units", "note", "rule"},
                                    "gravity.", out);
@@ -78,16 +86,16 @@ void read_gravity(const nlohmann::json& g, bool from_identify, ModelFile& out) {
 /// the replay's plant; a kind outside the catalogue is an error (a typo
 /// must not silently leave an effect out).
 void read_effects(const nlohmann::json& e, const nlohmann::json& j_units, ModelFile& out) {
-  if (!e.is_array()) fail(out.source, "'effects' must be a list of {\"kind\", \"parameters\"}");
+  if (!e.is_array()) return refuse(out, "'effects' must be a list of {\"kind\", \"parameters\"}");
   for (const nlohmann::json& x : e) {
     if (!x.is_object() || !x.contains("kind") || !x.at("kind").is_string())
-      fail(out.source, "each of 'effects' needs a \"kind\" (as diagnose writes them)");
+      return refuse(out, "each of 'effects' needs a \"kind\" (as diagnose writes them)");
     const std::string kind = x.at("kind").get<std::string>();
     bool known = false;
     for (int i = 0; i < kCatalogueCount; ++i) known = known || kind == effect_name(static_cast<Effect>(i));
-    if (!known) fail(out.source, "'effects' names \"" + kind + "\", not an effect diagnose names");
+    if (!known) return refuse(out, "'effects' names \"" + kind + "\", not an effect diagnose names");
     if (x.contains("parameters") && !x.at("parameters").is_object())
-      fail(out.source, "the parameters of effect \"" + kind + "\" must be an object");
+      return refuse(out, "the parameters of effect \"" + kind + "\" must be an object");
     out.effects.push_back(keys_in_si(x, stated_units(j_units)));  // force_N_m of a rotary file is force_N
   }
 }
@@ -97,30 +105,47 @@ void read_effects(const nlohmann::json& e, const nlohmann::json& j_units, ModelF
 ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source) {
   ModelFile out;
   out.source = source;
-  if (!j.is_object()) fail(source, "a model file must be a JSON object");
+  if (!j.is_object()) {
+    refuse(out, "a model file must be a JSON object");
+    return out;
+  }
   const bool from_identify = written_by_identify(j);
   // Any file with identify's status (not_physical: solved, and refused
   // below by the one physical check).
-  if (j.contains("status") && j.at("status") != "ok" && j.at("status") != "not_physical")
-    fail(source, "identify did not solve it (status " + j.at("status").dump() +
+  if (j.contains("status") && j.at("status") != "ok" && j.at("status") != "not_physical") {
+    refuse(out, "identify did not solve it (status " + j.at("status").dump() +
                      (j.contains("error") && j.at("error").is_string() ? ": " + j.at("error").get<std::string>() : std::string()) +
                      "): the file holds no identified model");
-  out.drive.mass_kg = number_at(j, "m", "", source);
+    return out;
+  }
+  out.drive.mass_kg = number_at(j, "m", "", out);
   out.drive.pos = direction_from_json(j, "pos", from_identify, out);
   out.drive.neg = direction_from_json(j, "neg", from_identify, out);
+  if (!out.error.empty()) return out;
   // offset_N_m on a rotary axis as the tool writes it; offset_N as a user may
   std::string offset = key_in_units("offset_N", stated_units(j));
   if (!j.contains(offset)) offset = "offset_N";
-  if (j.contains(offset)) out.load.offset_N = number_at(j, offset.c_str(), "", source);
+  if (j.contains(offset)) out.load.offset_N = number_at(j, offset.c_str(), "", out);
   if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
   if (j.contains("effects")) read_effects(j.at("effects"), j, out);
+  if (!out.error.empty()) return out;
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
-  if (!unphysical.empty()) fail(source, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
+  if (!unphysical.empty()) {
+    refuse(out, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
+    return out;
+  }
   if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "units", "comment"}, "", out);
   return out;
 }
 
-ModelFile read_model_file(const std::string& path) { return model_file_from_json(read_json_file(path), path); }
+ModelFile read_model_file(const std::string& path) {
+  const Outcome<nlohmann::json> j = read_json_file(path);
+  if (j.ok()) return model_file_from_json(j.value, path);
+  ModelFile out;
+  out.source = path;
+  out.error = j.error;
+  return out;
+}
 
 }  // namespace feedid::host

@@ -38,6 +38,9 @@ struct ModelFile {
   /// The file's "units" as identify writes them (null when it states none):
   /// checked against the log's with model_units_mismatch (io/units.hpp).
   nlohmann::json units;
+  /// Why the file holds no usable model, naming the file and the key; empty
+  /// when it does (the host's one error form, io/outcome.hpp).
+  std::string error;
 };
 
 /// Reads a model from parsed JSON; `source` names it in messages.
@@ -46,7 +49,7 @@ struct ModelFile {
 /// fs, or fs > 0 without vs > 0, is an error. A JSON written by identify
 /// (it has "status" and "standard_errors") may carry its report keys
 /// beside the model; in any other file an unknown key is a warning.
-/// Throws std::runtime_error naming the source and the key.
+/// A file that cannot be read sets `error`, naming the source and the key.
 ModelFile model_file_from_json(const nlohmann::json& j, const std::string& source);
 
 /// The same from a file (read_json_file's errors for a missing or broken file).

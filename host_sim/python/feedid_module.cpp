@@ -196,6 +196,11 @@ std::vector<double> to_vector(const py::object& a) {
   return std::vector<double>(arr.data(), arr.data() + arr.size());
 }
 
+/// A result's error (io/outcome.hpp) as Python's ValueError, as the CLI's exit 2.
+void raise_if(const std::string& error) {
+  if (!error.empty()) throw std::invalid_argument(error);
+}
+
 /// The command on a trace read without the GIL; the JSON text of its --json.
 /// model_text: validate's model (identify's JSON), in the log's units.
 std::string run(Command command, const CsvResult& read, const CallOptions& o, const std::string& model_text) {
@@ -212,9 +217,12 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
   if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
     throw std::invalid_argument("model: " + why);
   const ModelFile file = model_file_from_json(model_json, "model");
+  raise_if(file.error);
   CallOptions with_offset = o;
   with_offset.validate.load = file.load;
-  return json_as_written(to_json(validate(file.drive, read.trace, with_offset.validate), file.drive, with_offset.validate)).dump();
+  const ValidateResult r = validate(file.drive, read.trace, with_offset.validate);
+  raise_if(r.error);
+  return json_as_written(to_json(r, file.drive, with_offset.validate)).dump();
 }
 
 std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,
@@ -255,6 +263,7 @@ JsonAndWarnings run_model_gap(const CsvResult& read, const CallOptions& o, const
   if (const std::string why = model_units_mismatch(model_json, o.units); !why.empty())
     throw std::invalid_argument(g.model_source + ": " + why);
   opt.model = model_file_from_json(model_json, g.model_source);
+  raise_if(opt.model->error);
   std::vector<std::string> notes = opt.model->warnings;
   std::optional<Controller> c;
   std::optional<LoggedRun> run;
@@ -262,11 +271,15 @@ JsonAndWarnings run_model_gap(const CsvResult& read, const CallOptions& o, const
   ropt.units = o.units;
   if (!g.controller_text.empty()) {
     c = controller_from_json(nlohmann::json::parse(g.controller_text), g.controller_source);
+    raise_if(c->error);
     notes.insert(notes.end(), c->warnings.begin(), c->warnings.end());
     run = logged(*c);
+    raise_if(run->error);
     notes.insert(notes.end(), run->notes.begin(), run->notes.end());
   }
   const ModelGap gap = model_gap(read.trace, opt, c ? &*c : nullptr, run ? &*run : nullptr, ropt);
+  // The diagnosis's own error is in its JSON, as the CLI writes it; a replay's is raised.
+  if (gap.diagnosis.error.empty()) raise_if(gap.error);
   return {json_as_written(to_json(gap)).dump(), notes};
 }
 
@@ -331,12 +344,15 @@ JsonAndWarnings model_gap_files(const std::vector<std::string>& paths, const py:
 JsonAndWarnings run_replay(const CallOptions& o, const GivenFiles& g,
                            const std::function<LoggedRun(const Controller&)>& logged) {
   const ModelFile model = model_file_from_json(nlohmann::json::parse(g.model_text), g.model_source);
+  raise_if(model.error);
   if (const std::string why = model_units_mismatch({{"units", model.units}}, o.units); !why.empty())
     throw std::invalid_argument(g.model_source + ": " + why);
   const Controller c = controller_from_json(nlohmann::json::parse(g.controller_text), g.controller_source);
+  raise_if(c.error);
   std::vector<std::string> notes = model.warnings;
   notes.insert(notes.end(), c.warnings.begin(), c.warnings.end());
   const ReplayResult r = replay(model, c, logged(c), o.replay, o.fit_gains);
+  raise_if(r.error);
   return {json_as_written(to_json(r, model, c, o.replay)).dump(), notes};
 }
 
@@ -385,6 +401,7 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
     else throw py::type_error("unknown option '" + key + "'");
   }
   const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
+  raise_if(c.error);
   return format == "csv" ? to_csv(c.table, opt) : json_as_written(c.json).dump();
 }
 

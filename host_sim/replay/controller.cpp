@@ -6,55 +6,69 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <set>
-#include <stdexcept>
 
 #include "model/drive_model.hpp"
 
 namespace feedid::host {
 namespace {
 
-[[noreturn]] void fail(const std::string& source, const std::string& what) {
-  throw std::invalid_argument(source + ": " + what);
+/// Records the reader's first refusal (outcome.hpp); the reader returns at
+/// its next check, and what a helper returned after it is never used.
+void refuse(Controller& c, const std::string& what) {
+  if (c.error.empty()) c.error = c.source + ": " + what;
 }
 
-double required_number(const nlohmann::json& j, const char* key, const std::string& source) {
-  if (!j.contains(key)) fail(source, std::string("missing key '") + key + "'");
-  const nlohmann::json& v = j.at(key);
-  if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, std::string("'") + key + "' must be a finite number");
-  return v.get<double>();
+double required_number(const nlohmann::json& j, const char* key, Controller& c) {
+  const nlohmann::json* v = j.contains(key) ? &j.at(key) : nullptr;
+  if (!v) refuse(c, std::string("missing key '") + key + "'");
+  else if (!v->is_number() || !std::isfinite(v->get<double>())) refuse(c, std::string("'") + key + "' must be a finite number");
+  else return v->get<double>();
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
-std::optional<double> optional_gain(const nlohmann::json& j, const char* key, const std::string& source) {
+std::optional<double> optional_gain(const nlohmann::json& j, const char* key, Controller& c) {
   if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
-  const double g = required_number(j, key, source);
-  if (g < 0.0) fail(source, std::string("'") + key + "' must be >= 0");
+  const double g = required_number(j, key, c);
+  if (g < 0.0) refuse(c, std::string("'") + key + "' must be >= 0");
   return g;
 }
 
-std::string column_name(const nlohmann::json& j, const char* key, const std::string& source, bool required) {
+std::string column_name(const nlohmann::json& j, const char* key, bool required, Controller& c) {
   if (!j.contains(key) || (!required && j.at(key).is_null())) {
-    if (required) fail(source, std::string("missing key '") + key + "' (the column of the logged position reference)");
+    if (required) refuse(c, std::string("missing key '") + key + "' (the column of the logged position reference)");
     return "";
   }
-  if (!j.at(key).is_string() || j.at(key).get<std::string>().empty())
-    fail(source, std::string("'") + key + "' must be a column name (a non-empty string)");
+  if (!j.at(key).is_string() || j.at(key).get<std::string>().empty()) {
+    refuse(c, std::string("'") + key + "' must be a column name (a non-empty string)");
+    return "";
+  }
   return j.at(key).get<std::string>();
 }
 
-std::vector<double> fir_taps(const nlohmann::json& j, const std::string& source) {
-  if (!j.contains("position_fir")) fail(source, "missing key 'position_fir' (e.g. [1] for none, [0.5, 0.5])");
+std::vector<double> fir_taps(const nlohmann::json& j, Controller& c) {
+  if (!j.contains("position_fir")) {
+    refuse(c, "missing key 'position_fir' (e.g. [1] for none, [0.5, 0.5])");
+    return {1.0};
+  }
   const nlohmann::json& a = j.at("position_fir");
-  if (!a.is_array() || a.empty()) fail(source, "'position_fir' must be a non-empty array of numbers");
+  if (!a.is_array() || a.empty()) {
+    refuse(c, "'position_fir' must be a non-empty array of numbers");
+    return {1.0};
+  }
   std::vector<double> taps;
   double sum = 0.0;
   for (const auto& v : a) {
-    if (!v.is_number() || !std::isfinite(v.get<double>())) fail(source, "'position_fir' must hold finite numbers");
+    if (!v.is_number() || !std::isfinite(v.get<double>())) {
+      refuse(c, "'position_fir' must hold finite numbers");
+      return {1.0};
+    }
     taps.push_back(v.get<double>());
     sum += taps.back();
   }
   // A position filter passes a standing position unchanged.
-  if (std::fabs(sum - 1.0) > 1e-6) fail(source, "'position_fir' taps must sum to 1 (they sum to " + std::to_string(sum) + ")");
+  if (std::fabs(sum - 1.0) > 1e-6) refuse(c, "'position_fir' taps must sum to 1 (they sum to " + std::to_string(sum) + ")");
   return taps;
 }
 
@@ -63,28 +77,32 @@ std::vector<double> fir_taps(const nlohmann::json& j, const std::string& source)
 const char* law_name(ControlLaw law) { return law == ControlLaw::p_pi ? "p_pi" : "pd"; }
 
 Controller controller_from_json(const nlohmann::json& j, const std::string& source) {
-  if (!j.is_object()) fail(source, "a controller file must be a JSON object");
   Controller c;
   c.source = source;
+  if (!j.is_object()) {
+    refuse(c, "a controller file must be a JSON object");
+    return c;
+  }
   if (j.contains("law")) {
     const nlohmann::json& l = j.at("law");
     if (l == "pd") c.law = ControlLaw::pd;
     else if (l == "p_pi") c.law = ControlLaw::p_pi;
-    else fail(source, "'law' must be \"pd\" or \"p_pi\", not " + l.dump());
+    else refuse(c, "'law' must be \"pd\" or \"p_pi\", not " + l.dump());
   }
-  c.kp = optional_gain(j, "kp", source);
-  c.kv = optional_gain(j, "kv", source);
-  c.ki = optional_gain(j, "ki", source);
-  c.drive_gain = required_number(j, "drive_gain", source);
-  if (!(c.drive_gain > 0.0)) fail(source, "'drive_gain' must be > 0 (force per command unit)");
-  c.saturation = required_number(j, "saturation", source);
-  if (!(c.saturation > 0.0)) fail(source, "'saturation' must be > 0 (the command limit)");
-  c.position_fir = fir_taps(j, source);
-  const double d = required_number(j, "delay_samples", source);
-  if (d < 0.0 || d != std::floor(d) || d > 1000.0) fail(source, "'delay_samples' must be a whole number of samples, 0 to 1000");
-  c.delay_samples = static_cast<int>(d);
-  c.reference = column_name(j, "reference", source, true);
-  c.extra_command = column_name(j, "extra_command", source, false);
+  c.kp = optional_gain(j, "kp", c);
+  c.kv = optional_gain(j, "kv", c);
+  c.ki = optional_gain(j, "ki", c);
+  c.drive_gain = required_number(j, "drive_gain", c);
+  if (!(c.drive_gain > 0.0)) refuse(c, "'drive_gain' must be > 0 (force per command unit)");
+  c.saturation = required_number(j, "saturation", c);
+  if (!(c.saturation > 0.0)) refuse(c, "'saturation' must be > 0 (the command limit)");
+  c.position_fir = fir_taps(j, c);
+  const double d = required_number(j, "delay_samples", c);
+  if (!(d >= 0.0 && d == std::floor(d) && d <= 1000.0)) refuse(c, "'delay_samples' must be a whole number of samples, 0 to 1000");
+  else c.delay_samples = static_cast<int>(d);
+  c.reference = column_name(j, "reference", true, c);
+  c.extra_command = column_name(j, "extra_command", false, c);
+  if (!c.error.empty()) return c;
   static const std::set<std::string> known = {"law", "kp", "kv", "ki", "drive_gain", "saturation", "position_fir",
                                               "delay_samples", "reference", "extra_command", "comment"};
   for (const auto& [key, value] : j.items())
@@ -92,7 +110,14 @@ Controller controller_from_json(const nlohmann::json& j, const std::string& sour
   return c;
 }
 
-Controller read_controller_file(const std::string& path) { return controller_from_json(read_json_file(path), path); }
+Controller read_controller_file(const std::string& path) {
+  const Outcome<nlohmann::json> j = read_json_file(path);
+  if (j.ok()) return controller_from_json(j.value, path);
+  Controller c;
+  c.source = path;
+  c.error = j.error;
+  return c;
+}
 
 double VelocityEstimate::next(double q) {
   if (!started_) std::fill(q_.begin(), q_.end(), q);  // at rest before the first sample
@@ -108,7 +133,8 @@ double VelocityEstimate::next(double q) {
 
 bool needs_fit(const Controller& c) { return !c.kp || !c.kv || (c.law == ControlLaw::p_pi && !c.ki); }
 
-Gains resolve_gains(const Controller& c, const GainFit& fit) {
+Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit) {
+  if (!fit.error.empty()) return refused<Gains>(fit.error);
   Gains g;
   g.kp = c.kp ? *c.kp : fit.value.kp;
   g.kv = c.kv ? *c.kv : fit.value.kv;
@@ -119,11 +145,11 @@ Gains resolve_gains(const Controller& c, const GainFit& fit) {
   const bool fitted_wrong = (!c.kp && !(g.kp > 0.0)) || (!c.kv && !(g.kv > 0.0)) ||
                             (c.law == ControlLaw::p_pi && !c.ki && g.ki < 0.0);
   if (fitted_wrong)
-    throw std::invalid_argument(c.source + ": the gains fitted from the logged command are not those of a position "
-                                "loop (kp " + std::to_string(g.kp) + ", kv " + std::to_string(g.kv) + ", ki " +
-                                std::to_string(g.ki) + "): is the force's sign that of the command, and '" +
-                                c.reference + "' the position reference?");
-  return g;
+    return refused<Gains>(c.source + ": the gains fitted from the logged command are not those of a position "
+                          "loop (kp " + std::to_string(g.kp) + ", kv " + std::to_string(g.kv) + ", ki " +
+                          std::to_string(g.ki) + "): is the force's sign that of the command, and '" +
+                          c.reference + "' the position reference?");
+  return {g, ""};
 }
 
 namespace {
@@ -194,9 +220,12 @@ GainFit fit_at_lag(const Controller& c, const std::vector<double>& t, const std:
     const double cmd = u[k] / c.drive_gain - (extra.empty() ? 0.0 : extra[k]);
     if (std::isfinite(cmd) && std::fabs(cmd) < 0.95 * c.saturation) used.push_back(k);
   }
-  if (used.size() < static_cast<std::size_t>(10 * p))
-    throw std::invalid_argument(c.source + ": only " + std::to_string(used.size()) +
-                                " unsaturated samples to identify the missing gains from the logged command");
+  GainFit f;
+  if (used.size() < static_cast<std::size_t>(10 * p)) {
+    f.error = c.source + ": only " + std::to_string(used.size()) +
+              " unsaturated samples to identify the missing gains from the logged command";
+    return f;
+  }
   Eigen::MatrixXd A(used.size(), p);
   Eigen::VectorXd y(used.size());
   for (std::size_t i = 0; i < used.size(); ++i) {
@@ -207,12 +236,13 @@ GainFit fit_at_lag(const Controller& c, const std::vector<double>& t, const std:
     y(static_cast<Eigen::Index>(i)) = u[k] / c.drive_gain;
   }
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
-  if (qr.rank() < p)
-    throw std::invalid_argument(c.source + ": the log does not move enough to identify the missing gains "
-                                "(the reference error and the velocity are not independent)");
+  if (qr.rank() < p) {
+    f.error = c.source + ": the log does not move enough to identify the missing gains "
+                         "(the reference error and the velocity are not independent)";
+    return f;
+  }
   const Eigen::VectorXd b = qr.solve(y);
   const Eigen::VectorXd res = y - A * b;
-  GainFit f;
   f.done = true;
   f.lag_samples = lag;
   f.samples = used.size();
@@ -235,9 +265,9 @@ GainFit fit_gains(const Controller& c, const std::vector<double>& t, const std::
                   const std::vector<double>& u, const std::vector<double>& reference,
                   const std::vector<double>& extra) {
   GainFit best = fit_at_lag(c, t, x, u, reference, extra, 0);
-  if (c.delay_samples > 0) {
+  if (c.delay_samples > 0 && best.error.empty()) {
     const GainFit delayed = fit_at_lag(c, t, x, u, reference, extra, c.delay_samples);
-    if (delayed.rms_residual < best.rms_residual) best = delayed;
+    if (delayed.error.empty() && delayed.rms_residual < best.rms_residual) best = delayed;
   }
   return best;
 }

@@ -18,6 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/outcome.hpp"
+
 namespace feedid::host {
 
 enum class ControlLaw { pd, p_pi };
@@ -35,13 +37,16 @@ struct Controller {
   std::string extra_command;             ///< column added after the saturation (command units); "" for none
   std::vector<std::string> warnings;     ///< unknown keys, one message each
   std::string source;                    ///< file name, for messages
+  /// Why the file holds no usable controller, naming the file and the key;
+  /// empty when it does (the host's one error form, io/outcome.hpp).
+  std::string error;
 };
 
 /// Reads a controller from parsed JSON; `source` names it in messages.
 /// Required: drive_gain (> 0), saturation (> 0), position_fir (a non-empty
 /// array of numbers), delay_samples (integer >= 0), reference (a column
 /// name). Optional: law ("pd", the default, or "p_pi"), kp, kv, ki,
-/// extra_command, comment. Throws std::invalid_argument naming the key.
+/// extra_command, comment. A file that cannot be used sets `error`, naming the key.
 Controller controller_from_json(const nlohmann::json& j, const std::string& source);
 /// The same from a file (read_json_file's errors for a missing or broken file).
 Controller read_controller_file(const std::string& path);
@@ -64,6 +69,9 @@ struct GainFit {
   /// How much of the logged extra command the logged command holds (1 when
   /// it is added as logged; NaN without one), with its standard error.
   double extra_gain = std::nan(""), extra_gain_se = std::nan("");
+  /// Why no gains could be fitted (too few unsaturated samples, degenerate
+  /// regressors); empty when they were.
+  std::string error;
 };
 
 /// Ordinary least squares of the logged command, u / drive_gain, on the
@@ -75,14 +83,15 @@ struct GainFit {
 /// saturation. The log may hold the command as
 /// computed or as applied (delay_samples later): both are fitted and the
 /// smaller residual kept. Standard errors by a delete-one-block jackknife
-/// (20 contiguous blocks), which holds for correlated residuals. Throws std::invalid_argument when too few
-/// samples remain or the regressors are degenerate.
+/// (20 contiguous blocks), which holds for correlated residuals. `error`
+/// says why when too few samples remain or the regressors are degenerate.
 GainFit fit_gains(const Controller& c, const std::vector<double>& t, const std::vector<double>& x,
                   const std::vector<double>& u, const std::vector<double>& reference,
                   const std::vector<double>& extra);
 
-/// The given gains, with the fitted ones where the file has none.
-Gains resolve_gains(const Controller& c, const GainFit& fit);
+/// The given gains, with the fitted ones where the file has none; the fit's
+/// error, or why fitted gains are no position loop's.
+Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit);
 
 /// Whether some gain the law uses is missing from the file.
 bool needs_fit(const Controller& c);

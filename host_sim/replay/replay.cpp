@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <stdexcept>
 
 #include "io/trace_files.hpp"
 #include "signals/filters.hpp"
@@ -22,7 +21,7 @@ std::string at_time(double t) {
 /// One column of the file as the trace reader reads it (same rows, same
 /// rules), through its position slot; `scale` as position_scale. Empty
 /// when the file has no such column and it is `optional`.
-std::vector<double> read_column(const std::string& path, const CsvColumns& cols, const std::string& column,
+Outcome<std::vector<double>> read_column(const std::string& path, const CsvColumns& cols, const std::string& column,
                                 const std::string& role, double scale, const std::vector<double>& t, bool optional) {
   CsvColumns c = cols;
   c.position = column;
@@ -31,21 +30,22 @@ std::vector<double> read_column(const std::string& path, const CsvColumns& cols,
   c.velocity = cols.time;
   c.position_scale = scale;
   const CsvResult r = read_trace_file(path, c);
+  using Column = std::vector<double>;
   if (r.ok && !r.trace.has_position && optional) return {};
   if (!r.ok || !r.trace.has_position)
-    throw std::invalid_argument(path + ": the " + role + " column '" + column + "' (from the controller file) cannot be read" +
-                                (r.ok ? ": no such column" : ": " + r.error));
-  std::vector<double> y;
-  y.reserve(r.trace.samples.size());
+    return refused<Column>(path + ": the " + role + " column '" + column + "' (from the controller file) cannot be read" +
+                           (r.ok ? ": no such column" : ": " + r.error));
+  Outcome<Column> y;
+  y.value.reserve(r.trace.samples.size());
   for (std::size_t k = 0; k < r.trace.samples.size(); ++k) {
     if (k >= t.size() || r.trace.samples[k].t_s != t[k])
-      throw std::invalid_argument(path + ": reading the " + role + " column '" + column +
-                                  "' kept other rows than the trace (a bad value in one column only?): first differs at row " +
-                                  std::to_string(k + 1));
-    y.push_back(r.trace.samples[k].x_m);
+      return refused<Column>(path + ": reading the " + role + " column '" + column +
+                             "' kept other rows than the trace (a bad value in one column only?): first differs at row " +
+                             std::to_string(k + 1));
+    y.value.push_back(r.trace.samples[k].x_m);
   }
-  if (y.size() != t.size())
-    throw std::invalid_argument(path + ": the " + role + " column '" + column + "' has fewer usable rows than the trace");
+  if (y.value.size() != t.size())
+    return refused<Column>(path + ": the " + role + " column '" + column + "' has fewer usable rows than the trace");
   return y;
 }
 
@@ -80,15 +80,15 @@ void process_position(const std::vector<double>& x, const std::vector<double>& t
 }
 
 /// The sample period of a run that must be continuous: its median step,
-/// and an error naming the first gap (a replay cannot bridge one).
-double continuous_period(const LoggedRun& run) {
+/// or an error naming the first gap (a replay cannot bridge one).
+Outcome<double> continuous_period(const LoggedRun& run) {
   const double dt = median_step(run.t);
   const double limit = max_step_s(dt);
   for (std::size_t k = 1; k < run.t.size(); ++k)
     if (run.t[k] - run.t[k - 1] > limit)
-      throw std::invalid_argument(run.source + ": a gap of " + at_time(run.t[k] - run.t[k - 1]) + " at t = " +
-                                  at_time(run.t[k - 1]) + ": a replay needs one continuous recording");
-  return dt;
+      return refused<double>(run.source + ": a gap of " + at_time(run.t[k] - run.t[k - 1]) + " at t = " +
+                             at_time(run.t[k - 1]) + ": a replay needs one continuous recording");
+  return {dt, ""};
 }
 
 /// The plant's effects: the model's load (its constant force and an arm's
@@ -162,7 +162,8 @@ ReplayOptions with_model_effects(const ModelFile& model, const ReplayOptions& op
 }
 
 /// The model in the loop over the run: x, v, a and force at every sample
-/// into r (r.gains, r.dt_s and r.substeps set).
+/// into r (r.gains, r.dt_s and r.substeps set); r.error where the
+/// simulation left the finite numbers.
 void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
                       ReplayResult& r) {
   const std::size_t n = run.t.size();
@@ -175,9 +176,11 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
   for (std::size_t k = 0; k < n; ++k)
     loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
   for (std::size_t k = 0; k < n; ++k)
-    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k]))
-      throw std::invalid_argument(run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
-                                  " (a model or controller value far off?)");
+    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k])) {
+      r.error = run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
+                " (a model or controller value far off?)";
+      return;
+    }
 }
 
 /// The three rows of figures, and the compared series (after drop_first) for plots.
@@ -213,49 +216,76 @@ void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResu
   r.a_sim_processed = tail(as);
 }
 
+/// Why the replay cannot start: an input's own error, an option out of
+/// range, a run too short or with columns of different lengths; empty when
+/// it can.
+std::string replay_refusal(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt) {
+  for (const std::string* e : {&model.error, &c.error, &run.error})
+    if (!e->empty()) return *e;
+  const std::size_t n = run.t.size();
+  if (opt.substeps < 1 || opt.substeps > 10000) return "--substeps must be 1 to 10000";
+  if (opt.drop_first < 0) return "--drop-first must be >= 0";
+  if (!(opt.filter_hz > 0.0)) return "--filter must be > 0 Hz";
+  if (n < static_cast<std::size_t>(opt.drop_first) + 20)
+    return run.source + ": too short to replay: " + std::to_string(n) + " samples";
+  if (run.x.size() != n || run.u.size() != n || run.reference.size() != n || (!run.extra.empty() && run.extra.size() != n))
+    return run.source + ": the replay's columns differ in length";
+  return "";
+}
+
 }  // namespace
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
-  const CsvResult main = read_trace_file(path, cols);
-  if (!main.ok) throw std::invalid_argument(main.error);
-  if (!main.trace.has_position)
-    throw std::invalid_argument(path + ": no position column '" + cols.position +
-                                "': a replay compares the simulated position with the measured one (--position)");
   LoggedRun run;
   run.source = path;
+  const CsvResult main = read_trace_file(path, cols);
+  if (!main.ok) {
+    run.error = main.error;
+    return run;
+  }
+  if (!main.trace.has_position) {
+    run.error = path + ": no position column '" + cols.position +
+                "': a replay compares the simulated position with the measured one (--position)";
+    return run;
+  }
   for (const TraceSample& s : main.trace.samples) {
     run.t.push_back(s.t_s);
     run.x.push_back(s.x_m);
     run.u.push_back(s.u_N);
   }
-  run.reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
-  if (c.extra_command.empty()) return run;
-  run.extra = read_column(path, cols, c.extra_command, "extra command", 1.0, run.t, true);
-  if (run.extra.empty())
+  Outcome<std::vector<double>> reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
+  run.reference = std::move(reference.value);
+  run.error = reference.error;
+  if (c.extra_command.empty() || !run.error.empty()) return run;
+  Outcome<std::vector<double>> extra = read_column(path, cols, c.extra_command, "extra command", 1.0, run.t, true);
+  run.extra = std::move(extra.value);
+  run.error = extra.error;
+  if (run.error.empty() && run.extra.empty())
     run.notes.push_back(path + " has no extra command column '" + c.extra_command + "': none is added");
   return run;
 }
 
 ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
                     bool fit_always) {
-  const std::size_t n = run.t.size();
-  if (opt.substeps < 1 || opt.substeps > 10000) throw std::invalid_argument("--substeps must be 1 to 10000");
-  if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
-  if (!(opt.filter_hz > 0.0)) throw std::invalid_argument("--filter must be > 0 Hz");
-  if (n < static_cast<std::size_t>(opt.drop_first) + 20)
-    throw std::invalid_argument(run.source + ": too short to replay: " + std::to_string(n) + " samples");
-  if (run.x.size() != n || run.u.size() != n || run.reference.size() != n || (!run.extra.empty() && run.extra.size() != n))
-    throw std::invalid_argument(run.source + ": the replay's columns differ in length");
   ReplayResult r;
-  r.dt_s = continuous_period(run);
+  r.error = replay_refusal(model, c, run, opt);
+  if (!r.error.empty()) return r;
+  const Outcome<double> dt = continuous_period(run);
+  r.error = dt.error;
+  if (!r.error.empty()) return r;
+  const std::size_t n = run.t.size();
+  r.dt_s = dt.value;
   r.substeps = opt.substeps;
   r.samples = n;
   r.notes = run.notes;
   r.units = opt.units;
   if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
-  r.gains = resolve_gains(c, r.gain_fit);
-
+  const Outcome<Gains> gains = resolve_gains(c, r.gain_fit);
+  r.gains = gains.value;
+  r.error = gains.error;
+  if (!r.error.empty()) return r;
   simulate_in_loop(model, c, run, opt, r);
+  if (!r.error.empty()) return r;
   compare_with_run(run, opt, r);
   r.samples_compared = r.t.size();
   return r;

@@ -34,6 +34,9 @@ struct LoggedRun {
   std::string source;
   std::vector<double> t, x, u, reference, extra;
   std::vector<std::string> notes;  ///< e.g. an extra command the log does not have
+  /// Why the run cannot be replayed (a column missing or unreadable, rows
+  /// that differ between reads); empty when it can (io/outcome.hpp).
+  std::string error;
 };
 
 /// Reads the run of `path` (CSV or .mat) with the trace columns of `cols`
@@ -41,8 +44,8 @@ struct LoggedRun {
 /// like the position) and extra command (as logged, command units)
 /// columns. An extra command the log lacks is none (a run without pulses
 /// replays with the controller of one with them), said in notes.
-/// Throws std::invalid_argument naming a missing reference column, or
-/// when the rows the reads keep differ.
+/// `error` names a missing reference column, or says where the rows the
+/// reads keep differ.
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
 
 struct ReplayOptions {
@@ -66,6 +69,11 @@ struct ReplayFigures {
 };
 
 struct ReplayResult {
+  /// Why there is no replay: the model's, the controller's or the run's own
+  /// error, an option out of range, a gap in the run, gains fitted that are
+  /// no position loop's, a simulation that left the finite numbers. Empty
+  /// when the figures below hold.
+  std::string error;
   /// The published comparison: measured processed, simulated from the plant's state.
   ReplayFigures error_pct;
   /// The simulated position processed exactly as the measured one (both sides alike).

@@ -343,6 +343,7 @@ std::string compensation_html(const IdentifyResult& b) {
   const double top = b.config.velocity_max_m_s;
   if (!(top > 0)) return "";
   const CompensationTable t = make_compensation_table(model, top, 20);
+  if (!t.error.empty()) return "";
   std::ostringstream o;
   o << "<h2>Friction compensation</h2>\n<p>The table <code>feedid compensate --model id.json --points 20</code> "
        "writes from the base model: breakpoints where the curve bends, largest interpolation error "
@@ -358,12 +359,8 @@ std::string compensation_html(const IdentifyResult& b) {
   CircleOptions c;
   c.drives = {model, model};
   c.models = {model, model};
-  CircleResult cr;
-  try {
-    cr = run_circle(c);
-  } catch (const std::exception& e) {
-    return o.str() + "<p>Circle test not run: " + html(e.what()) + "</p>\n";
-  }
+  const CircleResult cr = run_circle(c);
+  if (!cr.error.empty()) return o.str() + "<p>Circle test not run: " + html(cr.error) + "</p>\n";
   PlotSpec p = circle_plot(cr, c);
   p.id = "circle";
   o << "<p>Circle test (<code>feedid circle</code>): two axes that are this drive, radius "

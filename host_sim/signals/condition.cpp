@@ -235,15 +235,15 @@ std::vector<std::pair<std::size_t, std::size_t>> stretches(const Signals& s) {
 namespace {
 /// A time column read as seconds for want of a stated unit, whose median
 /// step is slower than any drive logs: a time in ms taken as s made the
-/// mass 10^6 too large and said ok (issue 31).
-void refuse_slow_unstated_time(const Trace& trace, double median_step_s) {
-  if (trace.time_unit_stated || median_step_s <= kSlowestUnstatedStep_s) return;
+/// mass 10^6 too large and said ok (issue 31). Why, or empty.
+std::string slow_unstated_time(const Trace& trace, double median_step_s) {
+  if (trace.time_unit_stated || median_step_s <= kSlowestUnstatedStep_s) return "";
   char buf[320];
   std::snprintf(buf, sizeof buf,
                 ": the time column steps by a median of %.4g, read as seconds (%.3g Hz), slower than a drive logs: "
                 "if it is in ms give --time-scale 0.001 (or name the column t_ms); if it is in s, --time-scale 1",
                 median_step_s, 1.0 / median_step_s);
-  throw std::invalid_argument(trace.source + buf);
+  return trace.source + buf;
 }
 }  // namespace
 
@@ -260,10 +260,10 @@ Signals condition(const Trace& trace, const ConditionOptions& opt) {
   const double dt = median_step(s.t);
   // Readers reject non-increasing time, so only a trace of fewer than two
   // samples gets here without a rate; nothing downstream can use it.
-  if (!(dt > 0)) throw std::invalid_argument(trace.source + ": fewer than two samples, no sample rate to work with");
-  if (!trace.has_velocity && !trace.has_position)
-    throw std::invalid_argument(trace.source + ": neither velocity nor position column");
-  refuse_slow_unstated_time(trace, dt);
+  if (!(dt > 0)) s.error = trace.source + ": fewer than two samples, no sample rate to work with";
+  else if (!trace.has_velocity && !trace.has_position) s.error = trace.source + ": neither velocity nor position column";
+  else s.error = slow_unstated_time(trace, dt);
+  if (!s.error.empty()) return s;
   s.sample_rate_hz = 1.0 / dt;
   s.has_position = trace.has_position;
   if (regularise_stamps(trace, s) > 0) s.sample_rate_hz = 1.0 / median_step(s.t);  // the clock's, not the jitter's

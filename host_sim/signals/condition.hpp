@@ -33,6 +33,11 @@ struct LagEstimate {
 
 /// The signals as the core sees them, one entry per sample.
 struct Signals {
+  /// Why the trace gives no signals to work with (no rate, no motion
+  /// column, a time unit to state, a force lag beyond any logging), naming
+  /// the trace; empty when it does (io/outcome.hpp). Every stage that takes
+  /// signals passes it on as its own result's error.
+  std::string error;
   std::vector<double> t, x, v, u;
   std::string velocity_origin;        ///< "measured" or how it was derived
   std::string position_origin = "measured";  ///< or how x was made (no position column)
@@ -135,9 +140,8 @@ struct ConditionOptions {
 /// t, x (logged and unwrapped, or integrated from the velocity column),
 /// v (the velocity column as logged, held values spread if asked), u
 /// (oriented), the rate from the median step, the encoder quantum, holds,
-/// and whether the velocity column agrees with the position. Throws
-/// std::invalid_argument for a trace without a rate or without motion
-/// columns, naming the trace.
+/// and whether the velocity column agrees with the position. `error` for a
+/// trace without a rate or without motion columns, naming the trace.
 Signals condition(const Trace& trace, const ConditionOptions& opt);
 
 /// The samples of s where keep[k] is non-zero, with s's conventions and

@@ -23,15 +23,15 @@ const char* velocity_log_name(VelocityLog v) {
   }
   return "?";
 }
-ForceLog parse_force_log(const std::string& s) {
+Outcome<ForceLog> parse_force_log(const std::string& s) {
   for (ForceLog f : {ForceLog::held, ForceLog::instant, ForceLog::averaged})
-    if (s == force_log_name(f)) return f;
-  throw std::invalid_argument("--force-log must be held, instant or averaged, not '" + s + "'");
+    if (s == force_log_name(f)) return {f, ""};
+  return refused<ForceLog>("--force-log must be held, instant or averaged, not '" + s + "'");
 }
-VelocityLog parse_velocity_log(const std::string& s) {
+Outcome<VelocityLog> parse_velocity_log(const std::string& s) {
   for (VelocityLog v : {VelocityLog::backward_difference, VelocityLog::moving_average, VelocityLog::low_pass})
-    if (s == velocity_log_name(v)) return v;
-  throw std::invalid_argument("--velocity-log must be backward, average or lowpass, not '" + s + "'");
+    if (s == velocity_log_name(v)) return {v, ""};
+  return refused<VelocityLog>("--velocity-log must be backward, average or lowpass, not '" + s + "'");
 }
 
 LoggedVelocity::LoggedVelocity(const LoggingParams& p, double dt_s)

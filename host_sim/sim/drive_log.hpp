@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "io/outcome.hpp"
+
 namespace feedid::host {
 
 /// How the drive writes its log (NOTES.md, "Logging conventions"). The plant
@@ -31,8 +33,8 @@ const char* force_log_name(ForceLog f);
 const char* velocity_log_name(VelocityLog v);
 /// Parses the names above ("held", "instant", "averaged"; "backward",
 /// "average", "lowpass"); throws std::invalid_argument naming the option.
-ForceLog parse_force_log(const std::string& s);
-VelocityLog parse_velocity_log(const std::string& s);
+Outcome<ForceLog> parse_force_log(const std::string& s);
+Outcome<VelocityLog> parse_velocity_log(const std::string& s);
 
 /// The drive's velocity filter applied to the backward difference of the
 /// encoder position, one sample at a time (VelocityLog above).

@@ -34,154 +34,173 @@ namespace {
 // Input validation
 // ---------------------------------------------------------------------------
 
-// Throws std::invalid_argument("<field> (<unit>) must be <condition>, got <v>").
-[[noreturn]] void reject(const std::string& field, const std::string& unit,
-                         const std::string& condition, double value) {
-  std::ostringstream os;
-  os << field << " (" << unit << ") must be " << condition << ", got " << value;
-  throw std::invalid_argument(os.str());
-}
+/// The first thing wrong with a configuration, as "<field> (<unit>) must
+/// be <condition>, got <v>" (the host's one error form, io/outcome.hpp).
+struct ConfigCheck {
+  std::string error;
+  void reject(const std::string& field, const std::string& unit, const std::string& condition, double value) {
+    if (!error.empty()) return;
+    std::ostringstream os;
+    os << field << " (" << unit << ") must be " << condition << ", got " << value;
+    error = os.str();
+  }
+  void reject(const std::string& why) {
+    if (error.empty()) error = why;
+  }
+  void require_positive(double v, const char* field, const char* unit) {
+    if (!(std::isfinite(v) && v > 0.0)) reject(field, unit, "finite and > 0", v);
+  }
+  void require_non_negative(double v, const char* field, const char* unit) {
+    if (!(std::isfinite(v) && v >= 0.0)) reject(field, unit, "finite and >= 0", v);
+  }
+  void require_finite(double v, const char* field, const char* unit) {
+    if (!std::isfinite(v)) reject(field, unit, "finite", v);
+  }
+};
 
-void require_positive(double v, const char* field, const char* unit) {
-  if (!(std::isfinite(v) && v > 0.0)) reject(field, unit, "finite and > 0", v);
-}
-
-void require_non_negative(double v, const char* field, const char* unit) {
-  if (!(std::isfinite(v) && v >= 0.0)) reject(field, unit, "finite and >= 0", v);
-}
-
-void validate_friction(const DirectionFriction& f, const std::string& side) {
-  require_non_negative(f.viscous_Ns_m, ("drive." + side + ".viscous_Ns_m").c_str(), "N s/m");
-  require_non_negative(f.coulomb_N, ("drive." + side + ".coulomb_N").c_str(), "N");
-  require_non_negative(f.breakaway_N, ("drive." + side + ".breakaway_N").c_str(), "N");
-  require_positive(f.stribeck_velocity_m_s, ("drive." + side + ".stribeck_velocity_m_s").c_str(),
+void validate_friction(const DirectionFriction& f, const std::string& side, ConfigCheck& ck) {
+  ck.require_non_negative(f.viscous_Ns_m, ("drive." + side + ".viscous_Ns_m").c_str(), "N s/m");
+  ck.require_non_negative(f.coulomb_N, ("drive." + side + ".coulomb_N").c_str(), "N");
+  ck.require_non_negative(f.breakaway_N, ("drive." + side + ".breakaway_N").c_str(), "N");
+  ck.require_positive(f.stribeck_velocity_m_s, ("drive." + side + ".stribeck_velocity_m_s").c_str(),
                    "m/s");
 }
 
-void require_finite(double v, const char* field, const char* unit) {
-  if (!std::isfinite(v)) reject(field, unit, "finite", v);
-}
-
-void validate_effects(const SimConfig& c) {
+void validate_effects(const SimConfig& c, ConfigCheck& ck) {
   const Effects& e = c.effects;
-  require_finite(e.load.offset_N, "effects.load.offset_N", "N");
-  require_finite(e.load.gravity_N, "effects.load.gravity_N", "N");
-  require_finite(e.load.gravity_angle0_rad, "effects.load.gravity_angle0_rad", "rad");
+  ck.require_finite(e.load.offset_N, "effects.load.offset_N", "N");
+  ck.require_finite(e.load.gravity_N, "effects.load.gravity_N", "N");
+  ck.require_finite(e.load.gravity_angle0_rad, "effects.load.gravity_angle0_rad", "rad");
 
-  require_finite(e.ripple_amplitude_N, "effects.ripple_amplitude_N", "N");
-  require_finite(e.ripple_phase_rad, "effects.ripple_phase_rad", "rad");
-  if (e.ripple_amplitude_N != 0.0) require_positive(e.ripple_period_m, "effects.ripple_period_m", "m");
+  ck.require_finite(e.ripple_amplitude_N, "effects.ripple_amplitude_N", "N");
+  ck.require_finite(e.ripple_phase_rad, "effects.ripple_phase_rad", "rad");
+  if (e.ripple_amplitude_N != 0.0) ck.require_positive(e.ripple_period_m, "effects.ripple_period_m", "m");
 
-  require_finite(e.position_friction_N, "effects.position_friction_N", "N");
+  ck.require_finite(e.position_friction_N, "effects.position_friction_N", "N");
   if (e.position_friction_N != 0.0) {
     const double floor = -std::min(c.drive.pos.coulomb_N, c.drive.neg.coulomb_N);
     if (e.position_friction_N < floor)
-      reject("effects.position_friction_N", "N", ">= -min(Fc+, Fc-) (friction stays >= 0)", e.position_friction_N);
-    require_finite(e.position_friction_x_min_m, "effects.position_friction_x_min_m", "m");
-    require_finite(e.position_friction_x_max_m, "effects.position_friction_x_max_m", "m");
+      ck.reject("effects.position_friction_N", "N", ">= -min(Fc+, Fc-) (friction stays >= 0)", e.position_friction_N);
+    ck.require_finite(e.position_friction_x_min_m, "effects.position_friction_x_min_m", "m");
+    ck.require_finite(e.position_friction_x_max_m, "effects.position_friction_x_max_m", "m");
     if (!(e.position_friction_x_max_m > e.position_friction_x_min_m))
-      reject("effects.position_friction_x_max_m", "m", "> effects.position_friction_x_min_m",
+      ck.reject("effects.position_friction_x_max_m", "m", "> effects.position_friction_x_min_m",
              e.position_friction_x_max_m);
   }
 
-  require_finite(e.drift_fraction, "effects.drift_fraction", "-");
+  ck.require_finite(e.drift_fraction, "effects.drift_fraction", "-");
   if (e.drift_fraction != 0.0) {
-    if (!(e.drift_fraction > -1.0)) reject("effects.drift_fraction", "-", "> -1", e.drift_fraction);
-    require_positive(e.drift_time_constant_s, "effects.drift_time_constant_s", "s");
+    if (!(e.drift_fraction > -1.0)) ck.reject("effects.drift_fraction", "-", "> -1", e.drift_fraction);
+    ck.require_positive(e.drift_time_constant_s, "effects.drift_time_constant_s", "s");
   }
 
-  require_non_negative(e.quadratic_c2_Ns2_m2, "effects.quadratic_c2_Ns2_m2", "N s^2/m^2");
+  ck.require_non_negative(e.quadratic_c2_Ns2_m2, "effects.quadratic_c2_Ns2_m2", "N s^2/m^2");
 
-  require_non_negative(e.presliding_force_N, "effects.presliding_force_N", "N");
-  if (e.presliding_force_N > 0.0) require_positive(e.presliding_distance_m, "effects.presliding_distance_m", "m");
+  ck.require_non_negative(e.presliding_force_N, "effects.presliding_force_N", "N");
+  if (e.presliding_force_N > 0.0) ck.require_positive(e.presliding_distance_m, "effects.presliding_distance_m", "m");
 
-  require_non_negative(e.compliance_frequency_hz, "effects.compliance_frequency_hz", "Hz");
+  ck.require_non_negative(e.compliance_frequency_hz, "effects.compliance_frequency_hz", "Hz");
   if (e.compliance_frequency_hz > 0.0) {
     const double mu = e.compliance_mass_fraction;
     if (!(std::isfinite(mu) && mu > 0.0 && mu < 1.0))
-      reject("effects.compliance_mass_fraction", "-", "in (0, 1)", mu);
-    require_non_negative(e.compliance_damping_ratio, "effects.compliance_damping_ratio", "-");
+      ck.reject("effects.compliance_mass_fraction", "-", "in (0, 1)", mu);
+    ck.require_non_negative(e.compliance_damping_ratio, "effects.compliance_damping_ratio", "-");
     // RK4 must resolve the resonance: omega * h <= 0.5 with h = dt / substeps.
     const double f_max = 0.5 * c.controller.servo_rate_hz * c.plant_substeps / (2.0 * kPi);
     if (e.compliance_frequency_hz > f_max)
-      reject("effects.compliance_frequency_hz", "Hz",
+      ck.reject("effects.compliance_frequency_hz", "Hz",
              "<= servo_rate * plant_substeps / (4 pi) (integration accuracy)", e.compliance_frequency_hz);
   }
 
-  require_non_negative(e.delay_s, "effects.delay_s", "s");
-  if (e.delay_s > c.motion.duration_s) reject("effects.delay_s", "s", "<= motion.duration_s", e.delay_s);
+  ck.require_non_negative(e.delay_s, "effects.delay_s", "s");
+  if (e.delay_s > c.motion.duration_s) ck.reject("effects.delay_s", "s", "<= motion.duration_s", e.delay_s);
 
-  require_finite(e.disturbance_amplitude_N, "effects.disturbance_amplitude_N", "N");
-  require_finite(e.disturbance_phase_rad, "effects.disturbance_phase_rad", "rad");
+  ck.require_finite(e.disturbance_amplitude_N, "effects.disturbance_amplitude_N", "N");
+  ck.require_finite(e.disturbance_phase_rad, "effects.disturbance_phase_rad", "rad");
   if (e.disturbance_amplitude_N != 0.0)
-    require_positive(e.disturbance_frequency_hz, "effects.disturbance_frequency_hz", "Hz");
+    ck.require_positive(e.disturbance_frequency_hz, "effects.disturbance_frequency_hz", "Hz");
 
-  require_non_negative(e.wander_force_N, "effects.wander_force_N", "N");
-  if (e.wander_force_N > 0.0) require_positive(e.wander_time_constant_s, "effects.wander_time_constant_s", "s");
+  ck.require_non_negative(e.wander_force_N, "effects.wander_force_N", "N");
+  if (e.wander_force_N > 0.0) ck.require_positive(e.wander_time_constant_s, "effects.wander_time_constant_s", "s");
 }
 
-void validate_change(const SimConfig& c) {
+void validate_change(const SimConfig& c, ConfigCheck& ck) {
   const ServiceChange& ch = c.change;
   if (ch.warms_up() && c.plant != PlantKind::closed_loop)
-    throw std::invalid_argument("--warmup-drop: a warm-up is simulated by the closed-loop plant only");
+    ck.reject("--warmup-drop: a warm-up is simulated by the closed-loop plant only");
   if (!ch.on()) return;
   if (c.plant != PlantKind::closed_loop)
-    throw std::invalid_argument("--change-time: a change in service is simulated by the closed-loop plant only");
+    ck.reject("--change-time: a change in service is simulated by the closed-loop plant only");
   for (const auto& [v, name] : {std::pair<double, const char*>{ch.coulomb_fraction, "--change-coulomb-fraction"},
                                 {ch.viscous_fraction, "--change-viscous-fraction"},
                                 {ch.mass_fraction, "--change-mass-fraction"}})
-    if (!(v > -1.0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be > -1 (a fraction)");
-  if (ch.direction < -1 || ch.direction > 1) throw std::invalid_argument("--change-direction must be pos, neg or both");
+    if (!(v > -1.0) || !std::isfinite(v)) ck.reject(std::string(name) + " must be > -1 (a fraction)");
+  if (ch.direction < -1 || ch.direction > 1) ck.reject("--change-direction must be pos, neg or both");
 }
 
-void validate(const SimConfig& c) {
-  validate_change(c);
-  require_positive(c.drive.mass_kg, "drive.mass_kg", "kg");
-  validate_friction(c.drive.pos, "pos");
-  validate_friction(c.drive.neg, "neg");
+void validate(const SimConfig& c, ConfigCheck& ck) {
+  validate_change(c, ck);
+  ck.require_positive(c.drive.mass_kg, "drive.mass_kg", "kg");
+  validate_friction(c.drive.pos, "pos", ck);
+  validate_friction(c.drive.neg, "neg", ck);
 
   const ControllerParams& k = c.controller;
-  require_positive(k.servo_rate_hz, "controller.servo_rate_hz", "Hz");
-  require_non_negative(k.position_gain_1_s, "controller.position_gain_1_s", "1/s");
-  require_positive(k.velocity_bandwidth_hz, "controller.velocity_bandwidth_hz", "Hz");
-  require_non_negative(k.velocity_integral_hz, "controller.velocity_integral_hz", "Hz");
-  require_positive(k.force_limit_N, "controller.force_limit_N", "N");
+  ck.require_positive(k.servo_rate_hz, "controller.servo_rate_hz", "Hz");
+  ck.require_non_negative(k.position_gain_1_s, "controller.position_gain_1_s", "1/s");
+  ck.require_positive(k.velocity_bandwidth_hz, "controller.velocity_bandwidth_hz", "Hz");
+  ck.require_non_negative(k.velocity_integral_hz, "controller.velocity_integral_hz", "Hz");
+  ck.require_positive(k.force_limit_N, "controller.force_limit_N", "N");
 
   const MotionParams& m = c.motion;
-  require_positive(m.slowest_speed_m_s, "motion.slowest_speed_m_s", "m/s");
-  require_positive(m.fastest_speed_m_s, "motion.fastest_speed_m_s", "m/s");
+  ck.require_positive(m.slowest_speed_m_s, "motion.slowest_speed_m_s", "m/s");
+  ck.require_positive(m.fastest_speed_m_s, "motion.fastest_speed_m_s", "m/s");
   if (m.slowest_speed_m_s > m.fastest_speed_m_s)
-    reject("motion.slowest_speed_m_s", "m/s", "<= motion.fastest_speed_m_s",
+    ck.reject("motion.slowest_speed_m_s", "m/s", "<= motion.fastest_speed_m_s",
            m.slowest_speed_m_s);
-  if (m.speed_levels < 1) reject("motion.speed_levels", "count", ">= 1", m.speed_levels);
-  require_positive(m.acceleration_m_s2, "motion.acceleration_m_s2", "m/s^2");
-  require_non_negative(m.cruise_time_s, "motion.cruise_time_s", "s");
-  require_positive(m.max_travel_m, "motion.max_travel_m", "m");
-  require_non_negative(m.dwell_s, "motion.dwell_s", "s");
-  require_positive(m.duration_s, "motion.duration_s", "s");
+  if (m.speed_levels < 1) ck.reject("motion.speed_levels", "count", ">= 1", m.speed_levels);
+  ck.require_positive(m.acceleration_m_s2, "motion.acceleration_m_s2", "m/s^2");
+  ck.require_non_negative(m.cruise_time_s, "motion.cruise_time_s", "s");
+  ck.require_positive(m.max_travel_m, "motion.max_travel_m", "m");
+  ck.require_non_negative(m.dwell_s, "motion.dwell_s", "s");
+  ck.require_positive(m.duration_s, "motion.duration_s", "s");
 
   const SensorParams& s = c.sensors;
   if (std::isnan(s.encoder_resolution_m))
-    reject("sensors.encoder_resolution_m", "m", "a number (<= 0 disables quantisation)",
+    ck.reject("sensors.encoder_resolution_m", "m", "a number (<= 0 disables quantisation)",
            s.encoder_resolution_m);
-  require_non_negative(s.force_noise_N, "sensors.force_noise_N", "N");
-  require_non_negative(s.force_process_noise_N, "sensors.force_process_noise_N", "N");
+  ck.require_non_negative(s.force_noise_N, "sensors.force_noise_N", "N");
+  ck.require_non_negative(s.force_process_noise_N, "sensors.force_process_noise_N", "N");
 
-  if (c.plant_substeps < 1) reject("plant_substeps", "count", ">= 1", c.plant_substeps);
+  if (c.plant_substeps < 1) ck.reject("plant_substeps", "count", ">= 1", c.plant_substeps);
   if (c.logging.velocity_average_samples < 1)
-    reject("logging.velocity_average_samples", "count", ">= 1", c.logging.velocity_average_samples);
-  require_positive(c.logging.velocity_time_constant_s, "logging.velocity_time_constant_s", "s");
+    ck.reject("logging.velocity_average_samples", "count", ">= 1", c.logging.velocity_average_samples);
+  ck.require_positive(c.logging.velocity_time_constant_s, "logging.velocity_time_constant_s", "s");
 
-  validate_effects(c);
+  validate_effects(c, ck);
+  if (ck.error.empty() && MotionPath(c.motion, c.seed).pieces().empty())
+    ck.reject("motion: the program produced no motion (check the speeds and travel)");
 
   // Keep the sample count sane (the trace is held in memory).
   const double n = m.duration_s * k.servo_rate_hz;
   if (n > 5.0e8)
-    reject("motion.duration_s", "s", "such that duration * servo_rate <= 5e8 samples",
+    ck.reject("motion.duration_s", "s", "such that duration * servo_rate <= 5e8 samples",
            m.duration_s);
 }
 
+/// A configuration sim_config_error refuses is a caller's bug here: every
+/// command checks it first and says why.
+void require_valid(const SimConfig& c) {
+  const std::string why = sim_config_error(c);
+  if (!why.empty()) throw std::invalid_argument(why);
+}
+
 }  // namespace
+
+std::string sim_config_error(const SimConfig& c) {
+  ConfigCheck ck;
+  validate(c, ck);
+  return ck.error;
+}
 
 bool effect_on(const Effects& e, Effect which) {
   switch (which) {
@@ -278,7 +297,7 @@ struct ServoAxis::Impl {
   bool first = true;
 };
 
-ServoAxis::ServoAxis(const SimConfig& cfg) : impl_((validate(cfg), std::make_unique<Impl>(cfg))) {}
+ServoAxis::ServoAxis(const SimConfig& cfg) : impl_((require_valid(cfg), std::make_unique<Impl>(cfg))) {}
 ServoAxis::~ServoAxis() = default;
 ServoAxis::ServoAxis(ServoAxis&&) noexcept = default;
 
@@ -299,10 +318,10 @@ double ServoAxis::position_m() const { return impl_->plant.x(); }
 
 const char* plant_name(PlantKind p) { return p == PlantKind::open_loop ? "open" : "closed"; }
 
-PlantKind parse_plant(const std::string& s) {
+Outcome<PlantKind> parse_plant(const std::string& s) {
   for (PlantKind p : {PlantKind::closed_loop, PlantKind::open_loop})
-    if (s == plant_name(p)) return p;
-  throw std::invalid_argument("--plant must be closed or open, not '" + s + "'");
+    if (s == plant_name(p)) return {p, ""};
+  return refused<PlantKind>("--plant must be closed or open, not '" + s + "'");
 }
 
 namespace {
@@ -366,7 +385,7 @@ Trace simulator_trace(std::size_t n_samples) {
 }  // namespace
 
 Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress) {
-  validate(cfg);
+  require_valid(cfg);
   if (cfg.plant == PlantKind::open_loop) return simulate_open_loop(cfg, progress);
 
   const ControllerParams& kc = cfg.controller;

@@ -177,8 +177,8 @@ struct ServiceChange {
 /// independent open-loop inverse dynamics of open_loop_plant.hpp.
 enum class PlantKind { closed_loop, open_loop };
 const char* plant_name(PlantKind p);
-/// "closed", "open"; throws std::invalid_argument naming --plant.
-PlantKind parse_plant(const std::string& s);
+/// "closed", "open"; the error names --plant.
+Outcome<PlantKind> parse_plant(const std::string& s);
 
 struct SimConfig {
   PlantKind plant = PlantKind::closed_loop;
@@ -214,7 +214,7 @@ class CascadeController {
 /// two. No noise, delay or logging conventions: the plant's own response.
 class ServoAxis {
  public:
-  explicit ServoAxis(const SimConfig& cfg);  ///< throws std::invalid_argument as simulate does
+  explicit ServoAxis(const SimConfig& cfg);  ///< cfg as simulate takes it
   ~ServoAxis();
   ServoAxis(ServoAxis&&) noexcept;
   /// Measure, command toward r (+ u_extra, N), advance the plant over the
@@ -227,9 +227,14 @@ class ServoAxis {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The first parameter out of range, naming the field and its unit ("drive.mass_kg (kg)
+/// must be finite and > 0, got 0"), or a motion with no stroke; empty when
+/// the configuration can be simulated.
+std::string sim_config_error(const SimConfig& c);
+
 /// Simulate and return the recorded trace (t, x, v, u) at the servo rate.
-/// Throws std::invalid_argument naming the field and its unit when a
-/// parameter is out of range.
+/// The configuration must pass sim_config_error (a caller that did not ask
+/// gets std::invalid_argument: a bug, not an input error).
 /// `progress` (optional) is called with the fraction done, at most ~100 times.
 Trace simulate(const SimConfig& cfg, const std::function<void(double)>& progress = {});
 

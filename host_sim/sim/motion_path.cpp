@@ -185,10 +185,10 @@ const char* program_name(Program p) {
   return "?";
 }
 
-Program parse_program(const std::string& s) {
+Outcome<Program> parse_program(const std::string& s) {
   for (Program p : {Program::ladder, Program::sine, Program::production})
-    if (s == program_name(p)) return p;
-  throw std::invalid_argument("--program must be ladder, sine or production, not '" + s + "'");
+    if (s == program_name(p)) return {p, ""};
+  return refused<Program>("--program must be ladder, sine or production, not '" + s + "'");
 }
 
 PathPoint PathPiece::at(double tau) const {
@@ -215,7 +215,6 @@ MotionPath::MotionPath(const MotionParams& m, std::uint64_t seed) {
     case Program::production: build_production(m, seed, b); break;
   }
   pieces_ = b.take();
-  if (pieces_.empty()) throw std::invalid_argument("motion: the program produced no motion (check the speeds and travel)");
 }
 
 PathPoint MotionPath::at(double t_s) {

@@ -16,12 +16,14 @@
 #include <string>
 #include <vector>
 
+#include "io/outcome.hpp"
+
 namespace feedid::host {
 
 enum class Program { ladder, sine, production };
 const char* program_name(Program p);
-/// "ladder", "sine", "production"; throws std::invalid_argument naming --program.
-Program parse_program(const std::string& s);
+/// "ladder", "sine", "production"; the error names --program.
+Outcome<Program> parse_program(const std::string& s);
 
 struct MotionParams {
   Program program = Program::ladder;
@@ -58,7 +60,8 @@ struct PathPiece {
 class MotionPath {
  public:
   /// Builds the pieces up to m.duration_s; `seed` draws the sine and
-  /// production programs (the ladder has no randomness).
+  /// production programs (the ladder has no randomness). None where the
+  /// speeds and travel allow no stroke (sim_config_error says so).
   MotionPath(const MotionParams& m, std::uint64_t seed);
 
   /// Reference at t_s; t_s must not decrease between calls (a cursor moves on).

@@ -56,18 +56,18 @@ struct ErrorSums {
     error += (u - u_hat) * (u - u_hat);
     force += u * u;
   }
-  /// 100 ||u - u_hat|| / ||u||; an error naming why when there is no
+  /// 100 ||u - u_hat|| / ||u||, or an error naming why when there is no
   /// measured force to be relative to or a sum is not finite (it printed
   /// "-nan %" and exited 0).
-  double relative_pct(const std::string& source) const {
+  Outcome<double> relative_pct(const std::string& source) const {
     if (!std::isfinite(error) || !std::isfinite(force))
-      throw std::invalid_argument(source + ": the " + (std::isfinite(force) ? "predicted" : "measured") +
-                                  " force is not finite: no relative error to form (a model parameter that is not a "
-                                  "finite number?)");
+      return refused<double>(source + ": the " + (std::isfinite(force) ? "predicted" : "measured") +
+                             " force is not finite: no relative error to form (a model parameter that is not a "
+                             "finite number?)");
     if (!(force > 0.0))
-      throw std::invalid_argument(source + ": the measured force is zero on every sample compared: no relative error "
-                                           "to form (is --force the force column?)");
-    return 100.0 * std::sqrt(error / force);
+      return refused<double>(source + ": the measured force is zero on every sample compared: no relative error "
+                                      "to form (is --force the force column?)");
+    return {100.0 * std::sqrt(error / force), ""};
   }
 };
 
@@ -107,36 +107,50 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
 
 }  // namespace
 
-ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
+namespace {
+/// Why the options or the trace's length leave nothing to validate, or empty.
+std::string validate_refusal(const Trace& logged, const ValidateOptions& opt) {
   const std::size_t n = logged.samples.size();
-  if (opt.decimate < 1) throw std::invalid_argument("--decimate must be >= 1");
-  if (opt.drop_first < 0) throw std::invalid_argument("--drop-first must be >= 0");
+  if (opt.decimate < 1) return "--decimate must be >= 1";
+  if (opt.drop_first < 0) return "--drop-first must be >= 0";
   if (n < static_cast<std::size_t>(opt.drop_first) + 10u * static_cast<std::size_t>(opt.decimate))
-    throw std::invalid_argument(logged.source + ": trace too short to validate: " + std::to_string(n) + " samples");
+    return logged.source + ": trace too short to validate: " + std::to_string(n) + " samples";
+  return opt.load.refusal(logged.source, logged.has_position);
+}
+}  // namespace
+
+ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
   ValidateResult r;
   r.units = opt.units;
+  r.error = validate_refusal(logged, opt);
+  if (!r.error.empty()) return r;
   // The force outliers bridged, and the time base, gaps, wrap and force
   // sign, as identify has them (force_outliers.hpp, condition.hpp): one
   // row of 1e12 would be all of ||u||.
   const Signals s = condition(bridge_force_outliers(logged, opt.units.force, r.force_outliers), ConditionOptions{});
+  r.error = s.error;
+  if (!r.error.empty()) return r;
   r.force_sign = s.force_sign;
   r.position_wrap = s.position_wrap;
   r.stretches_on_clock_slots = s.stretches_on_clock_slots;
   r.velocity_origin = logged.has_position ? "position, zero-phase Butterworth + central differences"
                                           : "velocity column, zero-phase Butterworth; acceleration by central differences";
-  if (const std::string why = opt.load.refusal(logged.source, logged.has_position); !why.empty())
-    throw std::invalid_argument(why);
   ErrorSums full, decimated;
   const auto parts = stretches(s);
   for (const auto& [first, end] : parts)
     score_stretch(model, stretch_on_grid(s, first, end), logged.has_position, opt, full, decimated, r);
   r.stretches = parts.size();
   r.samples_used = r.t.size();
-  if (r.samples_used == 0)
-    throw std::invalid_argument(logged.source + ": no stretch between time gaps is longer than --drop-first (" +
-                                std::to_string(opt.drop_first) + " samples): nothing to validate on");
-  r.relative_error_full_pct = full.relative_pct(logged.source);
-  r.relative_error_pct = decimated.relative_pct(logged.source);
+  if (r.samples_used == 0) {
+    r.error = logged.source + ": no stretch between time gaps is longer than --drop-first (" +
+              std::to_string(opt.drop_first) + " samples): nothing to validate on";
+    return r;
+  }
+  const Outcome<double> full_pct = full.relative_pct(logged.source), pct = decimated.relative_pct(logged.source);
+  r.error = pct.ok() ? full_pct.error : pct.error;
+  if (!r.error.empty()) return r;
+  r.relative_error_full_pct = full_pct.value;
+  r.relative_error_pct = pct.value;
   r.error_norm_N = std::sqrt(decimated.error);
   r.rms_error_N = std::sqrt(decimated.error / static_cast<double>(r.samples_used));
   return r;

@@ -27,6 +27,11 @@ struct ValidateOptions {
 };
 
 struct ValidateResult {
+  /// Why there is no relative error (an option out of range, a trace too
+  /// short or without a rate, a load the trace cannot place, no measured
+  /// force to be relative to), naming the trace; empty when the figures
+  /// below hold (io/outcome.hpp).
+  std::string error;
   double relative_error_pct = 0.0;       ///< on the decimated samples (protocol-comparable)
   double relative_error_full_pct = 0.0;  ///< on every sample, no decimation
   double rms_error_N = 0.0;              ///< on the decimated samples

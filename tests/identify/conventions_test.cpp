@@ -329,7 +329,9 @@ TEST(ForceSign, ValidateAndAStatedSignAgreeWithTheFoundOne) {
   host::Trace reversed = logged;
   for (auto& smp : reversed.samples) smp.u_N = -smp.u_N;
   const host::ValidateResult as_logged = host::validate(cfg.drive, logged, host::ValidateOptions{});
+  ASSERT_EQ(as_logged.error, "");
   const host::ValidateResult negated = host::validate(cfg.drive, reversed, host::ValidateOptions{});
+  ASSERT_EQ(negated.error, "");
   EXPECT_EQ(negated.force_sign.sign, -1);
   EXPECT_NEAR(negated.relative_error_pct, as_logged.relative_error_pct, 1e-9);
   EXPECT_LT(negated.relative_error_pct, 100.0);  // against the force as logged: over 100 %
@@ -361,7 +363,9 @@ TEST(PositionWrap, AWrappedPositionIsRunOnAndMeetsTheBar) {
   EXPECT_NE(host::summary(r).find("unwrapped"), std::string::npos) << host::summary(r);
   expect_bar(r, cfg, Bar{});
   const host::ValidateResult as_moved = host::validate(cfg.drive, moved, host::ValidateOptions{});
+  ASSERT_EQ(as_moved.error, "");
   const host::ValidateResult as_logged = host::validate(cfg.drive, logged, host::ValidateOptions{});
+  ASSERT_EQ(as_logged.error, "");
   EXPECT_EQ(as_logged.position_wrap.wraps, r.signals.position_wrap.wraps);
   EXPECT_NEAR(as_logged.relative_error_pct, as_moved.relative_error_pct, 1e-3 * as_moved.relative_error_pct);
 }

@@ -134,12 +134,13 @@ TEST_F(EmpsReplay, DiagnoseOfTheIdentifiedModelOnPulsesNamesACauseAndClosesTheAc
 
 TEST_F(EmpsReplay, LoggedCommandRevealsTheDocumentedGains) {
   // GIVEN the controller file without kp and kv, on the run without pulses
-  nlohmann::json j = read_json_file(examples + "/emps_controller.json");
+  nlohmann::json j = read_json_file(examples + "/emps_controller.json").value;
   j.erase("kp");
   j.erase("kv");
   const Controller c = controller_from_json(j, "emps_controller.json without gains");
   const ReplayResult r = replay(read_model_file(examples + "/emps_reference_model.json"), c,
                                 read_logged_run(emps_dir + "/DATA_EMPS.csv", emps_columns(), c), ReplayOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN the fit finds the documented kp 160.18 and kv 243.45 within 1 %
   ASSERT_TRUE(r.gain_fit.done);
   EXPECT_NEAR(r.gain_fit.value.kp, 160.18, 0.01 * 160.18);
@@ -152,6 +153,7 @@ TEST_F(EmpsReplay, PulsesEnterTheLoggedCommandAsTheReadmeFound) {
   const ReplayResult r = replay(read_model_file(examples + "/emps_reference_model.json"), c,
                                 read_logged_run(emps_dir + "/DATA_EMPS_PULSES.csv", emps_columns(), c), ReplayOptions{},
                                 true);
+  ASSERT_EQ(r.error, "");
   // THEN the fit finds that gain, and with it the documented kv within 0.1 %
   EXPECT_NEAR(r.gain_fit.extra_gain, 1.014, 0.002);
   EXPECT_NEAR(r.gain_fit.value.kv, 243.45, 0.001 * 243.45);

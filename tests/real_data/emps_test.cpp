@@ -56,6 +56,7 @@ TEST_F(Emps, IdentifiesMassAndBeatsPublishedCrossTest) {
 
   // WHEN the model predicts the cross-test run with the reference protocol
   const ValidateResult val = validate(to_drive_params(id.estimate), read_emps("DATA_EMPS_PULSES.csv"), ValidateOptions{});
+  ASSERT_EQ(val.error, "");
   // THEN the relative force error beats the published 5.98 %
   EXPECT_LT(val.relative_error_pct, 5.98);
   EXPECT_GT(val.samples_used, 2000u);
@@ -69,6 +70,7 @@ TEST_F(Emps, ProtocolReproducesPublishedAsymmetricModelError) {
   ref.neg = {240.4236, 20.6277, 0.0, 1e-3};
   // WHEN our validate computes its error on the identification run
   const ValidateResult val = validate(ref, read_emps("DATA_EMPS.csv"), ValidateOptions{});
+  ASSERT_EQ(val.error, "");
   // THEN it lands within 0.3 points of the published figure, so our
   // protocol is comparable with the published numbers
   EXPECT_NEAR(val.relative_error_pct, 3.1117, 0.3);
@@ -126,6 +128,7 @@ TEST_F(Emps, ValidateOnARecordingPooledWithItselfGivesItsOwnError) {
   // WHEN both are validated
   const double single = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
   const ValidateResult twice = validate(emps_model(), pooled.trace, ValidateOptions{});
+  ASSERT_EQ(twice.error, "");
   // THEN the pooled error is the single run's within 1 % (no filter spans the gap)
   EXPECT_NEAR(twice.relative_error_pct, single, 0.01 * single);
   EXPECT_EQ(twice.stretches_scored, 2u);
@@ -140,6 +143,7 @@ TEST_F(Emps, ValidateOnARunWithTwoSecondsCutOutStaysNearTheWholeRun) {
   // WHEN validated
   const double full = pulses_error_pct(whole);
   const ValidateResult r = validate(emps_model(), cut, ValidateOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN the error stays within 1.25 times the whole run's, on two stretches
   EXPECT_LT(r.relative_error_pct, 1.25 * full);
   EXPECT_EQ(r.stretches_scored, 2u);
@@ -153,6 +157,7 @@ TEST_F(Emps, ValidateWithThirtyPercentOfRowsDroppedStaysNearTheWholeRun) {
   // WHEN validated
   const double full = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
   const ValidateResult r = validate(emps_model(), thinned, ValidateOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN it is scored on the uniform grid the uneven rows are read onto,
   // within 1.25 times the whole run's error (the lost rows' force noise
   // aliases into the band the protocol keeps: 4.9 % -> 5.3-5.4 %)
@@ -169,6 +174,7 @@ TEST_F(Emps, ValidateWithJitteredStampsFindsTheLogsClock) {
   // WHEN validated
   const double full = pulses_error_pct(read_emps("DATA_EMPS_PULSES.csv"));
   const ValidateResult r = validate(emps_model(), jittered, ValidateOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN the stamps are taken to the clock's slots, on which the position
   // is smoother, and the error is the clean run's within 1 %
   EXPECT_EQ(r.stretches_on_clock_slots, 1u);

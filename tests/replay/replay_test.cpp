@@ -19,7 +19,6 @@ namespace {
 
 using namespace feedid::host;
 using nlohmann::json;
-using feedid::test::error_of;
 
 json minimal_controller() {
   return json{{"kp", 60.0},         {"kv", 2.0 * kPi * 40.0 * 100.0}, {"drive_gain", 1.0}, {"saturation", 5000.0},
@@ -30,7 +29,7 @@ TEST(ReplayController, EachMissingRequiredKeyIsNamed) {
   for (const char* key : {"drive_gain", "saturation", "position_fir", "delay_samples", "reference"}) {
     json j = minimal_controller();
     j.erase(key);
-    const std::string e = error_of([&] { controller_from_json(j, "c.json"); });
+    const std::string e = controller_from_json(j, "c.json").error;
     EXPECT_NE(e.find(std::string("missing key '") + key + "'"), std::string::npos) << key << ": " << e;
     EXPECT_NE(e.find("c.json"), std::string::npos) << e;
   }
@@ -53,16 +52,16 @@ TEST(ReplayController, GainsAndExtraCommandAreOptionalUnknownKeysWarned) {
 TEST(ReplayController, BadValuesAreNamed) {
   json j = minimal_controller();
   j["law"] = "pid";
-  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'law'"), std::string::npos);
+  EXPECT_NE(controller_from_json(j, "c").error.find("'law'"), std::string::npos);
   j = minimal_controller();
   j["position_fir"] = {0.5, 0.4};
-  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("sum to 1"), std::string::npos);
+  EXPECT_NE(controller_from_json(j, "c").error.find("sum to 1"), std::string::npos);
   j = minimal_controller();
   j["delay_samples"] = 1.5;
-  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'delay_samples'"), std::string::npos);
+  EXPECT_NE(controller_from_json(j, "c").error.find("'delay_samples'"), std::string::npos);
   j = minimal_controller();
   j["saturation"] = 0;
-  EXPECT_NE(error_of([&] { controller_from_json(j, "c"); }).find("'saturation'"), std::string::npos);
+  EXPECT_NE(controller_from_json(j, "c").error.find("'saturation'"), std::string::npos);
 }
 
 TEST(ReplayController, VelocityEstimateIsTheFirDifference) {
@@ -136,6 +135,7 @@ TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   const Controller c = controller_from_json(minimal_controller(), "c");
   // WHEN the true model is replayed in that loop
   const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN with both sides processed alike every signal agrees to 0.5 %
   EXPECT_LT(r.same_processing_pct.position, 0.5);
   EXPECT_LT(r.same_processing_pct.velocity, 0.5);
@@ -149,6 +149,7 @@ TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   DriveParams heavy = true_drive();
   heavy.mass_kg *= 1.2;
   const ReplayResult w = replay(model_of(heavy), c, run, ReplayOptions{});
+  ASSERT_EQ(w.error, "");
   // THEN the force and acceleration errors grow many times over
   EXPECT_GT(w.same_processing_pct.force, 5.0 * std::max(r.same_processing_pct.force, 0.2));
   EXPECT_GT(w.same_processing_pct.acceleration, 5.0 * std::max(r.same_processing_pct.acceleration, 0.2));
@@ -175,6 +176,8 @@ TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
   ModelFile bare = with;
   bare.effects = json::array();
   const ReplayResult w = replay(with, c, run, ReplayOptions{}), b = replay(bare, c, run, ReplayOptions{});
+  ASSERT_EQ(w.error, "");
+  ASSERT_EQ(b.error, "");
   // THEN the effect in the plant closes the gap as the true plant's would, and the replay says so
   EXPECT_LT(w.same_processing_pct.force, 0.5);
   EXPECT_GT(b.same_processing_pct.force, 5.0 * std::max(w.same_processing_pct.force, 0.2));
@@ -184,7 +187,7 @@ TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
   // AND a kind no diagnosis names is an error, not an effect silently left out
   json typo = j;
   typo["effects"][0]["kind"] = "ripple";
-  EXPECT_NE(error_of([&] { model_file_from_json(typo, "t.json"); }).find("\"ripple\""), std::string::npos);
+  EXPECT_NE(model_file_from_json(typo, "t.json").error.find("\"ripple\""), std::string::npos);
 }
 
 TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
@@ -196,6 +199,8 @@ TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
   ReplayOptions coarse, fine;
   fine.substeps = 2 * coarse.substeps;
   const ReplayResult a = replay(model_of(model), c, run, coarse), b = replay(model_of(model), c, run, fine);
+  ASSERT_EQ(a.error, "");
+  ASSERT_EQ(b.error, "");
   auto close = [](double x, double y) { return std::fabs(x - y) <= 0.01 * std::fabs(y); };
   for (const auto& [fa, fb] : {std::pair{a.error_pct, b.error_pct}, std::pair{a.same_processing_pct, b.same_processing_pct}}) {
     EXPECT_PRED2(close, fa.position, fb.position);
@@ -222,6 +227,7 @@ TEST(Replay, StandingAxisDoesNotChatter) {
   j.erase("extra_command");
   const Controller c = controller_from_json(j, "c");
   const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN the simulated axis never moves and its force is the steady push
   for (std::size_t k = 0; k < r.v_sim.size(); ++k) {
     ASSERT_EQ(r.v_sim[k], 0.0) << k;
@@ -239,6 +245,7 @@ TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
   j.erase("kv");
   const Controller c = controller_from_json(j, "c");
   const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN the regression finds the loop's gains, with standard errors that cover them
   ASSERT_TRUE(r.gain_fit.done);
   const double kv = 2.0 * kPi * 40.0 * 100.0;
@@ -262,6 +269,7 @@ TEST(Replay, ProportionalIntegralLoopIsReplayedAndItsGainsFound) {
   j["ki"] = ki;
   // WHEN the true model is replayed in the p_pi law with the loop's gains
   const ReplayResult r = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
   // THEN it reproduces the run
   EXPECT_LT(r.same_processing_pct.velocity, 0.5);
   EXPECT_LT(r.same_processing_pct.force, 0.5);
@@ -270,6 +278,7 @@ TEST(Replay, ProportionalIntegralLoopIsReplayedAndItsGainsFound) {
   j.erase("kv");
   j.erase("ki");
   const ReplayResult f = replay(model_of(true_drive()), controller_from_json(j, "c"), run, ReplayOptions{});
+  ASSERT_EQ(f.error, "");
   // THEN the regression finds all three
   EXPECT_NEAR(f.gain_fit.value.kp, 60.0, 0.005 * 60.0);
   EXPECT_NEAR(f.gain_fit.value.kv, kv, 0.005 * kv);
@@ -286,7 +295,7 @@ TEST(Replay, GainsFromAForceOfTheOtherSignAreRefused) {
   j.erase("kv");
   const Controller c = controller_from_json(j, "c.json");
   // THEN the fit's negative gains are an error that says why, not a replay
-  const std::string e = error_of([&] { replay(model_of(true_drive()), c, run, ReplayOptions{}); });
+  const std::string e = replay(model_of(true_drive()), c, run, ReplayOptions{}).error;
   EXPECT_NE(e.find("not those of a position loop"), std::string::npos) << e;
 }
 
@@ -295,6 +304,7 @@ TEST(Replay, ReportPageShowsEverySignal) {
   ReplayOptions opt;
   opt.units = units_for(Axis::linear);
   const ReplayResult r = replay(model_of(true_drive()), controller_from_json(minimal_controller(), "c"), run, opt);
+  ASSERT_EQ(r.error, "");
   const std::string dir = ::testing::TempDir() + "replay_report_test";
   std::string err;
   ASSERT_TRUE(write_replay_report(r, dir, "simulated", "feedid replay ...", err)) << err;
@@ -311,9 +321,9 @@ TEST(Replay, GapAndShortRunAreErrors) {
   const Controller c = controller_from_json(minimal_controller(), "c");
   for (double& t : run.t)
     if (t > 0.5) t += 1.0;
-  EXPECT_NE(error_of([&] { replay(model_of(true_drive()), c, run, ReplayOptions{}); }).find("gap"), std::string::npos);
+  EXPECT_NE(replay(model_of(true_drive()), c, run, ReplayOptions{}).error.find("gap"), std::string::npos);
   LoggedRun shortrun = simulated_run(true_drive(), 0.05);
-  EXPECT_NE(error_of([&] { replay(model_of(true_drive()), c, shortrun, ReplayOptions{}); }).find("too short"),
+  EXPECT_NE(replay(model_of(true_drive()), c, shortrun, ReplayOptions{}).error.find("too short"),
             std::string::npos);
 }
 

@@ -67,13 +67,11 @@ TEST(ProductionProgram, HasRapidsAtTopSpeedThreeFeedRatesAndDwells) {
 }
 
 TEST(MotionProgram, UnknownNameIsRejectedByName) {
-  EXPECT_EQ(host::parse_program("sine"), Program::sine);
-  try {
-    host::parse_program("circle");
-    FAIL() << "accepted an unknown program";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("--program"), std::string::npos);
-  }
+  EXPECT_EQ(host::parse_program("sine").value, Program::sine);
+  EXPECT_TRUE(host::parse_program("sine").ok());
+  const host::Outcome<Program> circle = host::parse_program("circle");
+  EXPECT_FALSE(circle.ok()) << "accepted an unknown program";
+  EXPECT_NE(circle.error.find("--program"), std::string::npos) << circle.error;
 }
 
 }  // namespace

@@ -45,7 +45,7 @@ TEST(ModelLoad, AnArmsWeightWithoutAPositionIsRefused) {
   no_position.has_position = false;
   ValidateOptions o;
   o.load.gravity_N = 30.0;
-  const std::string why = test::error_of([&] { validate(DriveParams{}, no_position, o); });
+  const std::string why = validate(DriveParams{}, no_position, o).error;
   EXPECT_NE(why.find("no position"), std::string::npos) << why;
 }
 

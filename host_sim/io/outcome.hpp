@@ -1,0 +1,34 @@
+// The host's one error form (issue 29): a result carries its error.
+//
+// Every host function that can fail on what it is given returns a result
+// with an `error` string, empty when it did not fail: IdentifyResult,
+// CsvResult, ModelFile, Controller, ValidateResult, ... Outcome<T> is that
+// result for a plain value (a parsed name, a JSON document). A broken
+// precondition of the code itself (a filter asked for a cut-off its caller
+// never checked) is a bug and stays an exception.
+//
+// Nothing below host_sim/cli prints an error or chooses an exit code: the
+// CLI prints "error: " and the message, and exits 2 for bad input, 1 for an
+// output that could not be written (README, "Exit status"). Host only.
+#pragma once
+#include <string>
+#include <utility>
+
+namespace feedid::host {
+
+template <typename T>
+struct Outcome {
+  T value{};
+  std::string error;  ///< why there is no value; empty when there is one
+  bool ok() const { return error.empty(); }
+};
+
+/// An Outcome without a value, for `why`.
+template <typename T>
+Outcome<T> refused(std::string why) {
+  Outcome<T> o;
+  o.error = std::move(why);
+  return o;
+}
+
+}  // namespace feedid::host
