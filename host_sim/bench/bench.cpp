@@ -411,26 +411,32 @@ json machine_json() {
   return j;
 }
 
-bool write_text(const std::string& path, const std::string& text) {
+/// Writes `text` to path (and says so), or records why not.
+void write_text(const std::string& path, const std::string& text, RunEnd& end) {
   const std::string err = write_whole_file(path, text);
-  if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
-  return err.empty();
+  end.written(err);
+  if (err.empty()) std::printf("wrote %s\n", path.c_str());
 }
 
-bool parse_methods(const std::string& s, std::vector<std::string>& out) {
+/// The methods --methods names (all when empty), or why not.
+Outcome<std::vector<std::string>> parse_methods(const std::string& s) {
+  Outcome<std::vector<std::string>> parsed;
+  std::vector<std::string>& out = parsed.value;
   out.clear();
-  if (s.empty()) { out.assign(std::begin(kAllMethods), std::end(kAllMethods)); return true; }
+  if (s.empty()) {
+    out.assign(std::begin(kAllMethods), std::end(kAllMethods));
+    return parsed;
+  }
   std::stringstream ss(s);
   std::string m;
   while (std::getline(ss, m, ',')) {
     if (m.empty()) continue;
-    if (std::find(std::begin(kAllMethods), std::end(kAllMethods), m) == std::end(kAllMethods)) {
-      std::fprintf(stderr, "error: --methods: unknown method '%s' (streaming, batch_lm, ga, rls)\n", m.c_str());
-      return false;
-    }
+    if (std::find(std::begin(kAllMethods), std::end(kAllMethods), m) == std::end(kAllMethods))
+      return refused<std::vector<std::string>>("--methods: unknown method '" + m + "' (streaming, batch_lm, ga, rls)");
     out.push_back(m);
   }
-  return !out.empty();
+  if (out.empty()) parsed.error = "--methods names no method (streaming, batch_lm, ga, rls)";
+  return parsed;
 }
 
 json budgets_json(const BenchOptions& o) {
@@ -457,12 +463,11 @@ json budgets_json(const BenchOptions& o) {
 // --core-only
 // ---------------------------------------------------------------------------
 
-int run_core_only(const BenchOptions& o) {
-  if (o.samples < 1) { std::fprintf(stderr, "error: --samples must be >= 1\n"); return 2; }
-  if (o.precision != "float" && o.precision != "double") {
-    std::fprintf(stderr, "error: --precision must be float or double, not '%s'\n", o.precision.c_str());
-    return 2;
-  }
+RunEnd run_core_only(const BenchOptions& o) {
+  if (o.samples < 1) return RunEnd::refused("--samples must be >= 1");
+  if (o.precision != "float" && o.precision != "double")
+    return RunEnd::refused("--precision must be float or double, not '" + o.precision + "'");
+  RunEnd end;
   std::fprintf(stderr, "core-only: simulating a 30 s loop of the default drive\n");
   const CoreLoop l = make_core_loop(30.0);
   CoreRun r;
@@ -488,9 +493,9 @@ int run_core_only(const BenchOptions& o) {
               {"push_seconds", r.push_s}, {"ns_per_sample", ns}, {"solve_us", 1e6 * r.solve_s},
               {"status", feedid::status_name(r.status)}, {"state_bytes", state},
               {"estimate", params_json(r.params)}};
-    if (!write_text(o.json_path, j.dump(2) + "\n")) return 1;
+    write_text(o.json_path, j.dump(2) + "\n", end);
   }
-  return 0;
+  return end;
 }
 
 // ---------------------------------------------------------------------------
@@ -694,9 +699,9 @@ json traces_json(const std::vector<TraceRun>& runs) {
   return jt;
 }
 
-/// bench_time_vs_error.svg in the plot folder; false when it cannot be written.
-bool plot_time_vs_error(const BenchOptions& o, const std::vector<TraceRun>& runs, const std::vector<std::string>& methods,
-                        const json& machine) {
+/// bench_time_vs_error.svg in the plot folder, or why it cannot be written.
+void plot_time_vs_error(const BenchOptions& o, const std::vector<TraceRun>& runs, const std::vector<std::string>& methods,
+                        const json& machine, RunEnd& end) {
     PlotSpec p;
     p.title = "Wall time against worst parameter error (one point per trace)";
     p.x = {"wall time per trace (s)", true};
@@ -713,12 +718,11 @@ bool plot_time_vs_error(const BenchOptions& o, const std::vector<TraceRun>& runs
     }
     std::string err;
     const std::string path = o.plot_dir + "/bench_time_vs_error.svg";
-    if (!write_svg(path, p, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return false; }
+    if (!write_svg(path, p, err)) return end.written(err);
     std::printf("wrote %s\n", path.c_str());
-    return true;
 }
 
-int run_default(const BenchOptions& o, const std::vector<std::string>& methods) {
+RunEnd run_default(const BenchOptions& o, const std::vector<std::string>& methods) {
   const auto t_all = Clock::now();
   json out;
   out["mode"] = o.quick ? "quick" : "default";
@@ -738,13 +742,10 @@ int run_default(const BenchOptions& o, const std::vector<std::string>& methods) 
   out["machine"]["load_average_end"] = read_first("/proc/loadavg", "");
   out["total_seconds"] = since(t_all);
   std::printf("\nbench finished in %.1f s\n", since(t_all));
-  int rc = 0;
-  if (!o.plot_dir.empty() && !plot_time_vs_error(o, runs, methods, out["machine"])) rc = 1;
-  if (!o.json_path.empty()) {
-    if (!write_text(o.json_path, out.dump(2) + "\n")) rc = 1;
-    else std::printf("wrote %s\n", o.json_path.c_str());
-  }
-  return rc;
+  RunEnd end;
+  if (!o.plot_dir.empty()) plot_time_vs_error(o, runs, methods, out["machine"], end);
+  if (!o.json_path.empty()) write_text(o.json_path, out.dump(2) + "\n", end);
+  return end;
 }
 
 // ---------------------------------------------------------------------------
@@ -910,12 +911,12 @@ PlotSpec scaling_memory_plot(const std::vector<ScalingPoint>& pts, const std::ve
   return pt_mem;
 }
 
-int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) {
+RunEnd run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) {
   const auto t_all = Clock::now();
   std::vector<long> lengths;
   for (double l : {1e4, 3e4, 1e5, 3e5, 1e6, 3e6, 1e7, 3e7, 1e8})
     if (l <= static_cast<double>(o.max_samples) * 1.0000001) lengths.push_back(static_cast<long>(l));
-  if (lengths.empty()) { std::fprintf(stderr, "error: --max-samples must be >= 10000\n"); return 2; }
+  if (lengths.empty()) return RunEnd::refused("--max-samples must be >= 10000");
   json out;
   out["mode"] = "scaling";
   out["machine"] = machine_json();
@@ -932,7 +933,7 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
   out["scaling"] = rows;
   out["machine"]["load_average_end"] = read_first("/proc/loadavg", "");
   out["total_seconds"] = since(t_all);
-  int rc = 0;
+  RunEnd end;
   if (!o.plot_dir.empty()) {
     const std::string note = out["machine"]["cpu"].get<std::string>() + ", " + out["machine"]["date_utc"].get<std::string>() +
                              "; default drive, 2 kHz; dashed: extrapolated or constant";
@@ -940,16 +941,13 @@ int run_scaling(const BenchOptions& o, const std::vector<std::string>& methods) 
     for (const auto& [name, spec] : {std::pair<std::string, PlotSpec>{"bench_scaling_time.svg", scaling_time_plot(pts, methods, note)},
                                      {"bench_scaling_memory.svg", scaling_memory_plot(pts, methods, note)}}) {
       const std::string path = o.plot_dir + "/" + name;
-      if (!write_svg(path, spec, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); rc = 1; }
+      if (!write_svg(path, spec, err)) end.written(err);
       else std::printf("wrote %s\n", path.c_str());
     }
   }
-  if (!o.json_path.empty()) {
-    if (!write_text(o.json_path, out.dump(2) + "\n")) rc = 1;
-    else std::printf("wrote %s\n", o.json_path.c_str());
-  }
+  if (!o.json_path.empty()) write_text(o.json_path, out.dump(2) + "\n", end);
   std::printf("scaling finished in %.1f s\n", since(t_all));
-  return rc;
+  return end;
 }
 
 }  // namespace
@@ -975,20 +973,21 @@ CoreLoop make_core_loop(double seconds) {
 struct CostRun {
   double seconds = 0.0, cpu_seconds = 0.0;
   long long peak_rss_bytes = -1;
+  std::string error;  ///< the read's, where it failed
 };
 template <typename F> CostRun cost_of(const std::string& csv, F&& work) {
   CostRun r;
   r.seconds = timed(
       [&] {
         const CsvResult in = read_trace_csv(csv, CsvColumns{});
-        if (!in.error.empty()) throw std::runtime_error(in.error);
-        work(in.trace);
+        r.error = in.error;
+        if (r.error.empty()) work(in.trace);
       },
       1, &r.peak_rss_bytes, &r.cpu_seconds);
   return r;
 }
 
-int run_diagnose_cost(const BenchOptions& o) {
+RunEnd run_diagnose_cost(const BenchOptions& o) {
   SimConfig c;
   c.controller.servo_rate_hz = o.cost_rate_hz;
   c.motion.duration_s = o.cost_duration_s;
@@ -996,9 +995,17 @@ int run_diagnose_cost(const BenchOptions& o) {
   std::fprintf(stderr, "diagnose cost: simulating %.0f s at %.0f Hz ...\n", o.cost_duration_s, o.cost_rate_hz);
   const std::string csv = "/tmp/feedid_cost_" + std::to_string(getpid()) + ".csv";
   std::string error;
-  if (!write_trace_csv(csv, simulate(c), error)) throw std::runtime_error(error);
+  RunEnd end;
+  if (!write_trace_csv(csv, simulate(c), error)) {
+    end.written(error);
+    return end;
+  }
   std::fprintf(stderr, "diagnose cost: reading alone ...\n");
   const CostRun rd = cost_of(csv, [](const Trace&) {});
+  if (!rd.error.empty()) {  // the file just written does not read back
+    std::remove(csv.c_str());
+    return RunEnd::refused(rd.error);
+  }
   std::fprintf(stderr, "diagnose cost: identify ...\n");
   double core_passes = 0.0;
   const CostRun id = cost_of(csv, [&](const Trace& t) { core_passes = identify(t, IdentifyOptions{}).core_passes; });
@@ -1026,26 +1033,19 @@ int run_diagnose_cost(const BenchOptions& o) {
                     {"read", {{"seconds", rd.seconds}, {"cpu_seconds", rd.cpu_seconds}, {"peak_rss_bytes", rd.peak_rss_bytes}}},
                     {"identify_over_read", id.seconds / rd.seconds}, {"identify_core_passes", core_passes},
                     {"time_ratio", t_ratio}, {"memory_ratio", std::isfinite(m_ratio) ? json(m_ratio) : json(nullptr)}};
-    if (!write_text(o.json_path, j.dump(2) + "\n")) return 1;
+    write_text(o.json_path, j.dump(2) + "\n", end);
   }
-  return 0;
+  return end;
 }
 
-int run_bench(const BenchOptions& o) {
-  try {
-    if (o.core_only) return run_core_only(o);
-    if (o.diagnose_cost) return run_diagnose_cost(o);
-    std::vector<std::string> methods;
-    if (!parse_methods(o.methods, methods)) return 2;
-    if (o.repeats < 1 || o.ga_population < 5 || o.ga_generations < 0) {
-      std::fprintf(stderr, "error: --repeats must be >= 1, --ga-population >= 5, --ga-generations >= 0\n");
-      return 2;
-    }
-    return o.scaling ? run_scaling(o, methods) : run_default(o, methods);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
+RunEnd run_bench(const BenchOptions& o) {
+  if (o.core_only) return run_core_only(o);
+  if (o.diagnose_cost) return run_diagnose_cost(o);
+  const Outcome<std::vector<std::string>> methods = parse_methods(o.methods);
+  if (!methods.ok()) return RunEnd::refused(methods.error);
+  if (o.repeats < 1 || o.ga_population < 5 || o.ga_generations < 0)
+    return RunEnd::refused("--repeats must be >= 1, --ga-population >= 5, --ga-generations >= 0");
+  return o.scaling ? run_scaling(o, methods.value) : run_default(o, methods.value);
 }
 
 }  // namespace feedid::host

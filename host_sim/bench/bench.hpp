@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "io/outcome.hpp"
+
 #include "feedid/feedid.hpp"
 #include "identify/identify.hpp"
 
@@ -91,9 +93,9 @@ template <typename T> std::vector<feedid::Sample<T>> core_samples(const Signals&
   return out;
 }
 
-/// Runs the benchmark; prints progress on stderr and tables on stdout.
-/// Returns 0 on success, 1 if the JSON or a figure could not be written,
-/// 2 for bad options.
-int run_bench(const BenchOptions& opt);
+/// Runs the benchmark; prints progress on stderr and tables on stdout. The
+/// options it refuses and the outputs it could not write are in the RunEnd
+/// (io/outcome.hpp), for the CLI to say.
+RunEnd run_bench(const BenchOptions& opt);
 
 }  // namespace feedid::host

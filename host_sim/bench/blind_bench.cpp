@@ -943,28 +943,27 @@ Outcome<CaseMix> parse_mix(const BlindOptions& opt) {
 }
 
 /// One case's trace as CSV and its answer key as JSON, to look at a verdict.
-int write_case(const BlindOptions& opt, const std::vector<std::string>& schedule, const CaseMix& mix) {
-  if (opt.write_case > opt.cases || opt.case_path.empty()) {
-    std::fprintf(stderr, "--write-case needs a case number in 1..%d and --case-csv\n", opt.cases);
-    return 2;
-  }
+RunEnd write_case(const BlindOptions& opt, const std::vector<std::string>& schedule, const CaseMix& mix) {
+  if (opt.write_case > opt.cases || opt.case_path.empty())
+    return RunEnd::refused("--write-case needs a case number in 1.." + std::to_string(opt.cases) + " and --case-csv");
+  RunEnd end;
   const int i = opt.write_case - 1;
   const BlindCase bc = make_case(opt.seed, i, schedule[static_cast<std::size_t>(i)], mix);
   std::string error;
   if (!write_trace_csv(opt.case_path, bc.trace, error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return 2;
+    end.written(error);
+    return end;
   }
   const std::string err = write_whole_file(
       opt.case_path + ".truth.json",
       nlohmann::json{{"effect", bc.truth.label}, {"parameters", bc.truth.effect}, {"setup", bc.truth.setup}}.dump(2) + "\n");
   if (!err.empty()) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
-    return 1;
+    end.written(err);
+    return end;
   }
   std::printf("wrote case %d (%s) to %s and its truth to %s.truth.json\n", opt.write_case, bc.truth.label.c_str(),
               opt.case_path.c_str(), opt.case_path.c_str());
-  return 0;
+  return end;
 }
 
 namespace {
@@ -978,20 +977,17 @@ std::string rerun_command(const BlindOptions& opt) {
   return command;
 }
 
-/// The labels the cases are dealt from: all, or --labels; false naming an unknown one.
-bool label_deal(const BlindOptions& opt, std::vector<std::string>& deal) {
-  deal = labels();
-  if (opt.labels.empty()) return true;
-  deal.clear();
+/// The labels the cases are dealt from: all, or --labels; the error names an unknown one.
+Outcome<std::vector<std::string>> label_deal(const BlindOptions& opt) {
+  if (opt.labels.empty()) return {labels(), ""};
+  Outcome<std::vector<std::string>> deal;
   std::stringstream list(opt.labels);
   for (std::string l; std::getline(list, l, ',');) {
-    if (std::find(labels().begin(), labels().end(), l) == labels().end()) {
-      std::fprintf(stderr, "--labels: unknown label '%s'\n", l.c_str());
-      return false;
-    }
-    deal.push_back(l);
+    if (std::find(labels().begin(), labels().end(), l) == labels().end())
+      return refused<std::vector<std::string>>("--labels: unknown label '" + l + "'");
+    deal.value.push_back(l);
   }
-  return true;
+  return deal;
 }
 
 /// The answer key (truths) and the verdicts live in separate vectors; a
@@ -1084,31 +1080,19 @@ void print_scores(const Scores& s, double wall_s, int threads, double gen_total,
   std::printf("command: %s\n", command.c_str());
 }
 
-/// Writes `text` to path; false (and a message) when it cannot.
-bool write_output(const std::string& path, const std::string& text) {
-  const std::string err = write_whole_file(path, text);
-  if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
-  return err.empty();
-}
 
 }  // namespace
 
-int run_blind_bench(const BlindOptions& opt) {
-  if (opt.cases < 1) {
-    std::fprintf(stderr, "error: --cases (count) must be >= 1, got %d\n", opt.cases);
-    return 2;
-  }
+RunEnd run_blind_bench(const BlindOptions& opt) {
+  if (opt.cases < 1) return RunEnd::refused("--cases (count) must be >= 1, got " + std::to_string(opt.cases));
   const std::string command = rerun_command(opt);
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
   const int threads = std::max(1, std::min(opt.cases, opt.threads > 0 ? opt.threads : static_cast<int>(std::min(hw, 8u))));
-  std::vector<std::string> deal;
-  if (!label_deal(opt, deal)) return 2;
-  const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed, deal);
+  const Outcome<std::vector<std::string>> deal = label_deal(opt);
+  if (!deal.ok()) return RunEnd::refused(deal.error);
+  const std::vector<std::string> schedule = label_schedule(opt.cases, opt.seed, deal.value);
   const Outcome<CaseMix> parsed = parse_mix(opt);
-  if (!parsed.ok()) {
-    std::fprintf(stderr, "error: %s\n", parsed.error.c_str());
-    return 2;
-  }
+  if (!parsed.ok()) return RunEnd::refused(parsed.error);
   const CaseMix& mix = parsed.value;
   if (opt.write_case > 0) return write_case(opt, schedule, mix);
 
@@ -1130,13 +1114,13 @@ int run_blind_bench(const BlindOptions& opt) {
   const Scores s = score(run.recs);
   print_scores(s, run.wall_s, threads, gen_total, diag_total, command);
 
-  int rc = s.bar_accuracy && s.bar_closed && s.bar_false_alarms ? 0 : 3;
-  if (!opt.json_path.empty() && !write_output(opt.json_path, to_json(run.recs, s, opt, command, run.wall_s, threads).dump(2) + "\n"))
-    rc = 2;
-  if (!opt.markdown_path.empty() &&
-      !write_output(opt.markdown_path, markdown(s, command, run.wall_s, threads, gen_total, diag_total, opt)))
-    rc = 2;
-  return rc;
+  RunEnd end;
+  end.bar_missed = !(s.bar_accuracy && s.bar_closed && s.bar_false_alarms);
+  if (!opt.json_path.empty())
+    end.written(write_whole_file(opt.json_path, to_json(run.recs, s, opt, command, run.wall_s, threads).dump(2) + "\n"));
+  if (!opt.markdown_path.empty())
+    end.written(write_whole_file(opt.markdown_path, markdown(s, command, run.wall_s, threads, gen_total, diag_total, opt)));
+  return end;
 }
 
 }  // namespace feedid::host

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/outcome.hpp"
 #include "sim/drive_sim.hpp"
 
 namespace feedid::host {
@@ -45,10 +46,11 @@ struct BlindOptions {
 };
 
 /// Generates, diagnoses and scores. Prints the per-case lines and the summary
-/// tables on stdout. Returns 0 when the bar is met (right effect named
-/// in >= 90 % of cases; median held-out gap closed >= 80 % of its excess over
-/// the noise floor on the cases with a catalogued effect), 3 when it ran but
-/// the bar is missed, 2 when it could not run or write its outputs.
-int run_blind_bench(const BlindOptions& opt);
+/// tables on stdout. RunEnd::bar_missed when it ran but the bar is
+/// missed (right effect named in >= 90 % of cases; median held-out gap
+/// closed >= 80 % of its excess over the noise floor on the cases with a
+/// catalogued effect); the options it refused and the outputs it could not
+/// write are in the RunEnd too (io/outcome.hpp).
+RunEnd run_blind_bench(const BlindOptions& opt);
 
 }  // namespace feedid::host

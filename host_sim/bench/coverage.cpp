@@ -198,7 +198,7 @@ std::string markdown(const std::vector<CaseOutcome>& all, const CoverageOptions&
 
 }  // namespace
 
-int run_coverage(const CoverageOptions& opt) {
+RunEnd run_coverage(const CoverageOptions& opt) {
   std::vector<std::array<int, 3>> jobs;  // drive, force, seed index
   for (int d = 0; d < static_cast<int>(std::size(kDrives)); ++d)
     for (int f = 0; f < 3; ++f)
@@ -225,10 +225,8 @@ int run_coverage(const CoverageOptions& opt) {
   const int failed = static_cast<int>(std::count_if(out.begin(), out.end(), [](const CaseOutcome& o) { return !o.ok; }));
   const std::string md = markdown(out, opt, failed);
   std::fputs(md.c_str(), stdout);
-  if (!opt.markdown_path.empty()) {
-    const std::string err = write_whole_file(opt.markdown_path, md);
-    if (!err.empty()) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
-  }
+  RunEnd end;
+  if (!opt.markdown_path.empty()) end.written(write_whole_file(opt.markdown_path, md));
   if (!opt.json_path.empty()) {
     nlohmann::json j = nlohmann::json::array();
     for (const CaseOutcome& o : out) {
@@ -237,10 +235,9 @@ int run_coverage(const CoverageOptions& opt) {
                    {"velocity_log", o.velocity}, {"position", o.position}, {"err", o.err}, {"se", o.se},
                    {"identified", o.identified}, {"lm", o.lm}, {"lm_err", o.lm_err}});
     }
-    const std::string err = write_whole_file(opt.json_path, j.dump(1) + "\n");
-    if (!err.empty()) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+    end.written(write_whole_file(opt.json_path, j.dump(1) + "\n"));
   }
-  return 0;
+  return end;
 }
 
 }  // namespace feedid::host

@@ -8,6 +8,8 @@
 #include <functional>
 #include <string>
 
+#include "io/outcome.hpp"
+
 namespace feedid::host {
 
 struct CoverageOptions {
@@ -21,7 +23,7 @@ struct CoverageOptions {
 };
 
 /// Runs the Monte Carlo, prints the tables, writes JSON / Markdown if asked.
-/// Returns the process exit status (0, or 1 if an output could not be written).
-int run_coverage(const CoverageOptions& opt);
+/// The outputs it could not write are in the RunEnd (io/outcome.hpp).
+RunEnd run_coverage(const CoverageOptions& opt);
 
 }  // namespace feedid::host

@@ -38,7 +38,7 @@ struct BenchCommand : Command {
     c->add_option("--filter-hz", bo.filter_hz, "batch_lm, ga: zero-phase Butterworth cut-off before differencing (Hz); 0 = none")->capture_default_str();
     c->add_flag("--lm-naive-start", bo.lm_naive_start, "batch_lm: textbook start (Fs = 0.2 Fc, vs = median speed)");
   }
-  int run() override { return run_bench(bo); }
+  int run() override { return end_of_run(run_bench(bo)); }
 };
 
 }  // namespace

@@ -24,7 +24,7 @@ struct BlindBenchCommand : Command {
   int run() override {
     Progress p("blind-bench");
     if (opt.quiet) opt.progress = std::ref(p);
-    return run_blind_bench(opt);
+    return end_of_run(run_blind_bench(opt));
   }
 };
 

@@ -32,6 +32,13 @@ int output_failed(const std::string& why) {
   return 1;
 }
 
+int end_of_run(const RunEnd& end) {
+  if (!end.bad_input.empty()) return bad_input(end.bad_input);
+  for (const std::string& e : end.not_written) output_failed(e);
+  if (!end.not_written.empty()) return 1;
+  return end.bar_missed ? 3 : 0;
+}
+
 void warn(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 }

@@ -24,6 +24,10 @@ namespace feedid::host::cli {
 int bad_input(const std::string& why);
 /// ... and 1 for an output that could not be written.
 int output_failed(const std::string& why);
+/// The end of a run that printed its own tables (bench, coverage,
+/// blind-bench): says what was refused (exit 2) or not written (exit 1);
+/// 3 where a bar it checks was missed, else 0.
+int end_of_run(const RunEnd& end);
 /// Each warning (an unknown key in a file) on stderr.
 void warn(const std::vector<std::string>& warnings);
 

@@ -30,7 +30,7 @@ struct CoverageCommand : Command {
   int run() override {
     Progress p("coverage");
     opt.progress = std::ref(p);
-    return run_coverage(opt);
+    return end_of_run(run_coverage(opt));
   }
 };
 

@@ -13,6 +13,7 @@
 #pragma once
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace feedid::host {
 
@@ -21,6 +22,25 @@ struct Outcome {
   T value{};
   std::string error;  ///< why there is no value; empty when there is one
   bool ok() const { return error.empty(); }
+};
+
+/// How a whole run that prints its own tables as it goes (a benchmark, a
+/// coverage study) ended: what was refused, what could not be written, and
+/// whether a bar it checks was missed. The CLI says it and picks the exit
+/// code (host_sim/cli: 2, 1, 3).
+struct RunEnd {
+  std::string bad_input;                 ///< an option or input refused; nothing was run
+  std::vector<std::string> not_written;  ///< outputs that could not be written, one message each
+  bool bar_missed = false;               ///< a bar the run checks was not met
+  static RunEnd refused(std::string why) {
+    RunEnd e;
+    e.bad_input = std::move(why);
+    return e;
+  }
+  /// Records the error of a write (empty: it was written).
+  void written(const std::string& error) {
+    if (!error.empty()) not_written.push_back(error);
+  }
 };
 
 /// An Outcome without a value, for `why`.
