@@ -1141,7 +1141,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
 
 std::string summary(const DiagnoseResult& r) {
   std::ostringstream o;
-  if (!r.error.empty()) return "error: " + r.error + "\n";
+  if (!r.error.empty()) return "not diagnosed: " + r.error + "\n";  // the CLI prints the error itself
   const std::string& N = r.base.units.force;
   const char* n = N.c_str();
   char buf[400];

@@ -484,10 +484,12 @@ const ReplaySignal kReplaySignals[] = {
     {"force", [](const Units& u) { return u.force; }, &ReplayResult::u, &ReplayResult::u_sim, &ReplayFigures::force},
 };
 
+// The signal names come from the code that draws the page, never from input:
+// an unknown one is a programming error, not an error to report.
 const ReplaySignal& replay_signal(const std::string& name) {
   for (const ReplaySignal& s : kReplaySignals)
     if (name == s.name) return s;
-  throw std::invalid_argument("no replay signal '" + name + "'");
+  throw std::logic_error("no replay signal '" + name + "'");
 }
 
 PlotSeries line_series(const std::string& label, const std::string& color, bool dashed) {

@@ -96,4 +96,22 @@ TEST(Layering, OnlyTheCommandLinePrints) {
   }
 }
 
+TEST(Layering, OnlyTheCommandLineEndsTheProcessOrSaysError) {
+  // No stage below host_sim/cli ends the process or words an error line of
+  // its own: they return the error (Outcome, RunEnd, an error field) and the
+  // command line prints it and picks the exit code. The firmware trace
+  // generators are programs of their own.
+  static const std::regex ends(R"re(\b(std::)?(exit|_Exit|quick_exit|abort)\(|"error: )re");
+  for (const auto& e : fs::recursive_directory_iterator(kRoot / "host_sim")) {
+    const std::string rel = fs::relative(e.path(), kRoot / "host_sim").string();
+    if (rel.rfind("cli/", 0) == 0 || rel.rfind("firmware_traces/", 0) == 0 || !e.is_regular_file()) continue;
+    std::ifstream f(e.path());
+    std::string line;
+    for (int n = 1; std::getline(f, line); ++n) {
+      const auto code = line.substr(0, line.find("//"));
+      EXPECT_FALSE(std::regex_search(code, ends)) << "host_sim/" << rel << ":" << n << ": " << line;
+    }
+  }
+}
+
 }  // namespace
