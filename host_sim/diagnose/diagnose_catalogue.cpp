@@ -408,22 +408,35 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
 std::vector<double> load_acceleration(const Observations& obs, Observations::Resolution r, double w, double z) {
   const std::vector<Segment>& segs = obs.segments(r);
   std::vector<double> out(segs.size());
-  double y = segs.empty() ? 0.0 : segs[0].accel, yd = 0.0, h_prev = -1.0;
-  double p11 = 0, p12 = 0, p21 = 0, p22 = 0;
+  double y = segs.empty() ? 0.0 : segs[0].accel, yd = 0.0;
   const double wd = w * std::sqrt(1.0 - z * z);
+  // Phi for the first kKept segment lengths met. A logged clock's periods
+  // differ in their last bits from sample to sample (EMPS: 27 lengths in
+  // 25 s, met alternately), so Phi is kept per exact length, not for the
+  // last one only: the same bits, without an exp and a sincos per segment
+  // (a tenth of diagnose on that run). A jittered clock's lengths beyond
+  // the first kKept are computed each time, as before.
+  struct Phi {
+    double h, p11, p12, p21, p22;
+  };
+  constexpr std::size_t kKept = 64;
+  std::array<Phi, kKept + 1> seen;  // the last slot: a length not kept
+  std::size_t kept = 0, last = 0;
+  auto phi_of = [&](double h) -> const Phi& {
+    if (last < kept && seen[last].h == h) return seen[last];
+    for (last = 0; last < kept; ++last)
+      if (seen[last].h == h) return seen[last];
+    const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
+    Phi& p = seen[kept < kKept ? kept++ : kKept];
+    p = {h, decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)};
+    last = static_cast<std::size_t>(&p - seen.data());
+    return p;
+  };
   for (std::size_t i = 0; i < segs.size(); ++i) {
-    const double h = segs[i].dt;
-    if (h != h_prev) {
-      const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
-      p11 = decay * (c + z * w / wd * s);
-      p12 = decay * s / wd;
-      p21 = -decay * w * w / wd * s;
-      p22 = decay * (c - z * w / wd * s);
-      h_prev = h;
-    }
+    const Phi& p = phi_of(segs[i].dt);
     const double e = y - segs[i].accel, y0 = y;
-    y = segs[i].accel + p11 * e + p12 * yd;
-    yd = p21 * e + p22 * yd;
+    y = segs[i].accel + p.p11 * e + p.p12 * yd;
+    yd = p.p21 * e + p.p22 * yd;
     out[i] = 0.5 * (y0 + y);
   }
   return out;
