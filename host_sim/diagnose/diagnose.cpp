@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
@@ -347,13 +348,15 @@ double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs
 //    identification observations, then judged on the held-out ones.
 // ---------------------------------------------------------------------------
 
-/// Each effect's columns at its grid points, drawn once and kept across
-/// the selection's steps and pairs: the grids are fixed and the columns
-/// depend on nothing else, only the model they are fitted beside changes
-/// (on the 25 s EMPS PULSES run with a given model, the ripple's 160
-/// periods were drawn 7 times and the compliance's 50 frequencies 6). The
-/// same bits as drawing them again. Kept up to kBytes; beyond that, drawn
-/// each time as before, so a long log's memory stays bounded.
+/// The grid columns of the families whose columns are costly
+/// (EffectModel::keep_grid_columns), kept from their second draw on: the
+/// grids are fixed and the columns depend on nothing else, only the model
+/// they are fitted beside changes with the selection's steps and pair
+/// trials (on the 25 s EMPS PULSES run with a given model, the ripple's
+/// 160 periods were drawn 7 times and the compliance's 50 frequencies 6).
+/// A diagnosis that searches each family once holds nothing more. The same
+/// bits as drawing them again. Kept up to kBytes; beyond that, drawn each
+/// time as before, so a long log's memory stays bounded.
 class GridColumns {
  public:
   Mat at(const EffectModel& em, std::size_t i, int size, Observations::Resolution r) {
@@ -362,7 +365,7 @@ class GridColumns {
     if (it != kept_.end()) return it->second;
     Mat cols = em.columns(em.grid[i], size, r);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    if (bytes_ + bytes <= kBytes) {
+    if (em.keep_grid_columns && !drawn_.insert(key).second && bytes_ + bytes <= kBytes) {
       bytes_ += bytes;
       kept_.emplace(key, cols);
     }
@@ -370,9 +373,10 @@ class GridColumns {
   }
 
  private:
-  static constexpr std::size_t kBytes = std::size_t{32} << 20;
+  static constexpr std::size_t kBytes = std::size_t{24} << 20;
   using Key = std::tuple<const EffectModel*, std::size_t, int, int>;
   std::map<Key, Mat> kept_;
+  std::set<Key> drawn_;
   std::size_t bytes_ = 0;
 };
 

@@ -86,6 +86,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
   m.continuous = true;
   m.sizes = {1, 2, 3};
+  m.keep_grid_columns = true;
   m.columns = [&obs](double p, int harmonics, Observations::Resolution r) {
     const double k = 2.0 * M_PI / p;
     HarmonicMeans means(k, harmonics);
@@ -360,6 +361,7 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
   m.kind = effect_name(Effect::presliding_hysteresis);
   m.fine_grid = true;  // it builds up within a few ms of a reversal: a whole block is too coarse
+  m.keep_grid_columns = true;
   m.grid = log_grid(1e-6, std::min(2e-3, e.travel / 4), 40);
   m.sizes = {1, 2, 3};
   const std::size_t n = m.grid.size();
@@ -463,6 +465,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(3.0, f_top, 50);
   m.continuous = true;
   m.fine_grid = true;
+  m.keep_grid_columns = true;
   m.sizes = {1, 2};
   m.columns = [&obs](double f, int dampings, Observations::Resolution r) {
     std::vector<std::vector<double>> a2;

@@ -27,6 +27,12 @@ struct EffectModel {
   std::function<Mat(double, int, Observations::Resolution)> columns;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
+  /// Its columns cost a transcendental or a filter step per segment (a
+  /// ripple's sincos, presliding's exp, a compliance's resonance), so the
+  /// grid's are kept across the selection's steps (GridColumns in
+  /// diagnose.cpp); a family with cheap columns draws them again instead
+  /// of holding memory.
+  bool keep_grid_columns = false;
   std::function<nlohmann::json(double, int, const Vec& coef, double mass_kg)> parameters;
   /// More values to try around the best grid value (discrete parameters).
   std::function<std::vector<double>(double)> refine = {};
