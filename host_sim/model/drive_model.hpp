@@ -88,4 +88,17 @@ nlohmann::json model_json(const DriveParams& p, const Units& units = {});
 /// cannot be opened or parsed.
 Outcome<nlohmann::json> read_json_file(const std::string& path);
 
+/// A file read as a T (a model file, a controller file): `from_json(j,
+/// path)` on its JSON, or a T whose `source` is the path and whose `error`
+/// says why the file could not be read.
+template <typename T, typename FromJson>
+T read_json_file_as(const std::string& path, FromJson from_json) {
+  const Outcome<nlohmann::json> j = read_json_file(path);
+  if (j.ok()) return from_json(j.value, path);
+  T out;
+  out.source = path;
+  out.error = j.error;
+  return out;
+}
+
 }  // namespace feedid::host

@@ -140,12 +140,7 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
 }
 
 ModelFile read_model_file(const std::string& path) {
-  const Outcome<nlohmann::json> j = read_json_file(path);
-  if (j.ok()) return model_file_from_json(j.value, path);
-  ModelFile out;
-  out.source = path;
-  out.error = j.error;
-  return out;
+  return read_json_file_as<ModelFile>(path, model_file_from_json);
 }
 
 }  // namespace feedid::host

@@ -111,12 +111,7 @@ Controller controller_from_json(const nlohmann::json& j, const std::string& sour
 }
 
 Controller read_controller_file(const std::string& path) {
-  const Outcome<nlohmann::json> j = read_json_file(path);
-  if (j.ok()) return controller_from_json(j.value, path);
-  Controller c;
-  c.source = path;
-  c.error = j.error;
-  return c;
+  return read_json_file_as<Controller>(path, controller_from_json);
 }
 
 double VelocityEstimate::next(double q) {
