@@ -718,8 +718,8 @@ void plot_time_vs_error(const BenchOptions& o, const std::vector<TraceRun>& runs
     }
     std::string err;
     const std::string path = o.plot_dir + "/bench_time_vs_error.svg";
-    if (!write_svg(path, p, err)) return end.written(err);
-    std::printf("wrote %s\n", path.c_str());
+    if (!write_svg(path, p, err)) end.written(err);
+    else std::printf("wrote %s\n", path.c_str());
 }
 
 RunEnd run_default(const BenchOptions& o, const std::vector<std::string>& methods) {

@@ -1080,7 +1080,6 @@ void print_scores(const Scores& s, double wall_s, int threads, double gen_total,
   std::printf("command: %s\n", command.c_str());
 }
 
-
 }  // namespace
 
 RunEnd run_blind_bench(const BlindOptions& opt) {
