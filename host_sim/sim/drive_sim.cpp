@@ -177,14 +177,16 @@ void validate(const SimConfig& c, ConfigCheck& ck) {
   ck.require_positive(c.logging.velocity_time_constant_s, "logging.velocity_time_constant_s", "s");
 
   validate_effects(c, ck);
-  if (ck.error.empty() && MotionPath(c.motion, c.seed).pieces().empty())
-    ck.reject("motion: the program produced no motion (check the speeds and travel)");
 
   // Keep the sample count sane (the trace is held in memory).
   const double n = m.duration_s * k.servo_rate_hz;
   if (n > 5.0e8)
     ck.reject("motion.duration_s", "s", "such that duration * servo_rate <= 5e8 samples",
            m.duration_s);
+  // Last, and only for a configuration otherwise sound: it lays out the
+  // whole program, which the checks above keep to a size that fits.
+  if (ck.error.empty() && MotionPath(c.motion, c.seed).pieces().empty())
+    ck.reject("motion: the program produced no motion (check the speeds and travel)");
 }
 
 /// A configuration sim_config_error refuses is a caller's bug here: every

@@ -218,6 +218,7 @@ MotionPath::MotionPath(const MotionParams& m, std::uint64_t seed) {
 }
 
 PathPoint MotionPath::at(double t_s) {
+  if (pieces_.empty()) return {};  // no stroke fits: the axis rests at 0 (sim_config_error refuses such a program)
   while (cursor_ + 1 < pieces_.size() && t_s >= pieces_[cursor_].t0_s + pieces_[cursor_].duration_s) ++cursor_;
   const PathPiece& p = pieces_[cursor_];
   return p.at(std::clamp(t_s - p.t0_s, 0.0, p.duration_s));
