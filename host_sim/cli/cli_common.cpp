@@ -351,6 +351,9 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
   const MonitorResult r = monitor(stream, opt);
   progress.done();
   note_skipped_rows(path, r.rows_skipped, r.rows_repeated, r.skipped_rows);
+  // Refused before an epoch was read (a time column in ms read as s): no
+  // table or file would say more than the reason.
+  if (r.epochs.empty() && !r.error.empty()) return bad_input(r.error);
   if (jsonl_path != "-") std::cout << trend_table(r);  // stdout is the time series then
   if (!json_path.empty() && !write_json(json_path, to_json(r, opt))) return 1;
   std::string err;

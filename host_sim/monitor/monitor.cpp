@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "io/number_format.hpp"
+#include "signals/condition.hpp"
 #include "io/svg_plot.hpp"
 #include "feedid/small_matrix.hpp"
 
@@ -375,6 +376,10 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   // the conventions are due, epochs wait until they span the head.
   auto close_epoch = [&](double next_t_s) {
     if (buf.size() >= 2) {
+      // A log every epoch would refuse alike (a time column in ms read as
+      // s) stops here, once, with the remedy.
+      if (out.epochs.empty() && pending.empty()) out.error = log_refusal(trace_of(std::vector<TraceSample>(buf), in, "log"));
+      if (!out.error.empty()) return;
       const double rows = static_cast<double>(buf.size());
       pending.push_back({std::move(buf), in.has_temperature() ? covariate_sum[0] / rows : NAN,
                          in.has_load() ? covariate_sum[1] / rows : NAN});
@@ -390,13 +395,14 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     }
     identify_pending();
   };
-  while (in.next(s)) {
+  while (out.error.empty() && in.next(s)) {
     if (!buf.empty() && s.t_s - buf.front().t_s >= opt.detector.epoch_s) close_epoch(s.t_s);
     buf.push_back(s);
     covariate_sum[0] += in.has_temperature() ? in.temperature() : 0.0;
     covariate_sum[1] += in.has_load() ? in.load() : 0.0;
   }
-  close_epoch(INFINITY);
+  if (out.error.empty()) close_epoch(INFINITY);
+  if (!out.error.empty()) return out;
   for (std::size_t d = 0; d < 2; ++d)
     if (!out.law.fixed[d]) fix_law(out.law, d);  // the log ended first: the votes there are
   compare_up_to(out.epochs.size());

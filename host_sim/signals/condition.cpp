@@ -247,6 +247,13 @@ std::string slow_unstated_time(const Trace& trace, double median_step_s) {
 }
 }  // namespace
 
+std::string log_refusal(const Trace& trace) {
+  std::vector<double> t(trace.samples.size());
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = trace.samples[k].t_s;
+  const double dt = median_step(t);
+  return dt > 0 ? slow_unstated_time(trace, dt) : std::string();
+}
+
 Signals condition(const Trace& trace, const ConditionOptions& opt) {
   Signals s;
   const std::size_t n = trace.samples.size();

@@ -144,6 +144,13 @@ struct ConditionOptions {
 /// trace without a rate or without motion columns, naming the trace.
 Signals condition(const Trace& trace, const ConditionOptions& opt);
 
+/// Why condition() refuses the whole log whatever stretch of it is read
+/// (a time column read as seconds for want of a stated unit that steps
+/// slower than any drive logs), or empty. monitor asks it once, so that
+/// such a log stops the run with the remedy instead of leaving every
+/// epoch unidentified.
+std::string log_refusal(const Trace& trace);
+
 /// The samples of s where keep[k] is non-zero, with s's conventions and
 /// provenance: what was left out between two kept samples is a gap in
 /// time (Signals::gap_before), so no filter, integral or force tap spans

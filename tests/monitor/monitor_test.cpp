@@ -412,6 +412,23 @@ TEST(Monitor, ALogTooShortForAReferenceIsAnErrorNotNoAlarms) {
   EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "not_watching");
 }
 
+TEST(Monitor, ALogStampedInMsStopsWithTheRemedyInsteadOfSkippingEveryEpoch) {
+  // GIVEN a 2 kHz log whose unnamed time column is in ms (read as s: 2 Hz)
+  SimConfig c = production(3);
+  c.motion.duration_s = 120.0;
+  Trace t = simulate(c);
+  for (TraceSample& s : t.samples) s.t_s *= 1000.0;
+  const std::string path = ::testing::TempDir() + "feedid_monitor_ms.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, t, err)) << err;
+  CsvStream in(path, CsvColumns{});
+  ASSERT_TRUE(in.ok()) << in.error();
+  // WHEN monitored  THEN it stops before any epoch, naming the option that fixes it
+  const MonitorResult r = monitor(in, MonitorOptions{});
+  EXPECT_NE(r.error.find("--time-scale 0.001"), std::string::npos) << r.error;
+  EXPECT_TRUE(r.epochs.empty()) << r.epochs.size() << " epochs were read as if the log were sound";
+}
+
 TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
   SimConfig c = negative_coulomb_step();
   // The log ends 30 s after the alarm (raised at 160 s), before Fc- can
