@@ -2,6 +2,7 @@
 #include "baselines.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 #include <optional>
 #include <chrono>
 #include <cmath>
@@ -76,7 +77,7 @@ struct Prepared {
 Prepared prepare(const Trace& trace, const BaselineOptions& opt) {
   Prepared p;
   IdentifyOptions io;
-  p.s = prepare_signals(trace, io);
+  p.s = simulated_signals(trace, io);
   const feedid::Config<double> c = auto_config(p.s, io);
   p.v_min = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s : c.velocity_min_m_s;
   p.v_max = c.velocity_max_m_s;
@@ -194,6 +195,12 @@ template <int N> bool solve_ls(std::array<std::array<double, N>, N> a, std::arra
 }
 
 }  // namespace
+
+Signals simulated_signals(const Trace& trace, const IdentifyOptions& io) {
+  Signals s = prepare_signals(trace, io);
+  if (!s.error.empty()) throw std::logic_error("bench: a simulated trace did not condition: " + s.error);
+  return s;
+}
 
 RegressionRows regression_rows(const Trace& trace, const BaselineOptions& opt) {
   return rows_from(prepare(trace, opt), opt);

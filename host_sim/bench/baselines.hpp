@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "sim/drive_sim.hpp"
+#include "identify/identify.hpp"
 #include "io/trace.hpp"
 
 namespace feedid::host {
@@ -107,6 +108,11 @@ struct RegressionRows {
   double sample_rate_hz = 0.0;
 };
 RegressionRows regression_rows(const Trace& trace, const BaselineOptions& opt);
+
+/// The signals of a trace the bench apparatus simulated itself: one that
+/// does not condition is the apparatus's bug, not an input to report, so
+/// it throws std::logic_error.
+Signals simulated_signals(const Trace& trace, const IdentifyOptions& io);
 
 /// The sensible start shared by batch_lm and ga: linear least squares for
 /// m, Fc+-, sigma+- with Fs = 0, then per direction Fs and vs read off the

@@ -543,7 +543,7 @@ std::vector<TraceRun> run_cases(const std::vector<Case>& cases, const BenchOptio
     t.sim_seconds = since(t0);
     t.samples = tr.samples.size();
     IdentifyOptions io;
-    const Signals sig = prepare_signals(tr, io);
+    const Signals sig = simulated_signals(tr, io);
     const feedid::Config<double> cfg = auto_config(sig, io);
     t.v_lo = cfg.velocity_min_m_s;
     t.v_hi = cfg.velocity_max_m_s;
@@ -791,7 +791,7 @@ ScalingPoint run_scaling_point(long n, const BenchOptions& o, const std::vector<
   const Trace tr = simulate(sc, [](double) {});
   std::fprintf(stderr, " %.1f s\n", since(t0));
   IdentifyOptions io;
-  const Signals sig = prepare_signals(tr, io);
+  const Signals sig = simulated_signals(tr, io);
   const feedid::Config<double> cfg = auto_config(sig, io);
   ScalingPoint pt;
   pt.n = n;
@@ -957,7 +957,7 @@ CoreLoop make_core_loop(double seconds) {
   const Trace tr = simulate(sc);
   CoreLoop l;
   IdentifyOptions io;
-  l.signals = prepare_signals(tr, io);
+  l.signals = simulated_signals(tr, io);
   l.config = auto_config(l.signals, io);
   // End the loop in the last dwell (velocity zero for 3 samples) so the wrap
   // to the first sample (at rest) is a continuous stream.

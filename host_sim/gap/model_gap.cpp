@@ -55,14 +55,15 @@ void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const 
   ModelFile base = *opt.model;
   base.effects = nlohmann::json::array();
   g.before = replay(base, c, run, ropt);
+  g.error = g.before.error;
+  if (!g.error.empty()) return;  // the same loop would fail again with the effects
   PlantEffects pe = plant_effects(named_effects_json(g.diagnosis.effects), base.drive.mass_kg);
   g.plant = pe.list;
   ReplayOptions with = ropt;
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
   g.after = replay(base, c, run, with);
-  for (const std::string* e : {&g.before.error, &g.after.error})
-    if (g.error.empty()) g.error = *e;
+  g.error = g.after.error;
   if (!g.error.empty()) return;
   const std::vector<char> keep = heldout_samples(g.before.t, g.diagnosis.fold_edges);
   g.heldout_samples = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 1));
