@@ -992,6 +992,8 @@ RunEnd run_diagnose_cost(const BenchOptions& o) {
   c.controller.servo_rate_hz = o.cost_rate_hz;
   c.motion.duration_s = o.cost_duration_s;
   c.effects.ripple_amplitude_N = 3.0;
+  const std::string why = sim_config_error(c);  // --cost-rate, --cost-duration
+  if (!why.empty()) return RunEnd::refused(why);
   std::fprintf(stderr, "diagnose cost: simulating %.0f s at %.0f Hz ...\n", o.cost_duration_s, o.cost_rate_hz);
   const std::string csv = "/tmp/feedid_cost_" + std::to_string(getpid()) + ".csv";
   std::string error;

@@ -203,6 +203,13 @@ RunEnd run_coverage(const CoverageOptions& opt) {
   for (int d = 0; d < static_cast<int>(std::size(kDrives)); ++d)
     for (int f = 0; f < 3; ++f)
       for (int s = 0; s < opt.seeds; ++s) jobs.push_back({d, f, s});
+  // Every case's simulation is checked here (--duration), so that none
+  // throws inside a worker thread.
+  for (const auto& [d, f, s] : jobs) {
+    const std::string why = sim_config_error(
+        case_config(kDrives[d], kForceLogs[f], opt.first_seed + static_cast<std::uint64_t>(s), opt.duration_s));
+    if (!why.empty()) return RunEnd::refused(why);
+  }
   std::vector<CaseOutcome> out(jobs.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex progress_lock;

@@ -64,6 +64,8 @@ DriveParams scaled_friction(DriveParams m, double k) {
 Outcome<DriveParams> identified_on_the_spot(const DriveParams& drive, double rate_hz) {
   SimConfig c = axis_config(drive, rate_hz);
   c.motion.duration_s = 60.0;
+  const std::string why = sim_config_error(c);  // --rate out of range, said as an input error
+  if (!why.empty()) return refused<DriveParams>("simulating the drive to identify: " + why);
   const IdentifyResult r = identify(simulate(c), IdentifyOptions{});
   if (!r.error.empty()) return refused<DriveParams>("identifying the simulated drive: " + r.error);
   return {to_drive_params(r.estimate), ""};
