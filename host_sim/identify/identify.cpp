@@ -787,6 +787,36 @@ thread_local std::uint64_t pushed_on_this_thread = 0;
 
 std::uint64_t core_samples_pushed() { return pushed_on_this_thread; }
 
+namespace {
+/// Sample k of the signals as a core takes it; the first of a run of
+/// pushes starts a chain (dt 0).
+feedid::Sample<double> core_sample(const Signals& s, std::size_t k, std::size_t first) {
+  feedid::Sample<double> smp;
+  smp.dt_s = k == first ? 0.0 : s.t[k] - s.t[k - 1];
+  smp.position_m = s.x[k];
+  smp.velocity_m_s = s.v[k];
+  smp.force_N = s.u[k];
+  return smp;
+}
+}  // namespace
+
+template <typename C>
+SolvedCore<C> solve_core(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method, std::size_t begin,
+                         std::size_t end) {
+  SolvedCore<C> run;
+  run.core = std::make_unique<C>();
+  run.status = run.core->init(cfg);
+  if (run.status != feedid::Status::ok) return run;
+  const std::size_t n = std::min(end, s.t.size());
+  for (std::size_t k = begin; k < n; ++k) (void)run.core->push(core_sample(s, k, begin));
+  pushed_on_this_thread += n > begin ? n - begin : 0;
+  run.status = run.core->solve(method);
+  run.estimate = run.core->estimate();
+  return run;
+}
+template SolvedCore<Core> solve_core(const Signals&, const feedid::Config<double>&, feedid::Method, std::size_t, std::size_t);
+template SolvedCore<BandsCore> solve_core(const Signals&, const feedid::Config<double>&, feedid::Method, std::size_t, std::size_t);
+
 CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const IdentifyOptions& opt,
                  std::size_t begin, std::size_t end, const std::vector<std::size_t>& run_starts) {
   CoreRun run;
@@ -801,12 +831,7 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
   for (std::size_t k = begin; k < n; ++k) {
     const bool run_starts_here = next_run < run_starts.size() && run_starts[next_run] <= k;
     if (run_starts_here) boundary.start(core.diagnostics(), k == begin);
-    feedid::Sample<double> smp;
-    smp.dt_s = k == begin ? 0.0 : s.t[k] - s.t[k - 1];
-    smp.position_m = s.x[k];
-    smp.velocity_m_s = s.v[k];
-    smp.force_N = s.u[k];
-    const feedid::Status st = core.push(smp);
+    const feedid::Status st = core.push(core_sample(s, k, begin));
     if (st != feedid::Status::ok && run.first_rejections.size() < 10) run.first_rejections.push_back({k, st});
     boundary.after_push(core.diagnostics(), st == feedid::Status::ok);
     while (next_run < run_starts.size() && run_starts[next_run] <= k) ++next_run;
@@ -831,7 +856,8 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
 }
 
 namespace {
-FrictionModel select_direction(const Core& core, int d, double mass, feedid::DirectionEstimate<double>& de) {
+template <typename C>
+FrictionModel select_direction(const C& core, int d, double mass, feedid::DirectionEstimate<double>& de) {
   FrictionModel m;
   if (!de.friction_identified()) {
     m.reason = "no friction identified";
@@ -872,7 +898,8 @@ FrictionModel select_direction(const Core& core, int d, double mass, feedid::Dir
 }
 }  // namespace
 
-bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de) {
+template <typename Stats>
+bool refit_coulomb_viscous(const Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de) {
   const auto p = feedid::analysis::friction_points(st, d, mass);
   feedid::Vector<double, 3> th2, inv2;
   double ssr2 = 0.0;
@@ -894,9 +921,15 @@ bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::Di
   return true;
 }
 
-std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e) {
+template bool refit_coulomb_viscous(const Core::Stats&, int, double, feedid::DirectionEstimate<double>&);
+template bool refit_coulomb_viscous(const BandsCore::Stats&, int, double, feedid::DirectionEstimate<double>&);
+
+template <typename C>
+std::array<FrictionModel, 2> select_friction_models(const C& core, feedid::Estimate<double>& e) {
   return {select_direction(core, 0, e.mass_kg, e.pos), select_direction(core, 1, e.mass_kg, e.neg)};
 }
+template std::array<FrictionModel, 2> select_friction_models(const Core&, feedid::Estimate<double>&);
+template std::array<FrictionModel, 2> select_friction_models(const BandsCore&, feedid::Estimate<double>&);
 
 
 

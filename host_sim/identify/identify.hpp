@@ -23,6 +23,11 @@
 namespace feedid::host {
 
 using Core = feedid::Estimator<double>;
+/// The core as the drive builds it (FEEDID_PAPER_METHOD=0): the bands
+/// method alone, without the paper method's per-section sums; 1.8 times
+/// faster per sample on the host, and its estimate the same to rounding.
+/// The searches, which solve by the bands method, run it.
+using BandsCore = feedid::Estimator<double, Core::bands, Core::candidates, false>;
 
 /// The velocity the core is fed.
 enum class VelocitySource {
@@ -310,11 +315,19 @@ void fill_friction_curve(const Core& core, IdentifyResult& r);
 /// parameters in the Bayesian information criterion over the band points;
 /// otherwise replaces Fc, sigma and their standard errors by the Coulomb +
 /// viscous fit, sets Fs = vs = 0 (no dip) and flags the Stribeck pair.
-std::array<FrictionModel, 2> select_friction_models(const Core& core, feedid::Estimate<double>& e);
+/// C: Core or BandsCore.
+template <typename C>
+std::array<FrictionModel, 2> select_friction_models(const C& core, feedid::Estimate<double>& e);
+extern template std::array<FrictionModel, 2> select_friction_models(const Core&, feedid::Estimate<double>&);
+extern template std::array<FrictionModel, 2> select_friction_models(const BandsCore&, feedid::Estimate<double>&);
 /// Direction d's Coulomb + viscous law refitted on the bands (Fs = vs = 0),
 /// with its standard errors and flags; false when the bands cannot carry it.
 /// Model selection's fallback, and the jackknife's for a direction it chose.
-bool refit_coulomb_viscous(const Core::Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de);
+/// Stats: the statistics of Core or BandsCore.
+template <typename Stats>
+bool refit_coulomb_viscous(const Stats& st, int d, double mass, feedid::DirectionEstimate<double>& de);
+extern template bool refit_coulomb_viscous(const Core::Stats&, int, double, feedid::DirectionEstimate<double>&);
+extern template bool refit_coulomb_viscous(const BandsCore::Stats&, int, double, feedid::DirectionEstimate<double>&);
 
 /// The symmetric model, where both directions fell back to Coulomb + viscous and agree.
 SymmetricFriction symmetric_friction(const IdentifyResult& r);
@@ -324,7 +337,23 @@ CoreRun run_core(const Signals& s, const feedid::Config<double>& cfg, const Iden
                  std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1),
                  const std::vector<std::size_t>& run_starts = {});
 
-/// Samples run_core has pushed through a core on this thread so far: the
+/// A core of type C (Core or BandsCore) that samples [begin, end) of the
+/// signals were streamed through with `cfg` (its force lag as given), then
+/// solved by `method`: an identification of the searches and the standard
+/// errors, which need no counters and no model selection.
+template <typename C>
+struct SolvedCore {
+  feedid::Status status = feedid::Status::not_initialized;
+  feedid::Estimate<double> estimate{};
+  std::unique_ptr<C> core;
+};
+template <typename C>
+SolvedCore<C> solve_core(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method,
+                         std::size_t begin = 0, std::size_t end = static_cast<std::size_t>(-1));
+extern template SolvedCore<Core> solve_core(const Signals&, const feedid::Config<double>&, feedid::Method, std::size_t, std::size_t);
+extern template SolvedCore<BandsCore> solve_core(const Signals&, const feedid::Config<double>&, feedid::Method, std::size_t, std::size_t);
+
+/// Samples run_core or solve_core has pushed through a core on this thread so far: the
 /// difference over a call is that call's cost in core passes times the
 /// trace's length (IdentifyResult::core_passes).
 std::uint64_t core_samples_pushed();

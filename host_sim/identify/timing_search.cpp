@@ -24,9 +24,7 @@ using HeldModel = HeldFriction;
 HeldModel identify_model(const Signals& work, const feedid::Config<double>& cfg) {
   feedid::Config<double> c = cfg;
   c.force_lag_samples = work.force_lag_samples;
-  IdentifyOptions quiet;
-  quiet.select_friction_model = false;
-  const CoreRun run = run_core(work, c, quiet);
+  const SolvedCore<BandsCore> run = solve_core<BandsCore>(work, c, feedid::Method::bands);
   HeldModel out;
   if (run.status != feedid::Status::ok) return out;
   out.ok = true;

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 namespace feedid::host {
 namespace {
-
-using Stats = Core::Stats;
 
 /// Pointers to the nine standard errors of an estimate.
 std::array<double*, 9> se_fields(feedid::Estimate<double>& e) {
@@ -14,38 +14,49 @@ std::array<double*, 9> se_fields(feedid::Estimate<double>& e) {
           &e.neg.viscous_se, &e.neg.coulomb_se, &e.neg.breakaway_se, &e.neg.stribeck_velocity_se};
 }
 
-feedid::Status solve_stats(const Stats& s, const Core& layout_of, feedid::Method method, feedid::Estimate<double>& e) {
+/// Calls f with a null pointer to the core type for `method`: BandsCore, the drive's core, for
+/// the bands method; Core, which keeps the paper method's sums, for the
+/// paper method. The two agree to rounding where both can solve.
+template <typename F> auto for_method(feedid::Method method, F&& f) {
+  return method == feedid::Method::paper ? f(static_cast<Core*>(nullptr)) : f(static_cast<BandsCore*>(nullptr));
+}
+
+template <typename C>
+feedid::Status solve_stats(const typename C::Stats& s, const C& layout_of, feedid::Method method, feedid::Estimate<double>& e) {
   e = feedid::Estimate<double>{};
   e.method = method;
-  return method == feedid::Method::paper ? feedid::analysis::solve_paper(s, layout_of.config(), e)
-                                         : feedid::analysis::solve_bands(s, layout_of.layout(), layout_of.config(), e);
+  if constexpr (C::paper_method)
+    if (method == feedid::Method::paper) return feedid::analysis::solve_paper(s, layout_of.config(), e);
+  return feedid::analysis::solve_bands(s, layout_of.layout(), layout_of.config(), e);
 }
 
 /// Delete-one-chunk jackknife: sqrt((K-1)/K sum (theta_-i - mean)^2).
 int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Method method, std::array<double, 9>& se,
               const std::array<bool, 2>& refitted) {
-  const std::size_t n = s.t.size();
-  const int k = kJackknifeChunks;
-  std::vector<std::unique_ptr<Core>> cores;
-  IdentifyOptions quiet;
-  quiet.method = method;
-  for (int c = 0; c < k; ++c) {
-    CoreRun run = run_core(s, cfg, quiet, n * c / k, n * (c + 1) / k);
-    if (run.status == feedid::Status::invalid_config) return 0;
-    cores.push_back(std::move(run.core));
-  }
-  return jackknife_over(cores, method, se, refitted);
+  return for_method(method, [&](auto* type) {
+    using C = std::remove_pointer_t<decltype(type)>;
+    const std::size_t n = s.t.size();
+    const int k = kJackknifeChunks;
+    std::vector<std::unique_ptr<C>> cores;
+    for (int c = 0; c < k; ++c) {
+      SolvedCore<C> run = solve_core<C>(s, cfg, method, n * c / k, n * (c + 1) / k);
+      if (run.status == feedid::Status::invalid_config) return 0;
+      cores.push_back(std::move(run.core));
+    }
+    return jackknife_over(cores, method, se, refitted);
+  });
 }
 
 }  // namespace
 
-int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Method method, std::array<double, 9>& se,
+template <typename C>
+int jackknife_over(const std::vector<std::unique_ptr<C>>& cores, feedid::Method method, std::array<double, 9>& se,
                    const std::array<bool, 2>& refitted) {
   const int k = static_cast<int>(cores.size());
   std::vector<std::array<double, 9>> theta;
-  auto pooled = std::make_unique<Stats>();
+  auto pooled = std::make_unique<typename C::Stats>();
   for (int leave = 0; leave < k; ++leave) {
-    *pooled = Stats{};
+    *pooled = typename C::Stats{};
     for (int c = 0; c < k; ++c)
       if (c != leave) feedid::add_statistics(*pooled, cores[static_cast<std::size_t>(c)]->statistics());
     feedid::Estimate<double> e;
@@ -65,6 +76,10 @@ int jackknife_over(const std::vector<std::unique_ptr<Core>>& cores, feedid::Meth
   }
   return used;
 }
+template int jackknife_over(const std::vector<std::unique_ptr<Core>>&, feedid::Method, std::array<double, 9>&,
+                            const std::array<bool, 2>&);
+template int jackknife_over(const std::vector<std::unique_ptr<BandsCore>>&, feedid::Method, std::array<double, 9>&,
+                            const std::array<bool, 2>&);
 
 namespace {
 
@@ -77,11 +92,15 @@ std::array<double, 9> timing_se(const Signals& s, const feedid::Config<double>& 
   const double lag = timing_probe_lag(s);
   feedid::Config<double> c = cfg;
   c.force_lag_samples = lag;
-  IdentifyOptions quiet;
-  quiet.method = method;
-  const CoreRun run = run_core(s, c, quiet);  // the core pairs by c's lag: the samples need no copy
-  if (run.status != feedid::Status::ok) return out;
-  const auto at = parameters(run.estimate);
+  // The core pairs by c's lag: the samples need no copy. The friction law
+  // is chosen on the probe's bands as on the estimate's.
+  const auto [status, estimate] = for_method(method, [&](auto* type) {
+    auto run = solve_core<std::remove_pointer_t<decltype(type)>>(s, c, method);
+    if (run.status == feedid::Status::ok) (void)select_friction_models(*run.core, run.estimate);
+    return std::make_pair(run.status, run.estimate);
+  });
+  if (status != feedid::Status::ok) return out;
+  const auto at = parameters(estimate);
   for (int i = 0; i < 9; ++i) out[i] = std::fabs(at[i] - theta[i]) / kTimingProbeStep * lag_uncertainty;
   return out;
 }
@@ -132,22 +151,21 @@ std::array<double, 9> cutoff_standard_errors(const Signals& s, const feedid::Con
                                              const std::array<double, 9>& theta, const std::array<bool, 2>& refitted) {
   std::array<double, 9> out{};
   int used = 0;
-  IdentifyOptions quiet;
-  quiet.method = method;
-  quiet.select_friction_model = false;  // the law chosen on the data, refitted below as the jackknife does
   Signals rival;  // one copy, its velocity each rival's in turn
   if (!s.rival_velocities.empty()) rival = s;
   for (const std::vector<double>& v : s.rival_velocities) {
     rival.v = v;
-    CoreRun run = run_core(rival, cfg, quiet);
-    if (run.status != feedid::Status::ok) continue;
-    bool ok = true;
-    for (int d = 0; d < 2; ++d)
-      if (refitted[static_cast<std::size_t>(d)])
-        ok = ok && refit_coulomb_viscous(run.core->statistics(), d, run.estimate.mass_kg,
-                                         d == 0 ? run.estimate.pos : run.estimate.neg);
+    // The law chosen on the data, refitted below as the jackknife does.
+    const auto [ok, at] = for_method(method, [&](auto* type) {
+      auto run = solve_core<std::remove_pointer_t<decltype(type)>>(rival, cfg, method);
+      bool fits = run.status == feedid::Status::ok;
+      for (int d = 0; d < 2 && fits; ++d)
+        if (refitted[static_cast<std::size_t>(d)])
+          fits = refit_coulomb_viscous(run.core->statistics(), d, run.estimate.mass_kg,
+                                       d == 0 ? run.estimate.pos : run.estimate.neg);
+      return std::make_pair(fits, parameters(run.estimate));
+    });
     if (!ok) continue;
-    const auto at = parameters(run.estimate);
     for (std::size_t i = 0; i < out.size(); ++i) out[i] += (at[i] - theta[i]) * (at[i] - theta[i]);
     ++used;
   }

@@ -76,8 +76,14 @@ std::array<double, 9> timing_standard_errors(const Signals& s, const feedid::Con
 /// refitted[d]: direction d's full estimate is the Coulomb + viscous refit
 /// of model selection, and each delete-one solve is refitted the same way,
 /// so the spread is that of the reported law.
-int jackknife_over(const std::vector<std::unique_ptr<Core>>& groups, feedid::Method method, std::array<double, 9>& se,
+/// C: Core, or BandsCore for the bands method.
+template <typename C>
+int jackknife_over(const std::vector<std::unique_ptr<C>>& groups, feedid::Method method, std::array<double, 9>& se,
                    const std::array<bool, 2>& refitted = {false, false});
+extern template int jackknife_over(const std::vector<std::unique_ptr<Core>>&, feedid::Method, std::array<double, 9>&,
+                                   const std::array<bool, 2>&);
+extern template int jackknife_over(const std::vector<std::unique_ptr<BandsCore>>&, feedid::Method, std::array<double, 9>&,
+                                   const std::array<bool, 2>&);
 
 /// The rule of widen_standard_errors, applied to an estimate: resolved
 /// parameters take sqrt(jackknife^2 + timing^2) (the core's own when
