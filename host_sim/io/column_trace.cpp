@@ -56,7 +56,7 @@ CsvResult trace_from_columns(const TraceColumns& c, const CsvColumns& columns, c
       continue;
     }
     std::snprintf(time_text, sizeof time_text, "%.17g", s.t_s);
-    if (!rules.take(s, time_text, row)) return stop();
+    if (rules.take(s, time_text, row) == RowRules::Taken::stop) return stop();
   }
   if (!rules.finish(source)) return stop();
   result.ok = true;

@@ -410,7 +410,12 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
     if (r & kTemperature) lay.covariate[0] = value;
     if (r & kLoad) lay.covariate[1] = value;
   }
-  return rules.take(s, time_text, line) ? RowRead::kept : RowRead::stop;
+  switch (rules.take(s, time_text, line)) {
+    case RowRules::Taken::kept: return RowRead::kept;
+    case RowRules::Taken::skipped: return RowRead::skipped;
+    case RowRules::Taken::stop: break;
+  }
+  return RowRead::stop;
 }
 
 }  // namespace feedid::host::csv

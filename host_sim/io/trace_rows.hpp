@@ -62,20 +62,26 @@ class RowRules {
   /// A row the logger wrote twice: counted, left out.
   void repeated() { ++trace_.rows_repeated; }
 
-  /// Row `row`, read whole: kept if its time increases, else a bad row.
-  /// `time_text` is the time as written, for the message.
-  bool take(const TraceSample& s, std::string_view time_text, std::size_t row) {
+  /// What take() did with a row: a skipped row is counted and must not be
+  /// handed on (a stream that did fed the core a step back in time).
+  enum class Taken { kept, skipped, stop };
+
+  /// Row `row`, read whole: kept if its time increases, else a bad row
+  /// (skipped, or stop: error() says why). `time_text` is the time as
+  /// written, for the message.
+  Taken take(const TraceSample& s, std::string_view time_text, std::size_t row) {
     if (have_prev_ && !(s.t_s > prev_time_)) {
-      return bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
-                 " is not greater than previous " + quoted_text(prev_time_text_) + " on " + row_word_ + " " +
-                 std::to_string(prev_row_) + " (time must increase)");
+      const bool skipped = bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
+                               " is not greater than previous " + quoted_text(prev_time_text_) + " on " + row_word_ +
+                               " " + std::to_string(prev_row_) + " (time must increase)");
+      return skipped ? Taken::skipped : Taken::stop;
     }
     prev_time_ = s.t_s;
     prev_time_text_.assign(time_text);  // reuses its capacity: no allocation per row
     prev_row_ = row;
     have_prev_ = true;
     trace_.samples.push_back(s);
-    return true;
+    return Taken::kept;
   }
 
   /// After the last row: true, or false with error() set (more than the

@@ -352,6 +352,7 @@ TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
   for (int k = 0; k < 400; ++k) text += std::to_string(k * 1e-3) + ";" + std::to_string(k * 1e-6) + ";0.001;" + std::to_string(k) + "\n";
   text += "0.4;bad;0;0\n";                          // skipped, named
   text += "0.4005;4e-4;0.001;400\n0.4005;4e-4;0.001;400\n";  // repeated
+  text += "0.2;9;9;-777\n";                         // time back: skipped, never handed on
   text += "\n0.401;4.1e-4;0.001;401\n";
   const std::string path = ::testing::TempDir() + "feedid_stream.csv";
   std::ofstream(path) << text;
@@ -365,9 +366,10 @@ TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
     EXPECT_EQ(rows[k].t_s, whole.trace.samples[k].t_s);
     EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
   }
-  EXPECT_EQ(st.rows_skipped(), 1u);
+  EXPECT_EQ(st.rows_skipped(), 2u);
   EXPECT_EQ(st.rows_repeated(), 1u);
-  EXPECT_EQ(st.skipped_rows().front(), whole.trace.skipped_rows.front());
+  EXPECT_EQ(st.skipped_rows(), whole.trace.skipped_rows);
+  for (const TraceSample& r : rows) EXPECT_NE(r.u_N, -777.0) << "the row whose time went back was handed on";
 }
 
 TEST(CsvStream, HandsOnTheTemperatureAndLoadColumnsItIsAskedFor) {
