@@ -322,6 +322,12 @@ TEST(Replay, GapAndShortRunAreErrors) {
   for (double& t : run.t)
     if (t > 0.5) t += 1.0;
   EXPECT_NE(replay(model_of(true_drive()), c, run, ReplayOptions{}).error.find("gap"), std::string::npos);
+  // A lost row (a bad row the reader skipped) would put every later sample a period off.
+  LoggedRun lost = simulated_run(true_drive(), 1.0);
+  for (std::vector<double>* col : {&lost.t, &lost.x, &lost.u, &lost.reference, &lost.extra}) col->erase(col->begin() + 500);
+  const std::string why = replay(model_of(true_drive()), c, lost, ReplayOptions{}).error;
+  EXPECT_NE(why.find("rows missing after t = 0.499"), std::string::npos) << why;
+  EXPECT_NE(why.find("a step of 2 periods"), std::string::npos) << why;
   LoggedRun shortrun = simulated_run(true_drive(), 0.05);
   EXPECT_NE(replay(model_of(true_drive()), c, shortrun, ReplayOptions{}).error.find("too short"),
             std::string::npos);
