@@ -35,7 +35,11 @@ struct SimulateCommand : Command {
     if (!write_trace_csv(out_path, t, err, ch.warms_up() ? &temperature : nullptr)) return output_failed(err);
     if (!truth_path.empty()) {
       nlohmann::json tj = model_json(sim.drive);
-      tj["effects"] = effects_json(sim.effects, sim.drive);
+      // A model file's "effects" is diagnose's list, which validate, replay
+      // and diagnose --model read; the simulator's own, by name, go beside it.
+      const nlohmann::json simulated = effects_json(sim.effects, sim.drive);
+      tj["effects"] = nlohmann::json::array();
+      if (!simulated.empty()) tj["simulated_effects"] = simulated;
       if (!write_json(truth_path, tj)) return 1;
     }
     std::printf("wrote %s: %zu samples, %.3g s at %.6g Hz\n", out_path.c_str(), t.samples.size(), sim.motion.duration_s,

@@ -129,13 +129,16 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   if (j.contains("gravity")) read_gravity(j.at("gravity"), from_identify, out);
   if (j.contains("effects")) read_effects(j.at("effects"), j, out);
   if (!out.error.empty()) return out;
+  if (j.contains("simulated_effects"))
+    out.warnings.push_back(out.source + ": 'simulated_effects' (what simulate --truth simulated, by name) is not a "
+                                        "model's effect list: the model is taken without them");
   if (j.contains("units")) out.units = j.at("units");
   const std::string unphysical = non_physical_parameters(out.drive);
   if (!unphysical.empty()) {
     refuse(out, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
     return out;
   }
-  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "units", "comment"}, "", out);
+  if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "simulated_effects", "units", "comment"}, "", out);
   return out;
 }
 

@@ -102,3 +102,20 @@ TEST(Formats, GermanLogWithPreambleAndHeaderlessLogFromTheCommandLine) {
 }
 
 }  // namespace
+
+namespace {
+// GIVEN the truth simulate --truth writes, with and without an effect,
+// THEN every command that reads a model takes it (its simulated effects,
+// recorded by name, are said to be left out).
+TEST(Messages, SimulatesTruthFileIsAModelFile) {
+  const std::string dir = ::testing::TempDir();
+  for (const std::string fx : {"", " --ripple-amplitude 3"}) {
+    const std::string trace = dir + "feedid_truth_trace.csv", truth = dir + "feedid_truth.json";
+    ASSERT_EQ(feedid("simulate --duration 20" + fx + " --out " + trace + " --truth " + truth).rc, 0) << fx;
+    const Outcome v = feedid("validate --model " + truth + " --in " + trace);
+    EXPECT_EQ(v.rc, 0) << fx << v.err;
+    EXPECT_EQ(feedid("compensate --max-speed 0.15 --model " + truth).rc, 0) << fx;  // a truth has no speed range
+    EXPECT_EQ(v.err.find("simulated_effects") != std::string::npos, !fx.empty()) << fx << v.err;
+  }
+}
+}  // namespace
