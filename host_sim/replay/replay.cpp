@@ -166,15 +166,18 @@ class LoopReplay {
 
 /// opt, with the model file's own effects in the plant where opt brings
 /// none (diagnose --model replays its base without them, then with the
-/// effects it names); each of the model's effects said in notes.
-ReplayOptions with_model_effects(const ModelFile& model, const ReplayOptions& opt, std::vector<std::string>& notes) {
-  if (model.effects.empty() || !active_effects(opt.effects).empty() || opt.extra_force) return opt;
+/// effects it names); each of the model's effects said in notes. Refused
+/// where an effect's parameters are not what the plant can take.
+Outcome<ReplayOptions> with_model_effects(const ModelFile& model, const ReplayOptions& opt, std::vector<std::string>& notes) {
+  if (model.effects.empty() || !active_effects(opt.effects).empty() || opt.extra_force) return {opt, ""};
   const PlantEffects pe = plant_effects(model.effects, model.drive.mass_kg);
+  if (!pe.error.empty())
+    return refused<ReplayOptions>(model.source + ": " + pe.error + " (the model's effects, as the replay's plant takes them)");
   for (const PlantEffect& e : pe.list) notes.push_back("the model's effect " + e.kind + ": " + e.note);
   ReplayOptions with = opt;
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
-  return with;
+  return {with, ""};
 }
 
 /// The model in the loop over the run: x, v, a and force at every sample
@@ -187,12 +190,18 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
   r.v_sim.resize(n);
   r.a_sim.resize(n);
   r.u_sim.resize(n);
-  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, with_model_effects(model, opt, r.notes));
+  const Outcome<ReplayOptions> with = with_model_effects(model, opt, r.notes);
+  if (!with.ok()) {
+    r.error = with.error;
+    return;
+  }
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, with.value);
   loop.start_at(run.x.front());
   for (std::size_t k = 0; k < n; ++k)
     loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
   for (std::size_t k = 0; k < n; ++k)
-    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.u_sim[k])) {
+    if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.a_sim[k]) ||
+        !std::isfinite(r.u_sim[k])) {
       r.error = run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
                 " (a model or controller value far off?)";
       return;
@@ -304,6 +313,10 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   if (!r.error.empty()) return r;
   compare_with_run(run, opt, r);
   r.samples_compared = r.t.size();
+  const ReplayFigures& f = r.error_pct;
+  for (double pct : {f.position, f.velocity, f.acceleration, f.force})
+    if (std::isinf(pct))
+      r.error = run.source + ": the simulated axis's errors overflow (a model or controller value far off?)";
   return r;
 }
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace feedid::host {
 namespace {
@@ -19,12 +20,72 @@ double interpolate(const std::vector<double>& x, const std::vector<double>& y, d
 /// A force against the motion, f(t, x, v), for the extra force's sum.
 using Drag = std::function<double(double, double, double)>;
 
+/// An effect's parameters as the plant reads them: a value present must be
+/// of the type and range the plant needs, or `error` names the first that
+/// is not (a model file is the user's: a wrong value is an input error,
+/// never an exception or a NaN in the figures).
+struct Parameters {
+  const nlohmann::json& p;
+  std::string error;
+
+  bool fail(const std::string& why) {
+    if (error.empty()) error = why;
+    return false;
+  }
+  static bool finite_number(const nlohmann::json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
+  /// o[key], or `fallback` where absent.
+  double number_in(const nlohmann::json& o, const std::string& where, const char* key, double fallback) {
+    if (!o.is_object() || !o.contains(key)) return fallback;
+    if (finite_number(o.at(key))) return o.at(key).get<double>();
+    fail("'" + where + key + "' must be a finite number");
+    return fallback;
+  }
+  double number(const char* key, double fallback) { return number_in(p, "", key, fallback); }
+  double positive(const char* key, double fallback) {
+    const double x = number(key, fallback);
+    if (!(x > 0.0)) fail(std::string("'") + key + "' must be > 0");
+    return x;
+  }
+  std::string text(const char* key) {
+    if (!p.contains(key)) return "";
+    if (p.at(key).is_string()) return p.at(key).get<std::string>();
+    fail(std::string("'") + key + "' must be a string");
+    return "";
+  }
+  /// o[key] as a list of finite numbers (empty, with the error, otherwise).
+  std::vector<double> numbers_in(const nlohmann::json& o, const std::string& where, const char* key) {
+    std::vector<double> out;
+    if (!o.is_object() || !o.contains(key) || !o.at(key).is_array()) {
+      fail("'" + where + key + "' must be a list of numbers");
+      return out;
+    }
+    for (const nlohmann::json& v : o.at(key)) {
+      if (!finite_number(v)) {
+        fail("'" + where + key + "' must hold finite numbers only");
+        return {};
+      }
+      out.push_back(v.get<double>());
+    }
+    return out;
+  }
+};
+
 /// A position-friction profile per direction (shape "spline"): its
-/// profile plus each direction's level, against the motion.
-Drag profile_drag(const nlohmann::json& p) {
-  const auto& prof = p.at("profile");
-  const std::vector<double> x = prof.at("x_m"), pos = prof.at("positive_N"), neg = prof.at("negative_N");
-  const double lp = p.at("level_N").at("positive"), ln = p.at("level_N").at("negative");
+/// profile plus each direction's level, against the motion. Empty (with
+/// the reason in `in`) where the profile cannot be interpolated.
+Drag profile_drag(Parameters& in) {
+  const nlohmann::json none = nlohmann::json::object();
+  const nlohmann::json& prof = in.p.contains("profile") ? in.p.at("profile") : none;
+  const std::vector<double> x = in.numbers_in(prof, "profile.", "x_m"), pos = in.numbers_in(prof, "profile.", "positive_N"),
+                            neg = in.numbers_in(prof, "profile.", "negative_N");
+  if (!in.p.at("level_N").is_object()) in.fail("'level_N' must be an object {\"positive\", \"negative\"}");
+  const double lp = in.number_in(in.p.at("level_N"), "level_N.", "positive", 0.0);
+  const double ln = in.number_in(in.p.at("level_N"), "level_N.", "negative", 0.0);
+  if (x.empty() || pos.size() != x.size() || neg.size() != x.size())
+    in.fail("'profile' needs x_m, positive_N and negative_N of one length, at least one point");
+  for (std::size_t i = 1; i < x.size(); ++i)
+    if (!(x[i] > x[i - 1])) in.fail("'profile.x_m' must increase");
+  if (!in.error.empty()) return {};
   return [x, pos, neg, lp, ln](double, double q, double v) {
     if (v > 0) return interpolate(x, pos, q) + lp;
     if (v < 0) return -(interpolate(x, neg, q) + ln);
@@ -34,11 +95,14 @@ Drag profile_drag(const nlohmann::json& p) {
 
 /// A thermal drift per direction: (sigma change v + Fc change s) exp(-t / tc),
 /// t from the run's start (the replay's clock starts there).
-Drag drift_drag(const nlohmann::json& p) {
-  const double tc = p.at("time_constant_s");
-  const auto side = [&](const char* d, const char* key) { return p.contains(d) ? p.at(d).value(key, 0.0) : p.value(key, 0.0); };
+Drag drift_drag(Parameters& in) {
+  const double tc = in.positive("time_constant_s", 0.0);
+  const auto side = [&](const char* d, const char* key) {
+    return in.p.contains(d) ? in.number_in(in.p.at(d), std::string(d) + ".", key, 0.0) : in.number(key, 0.0);
+  };
   const double vp = side("positive", "viscous_change_Ns_m"), cp = side("positive", "coulomb_change_N");
   const double vn = side("negative", "viscous_change_Ns_m"), cn = side("negative", "coulomb_change_N");
+  if (!in.error.empty()) return {};
   return [=](double t, double, double v) {
     const double decay = std::exp(-t / tc);
     return v > 0 ? (vp * v + cp) * decay : (v < 0 ? (vn * v - cn) * decay : 0.0);
@@ -46,49 +110,50 @@ Drag drift_drag(const nlohmann::json& p) {
 }
 
 /// One named effect into the plant: true when it entered (note says how), false with the reason.
-bool into_plant(const std::string& kind, const nlohmann::json& p, double mass_kg, Effects& fx, std::vector<Drag>& drags,
+bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Effects& fx, std::vector<Drag>& drags,
                 std::string& note) {
   if (kind == effect_name(Effect::offset)) {
-    fx.load.offset_N += p.value("force_N", 0.0);
+    fx.load.offset_N += in.number("force_N", 0.0);
     note = "a constant load force";
   } else if (kind == effect_name(Effect::quadratic_viscous)) {
-    fx.quadratic_c2_Ns2_m2 = p.value("c2", 0.0);
+    fx.quadratic_c2_Ns2_m2 = in.number("c2", 0.0);
     note = "c2 v|v| in the friction";
   } else if (kind == effect_name(Effect::position_ripple)) {
-    fx.ripple_amplitude_N = p.value("amplitude_N", 0.0);
-    fx.ripple_period_m = p.value("period_m", 1.0);
-    fx.ripple_phase_rad = p.value("phase_rad", 0.0);
-    note = p.value("harmonics", 1) > 1 ? "its fundamental only (the plant's ripple is one sine)" : "a load force sine in position";
+    fx.ripple_amplitude_N = in.number("amplitude_N", 0.0);
+    fx.ripple_period_m = in.positive("period_m", 1.0);
+    fx.ripple_phase_rad = in.number("phase_rad", 0.0);
+    note = in.number("harmonics", 1.0) > 1.0 ? "its fundamental only (the plant's ripple is one sine)" : "a load force sine in position";
   } else if (kind == effect_name(Effect::position_friction)) {
-    if (p.value("shape", std::string()) == "spline" && p.contains("level_N")) {
-      drags.push_back(profile_drag(p));
+    if (in.text("shape") == "spline" && in.p.contains("level_N")) {
+      if (Drag d = profile_drag(in)) drags.push_back(std::move(d));
       note = "its profile per direction, interpolated in position";
     } else {
-      fx.position_friction_N = p.value("delta_N", 0.0);
-      fx.position_friction_x_min_m = p.value("x_min_m", 0.0);
-      fx.position_friction_x_max_m = p.value("x_max_m", 0.0);
+      fx.position_friction_N = in.number("delta_N", 0.0);
+      fx.position_friction_x_min_m = in.number("x_min_m", 0.0);
+      fx.position_friction_x_max_m = in.number("x_max_m", 0.0);
       note = "friction changed on its range of positions";
     }
   } else if (kind == effect_name(Effect::thermal_drift)) {
-    drags.push_back(drift_drag(p));
+    if (Drag d = drift_drag(in)) drags.push_back(std::move(d));
     note = "friction decaying from the run's start, per direction";
   } else if (kind == effect_name(Effect::presliding_hysteresis)) {
-    if (p.contains("elements") || p.value("resets", std::string()) != "at reversals") {
+    if (in.p.contains("elements") || in.text("resets") != "at reversals") {
       note = "not simulated: the plant's bristle element is one, reset at reversals only";
       return false;
     }
-    fx.presliding_force_N = p.value("force_N", 0.0);
-    fx.presliding_distance_m = p.value("distance_m", 1e-5);
+    fx.presliding_force_N = in.number("force_N", 0.0);
+    fx.presliding_distance_m = in.positive("distance_m", 1e-5);
     note = "a bristle element reset at reversals";
   } else if (kind == effect_name(Effect::compliance)) {
-    const double m2 = p.value("load_mass_kg", 0.0);
+    const double m2 = in.number("load_mass_kg", 0.0);
     if (!(m2 > 0 && m2 < mass_kg)) {
       note = "not simulated: its load mass is outside (0, m)";
       return false;
     }
-    fx.compliance_frequency_hz = p.value("frequency_hz", 0.0);
+    fx.compliance_frequency_hz = in.positive("frequency_hz", 0.0);
     fx.compliance_mass_fraction = m2 / mass_kg;
-    fx.compliance_damping_ratio = p.value("damping_ratio", 0.05);
+    fx.compliance_damping_ratio = in.number("damping_ratio", 0.05);
+    if (fx.compliance_damping_ratio < 0.0) in.fail("'damping_ratio' must be >= 0");
     note = "a load mass behind a spring (two-mass plant)";
   } else if (kind == effect_name(Effect::delay)) {
     note = "not simulated: a delay of the logged force is the log's, not the plant's";
@@ -109,7 +174,10 @@ PlantEffects plant_effects(const nlohmann::json& named, double mass_kg) {
     PlantEffect p;
     p.kind = e.value("kind", std::string());
     const nlohmann::json parameters = e.contains("parameters") ? e.at("parameters") : nlohmann::json::object();
-    p.simulated = into_plant(p.kind, parameters, mass_kg, out.effects, drags, p.note);
+    Parameters in{parameters, ""};
+    if (!parameters.is_object()) in.fail("its parameters must be an object");
+    p.simulated = in.error.empty() && into_plant(p.kind, in, mass_kg, out.effects, drags, p.note);
+    if (!in.error.empty() && out.error.empty()) out.error = "effect \"" + p.kind + "\": " + in.error;
     out.list.push_back(p);
   }
   if (!drags.empty())

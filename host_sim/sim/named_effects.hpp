@@ -26,6 +26,7 @@ struct PlantEffects {
   Effects effects;
   ExtraForce extra_force;
   std::vector<PlantEffect> list;
+  std::string error;  ///< the first effect whose parameters the plant cannot take, and why
 };
 
 /// named: a JSON array of {"kind", "parameters"}; a later effect of a kind

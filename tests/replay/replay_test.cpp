@@ -190,6 +190,44 @@ TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
   EXPECT_NE(model_file_from_json(typo, "t.json").error.find("\"ripple\""), std::string::npos);
 }
 
+// GIVEN model files whose effects or mass the plant cannot take, THEN the
+// replay refuses each, naming the file, the effect and the key: no crash,
+// no exception, no NaN or infinite figure with status ok.
+TEST(Replay, AnEffectThePlantCannotTakeIsRefusedByName) {
+  const LoggedRun run = simulated_run(true_drive(), 2.0);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  const DriveParams d = true_drive();
+  const json base = {{"m", d.mass_kg}, {"pos", {{"sigma", d.pos.viscous_Ns_m}, {"fc", d.pos.coulomb_N}}},
+                     {"neg", {{"sigma", d.neg.viscous_Ns_m}, {"fc", d.neg.coulomb_N}}}};
+  const std::vector<std::pair<json, std::string>> bad = {
+      {{{"kind", "position_friction"},
+        {"parameters", {{"shape", "spline"}, {"level_N", {{"positive", 1.0}, {"negative", 1.0}}},
+                        {"profile", {{"x_m", json::array()}, {"positive_N", json::array()}, {"negative_N", json::array()}}}}}},
+       "'profile' needs"},
+      {{{"kind", "position_friction"},
+        {"parameters", {{"shape", "spline"}, {"level_N", {{"positive", 1.0}, {"negative", 1.0}}},
+                        {"profile", {{"x_m", {0.1, 0.0}}, {"positive_N", {1.0, 2.0}}, {"negative_N", {1.0, 2.0}}}}}}},
+       "'profile.x_m' must increase"},
+      {{{"kind", "thermal_drift"}, {"parameters", json::object()}}, "'time_constant_s' must be > 0"},
+      {{{"kind", "quadratic_viscous"}, {"parameters", {{"c2", "x"}}}}, "'c2' must be a finite number"},
+      {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.0}}}}, "'period_m' must be > 0"},
+      {{{"kind", "presliding_hysteresis"}, {"parameters", {{"force_N", 5.0}, {"distance_m", 0.0}, {"resets", "at reversals"}}}},
+       "'distance_m' must be > 0"},
+  };
+  for (const auto& [effect, says] : bad) {
+    json j = base;
+    j["effects"] = json::array({effect});
+    const ModelFile m = model_file_from_json(j, "m.json");
+    ASSERT_EQ(m.error, "") << effect.dump();
+    const std::string why = replay(m, c, run, ReplayOptions{}).error;
+    EXPECT_NE(why.find("m.json: effect \"" + effect["kind"].get<std::string>() + "\": " + says), std::string::npos)
+        << effect.dump() << "\n" << why;
+  }
+  json tiny = base;
+  tiny["m"] = 1e-300;
+  EXPECT_NE(replay(model_file_from_json(tiny, "m.json"), c, run, ReplayOptions{}).error.find("far off"), std::string::npos);
+}
+
 TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
   const LoggedRun run = simulated_run(true_drive(), 7.0);
   const Controller c = controller_from_json(minimal_controller(), "c");
