@@ -162,6 +162,25 @@ void finish(IdentifyResult& r, StreamedCores& cores, const CsvStream& in, const 
   }
 }
 
+/// The chunk with its position spikes bridged, as identify() bridges a
+/// whole trace: the head's bridging chooses the conventions only, and one
+/// spike pushed as it was logged took m 3.7 standard errors off with status
+/// ok. The spikes in [t_from, t_end), the part of the chunk that is pushed,
+/// are counted into `log` once.
+Trace bridged_spikes(const Trace& chunk, double t_from, double t_end, PositionSpikes& log) {
+  PositionSpikes here;
+  Trace out = bridge_position_spikes(chunk, here);
+  if (here.rows == 0) return out;
+  for (std::size_t k = 0; k < out.samples.size(); ++k) {
+    const double t = out.samples[k].t_s;
+    if (out.samples[k].x_m != chunk.samples[k].x_m && t >= t_from && t < t_end) ++log.rows;
+  }
+  for (const std::string& named : here.first)
+    if (log.first.size() < kNamedOutliers && std::find(log.first.begin(), log.first.end(), named) == log.first.end())
+      log.first.push_back(named);
+  return out;
+}
+
 }  // namespace
 
 IdentifyResult identify_stream(CsvStream& in, const std::string& source, const IdentifyOptions& opt,
@@ -204,11 +223,13 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   double t_last = cores->t_first, t_pushed = -INFINITY, head_peak = 0.0;
   for (double u : r.signals.u) head_peak = std::max(head_peak, std::fabs(u));
   ForceSaturation clipped;
+  PositionSpikes spikes;  // every chunk's, counted where pushed
   for (;;) {
     // Filter the chunk with its margins; push what lies past the samples
     // already pushed and, unless it is the last chunk, before the trailing margin.
     const double t_end = more ? chunk.samples.back().t_s - so.margin_s : INFINITY;
-    const Trace kept = without_clipped_rows(chunk, t_pushed, t_end, head_peak, clipped);
+    const Trace kept = bridged_spikes(without_clipped_rows(chunk, t_pushed, t_end, head_peak, clipped), t_pushed, t_end,
+                                      spikes);
     // A chunk that only pushes against the limit keeps too few rows to condition: nothing to push.
     if (kept.samples.size() >= 2) {
       const Signals conditioned = prepare_signals(kept, fixed);
@@ -233,6 +254,8 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   }
   r.duration_s = t_last - cores->t_first;
   r.force_outliers.saturation = clipped;  // every chunk's, the head's among them
+  spikes.limit_m = r.force_outliers.position_spikes.limit_m;
+  r.force_outliers.position_spikes = spikes;
   finish(r, *cores, in, source, opt);
   // The gravity fit refits the whole trace (gravity.hpp); a stream is read once.
   if (opt.gravity != GravityTerm::none && opt.units.position == "rad")

@@ -97,6 +97,34 @@ TEST(IdentifyStream, AClipThatStartsAfterTheHeadIsLeftOut) {
   EXPECT_TRUE(to_json(r)["input"]["force_saturation"].is_object());
 }
 
+TEST(IdentifyStream, PositionSpikesInEveryChunkAreBridgedAndCounted) {
+  // GIVEN the default drive with one position row far off and back, in the head and after it
+  test::SimSpec spec;
+  spec.duration_s = 40.0;
+  const Trace clean = host::simulate(test::sim_config(spec));
+  Trace spiky = clean;
+  for (double at : {10.0, 30.0}) spiky.samples[static_cast<std::size_t>(at * 2000.0)].x_m += 1.0;
+  const std::string path = ::testing::TempDir() + "feedid_stream_spikes.csv", clean_path = path + ".clean.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, spiky, err)) << err;
+  ASSERT_TRUE(write_trace_csv(clean_path, clean, err)) << err;
+  StreamOptions small;
+  small.head_s = 15.0;
+  small.chunk_s = 5.0;
+  small.margin_s = 0.5;
+  // WHEN both are streamed
+  CsvStream in(path, CsvColumns{}), in_clean(clean_path, CsvColumns{});
+  const IdentifyResult r = identify_stream(in, path, IdentifyOptions{}, small);
+  const IdentifyResult c = identify_stream(in_clean, clean_path, IdentifyOptions{}, small);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_TRUE(c.error.empty()) << c.error;
+  // THEN both spikes are counted once, and the estimate is the clean log's
+  EXPECT_EQ(r.force_outliers.position_spikes.rows, 2u);
+  EXPECT_EQ(r.diagnostics.samples_rejected, c.diagnostics.samples_rejected);
+  EXPECT_NEAR(r.estimate.mass_kg, c.estimate.mass_kg, 0.1 * c.estimate.mass_se_kg);
+  EXPECT_NEAR(r.estimate.pos.coulomb_N, c.estimate.pos.coulomb_N, 0.1 * c.estimate.pos.coulomb_se);
+}
+
 // Under 50 s of data fewer than five jackknife groups have any: the core's
 // own standard errors, never a jackknife over empty groups (which gave 0).
 TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
