@@ -118,4 +118,17 @@ TEST(Messages, SimulatesTruthFileIsAModelFile) {
     EXPECT_EQ(v.err.find("simulated_effects") != std::string::npos, !fx.empty()) << fx << v.err;
   }
 }
+
+// GIVEN a top speed of 0 or less, THEN compensate refuses it by name
+// (it was read as "not given" and replaced by the model's).
+TEST(Messages, CompensateRefusesATopSpeedThatIsNotPositive) {
+  const std::string dir = ::testing::TempDir();
+  const std::string trace = dir + "feedid_comp_trace.csv", truth = dir + "feedid_comp_truth.json";
+  ASSERT_EQ(feedid("simulate --duration 5 --out " + trace + " --truth " + truth).rc, 0);
+  for (const std::string v : {"-1", "0", "nan"}) {
+    const Outcome r = feedid("compensate --model " + truth + " --max-speed " + v);
+    EXPECT_EQ(r.rc, 2) << v;
+    EXPECT_NE(r.err.find("--max-speed: " + v + " m/s: must be > 0"), std::string::npos) << r.err;
+  }
+}
 }  // namespace
