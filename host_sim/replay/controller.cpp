@@ -128,12 +128,20 @@ double VelocityEstimate::next(double q) {
 
 bool needs_fit(const Controller& c) { return !c.kp || !c.kv || (c.law == ControlLaw::p_pi && !c.ki); }
 
-Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit) {
+Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit, std::vector<std::string>& notes) {
   if (!fit.error.empty()) return refused<Gains>(fit.error);
   Gains g;
   g.kp = c.kp ? *c.kp : fit.value.kp;
   g.kv = c.kv ? *c.kv : fit.value.kv;
   g.ki = c.law == ControlLaw::pd ? 0.0 : (c.ki ? *c.ki : fit.value.ki);
+  // A fitted integral gain below 0 by less than two of its standard errors
+  // is no gain the log shows (EMPS's P loop fitted as p_pi: ki -0.0011 +-
+  // 0.0009): the loop has none, and the sign test below is for the others.
+  if (c.law == ControlLaw::p_pi && !c.ki && g.ki < 0.0 && -g.ki <= 2.0 * fit.se.ki) {
+    notes.push_back(c.source + ": the fitted ki " + std::to_string(g.ki) + " +- " + std::to_string(fit.se.ki) +
+                    " is 0 within two standard errors: the loop is replayed with ki 0");
+    g.ki = 0.0;
+  }
   // A loop that pushes with the error is no position loop: the log's
   // command does not follow the law (a force of the other sign, another
   // reference column), and a replay with such gains would only diverge.

@@ -90,8 +90,9 @@ GainFit fit_gains(const Controller& c, const std::vector<double>& t, const std::
                   const std::vector<double>& extra);
 
 /// The given gains, with the fitted ones where the file has none; the fit's
-/// error, or why fitted gains are no position loop's.
-Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit);
+/// error, or why fitted gains are no position loop's. A fitted ki below 0
+/// within two standard errors is taken as 0, said in notes.
+Outcome<Gains> resolve_gains(const Controller& c, const GainFit& fit, std::vector<std::string>& notes);
 
 /// Whether some gain the law uses is missing from the file.
 bool needs_fit(const Controller& c);

@@ -305,7 +305,7 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   r.notes = run.notes;
   r.units = opt.units;
   if (fit_always || needs_fit(c)) r.gain_fit = fit_gains(c, run.t, run.x, run.u, run.reference, run.extra);
-  const Outcome<Gains> gains = resolve_gains(c, r.gain_fit);
+  const Outcome<Gains> gains = resolve_gains(c, r.gain_fit, r.notes);
   r.gains = gains.value;
   r.error = gains.error;
   if (!r.error.empty()) return r;

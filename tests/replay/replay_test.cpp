@@ -275,6 +275,28 @@ TEST(Replay, StandingAxisDoesNotChatter) {
   EXPECT_NEAR(r.u_sim.back(), 15.0, 1e-9);
 }
 
+// GIVEN a p_pi law whose ki is left to the fit, THEN a fitted ki below 0
+// within two standard errors (a loop without one) is replayed as 0, said
+// in a note, while one far below 0 is still refused.
+TEST(ReplayController, AFittedIntegralGainThatIsZeroWithinItsErrorIsZero) {
+  json j = minimal_controller();
+  j["law"] = "p_pi";
+  const Controller c = controller_from_json(j, "c.json");
+  ASSERT_EQ(c.error, "");
+  GainFit fit;
+  fit.done = true;
+  fit.value = {60.0, 25000.0, -0.0011};
+  fit.se = {0.01, 1.0, 0.0009};
+  std::vector<std::string> notes;
+  const Outcome<Gains> g = resolve_gains(c, fit, notes);
+  ASSERT_TRUE(g.ok()) << g.error;
+  EXPECT_EQ(g.value.ki, 0.0);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("0 within two standard errors"), std::string::npos) << notes[0];
+  fit.value.ki = -0.01;
+  EXPECT_FALSE(resolve_gains(c, fit, notes).ok());
+}
+
 TEST(Replay, MissingGainsAreIdentifiedFromTheLoggedCommand) {
   // GIVEN the simulated run and a controller file without kp and kv
   const LoggedRun run = simulated_run(true_drive(), 7.0);
