@@ -427,6 +427,8 @@ TEST(Monitor, ALogStampedInMsStopsWithTheRemedyInsteadOfSkippingEveryEpoch) {
   const MonitorResult r = monitor(in, MonitorOptions{});
   EXPECT_NE(r.error.find("--time-scale 0.001"), std::string::npos) << r.error;
   EXPECT_TRUE(r.epochs.empty()) << r.epochs.size() << " epochs were read as if the log were sound";
+  // AND its JSON says the run stopped, not that it was watching
+  EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "error");
 }
 
 TEST(Monitor, JsonLinesHoldOneLinePerEpochAndPerAlarmInTimeOrder) {
