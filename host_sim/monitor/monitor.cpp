@@ -520,7 +520,8 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                             "its reference; two-sided CUSUM of (epoch - reference) / (c sqrt(se^2 + se_ref^2)), c the "
                             "reference epochs' over-dispersion (>= 1); alarm above the threshold, then a new reference; "
                             "m, sigma and Fc watched, Fs and vs only with watch_stribeck"}};
-  j["status"] = r.error.empty() ? watch_status(r) : "error";  // a run that stopped watches nothing from then on
+  // A run that stopped after it formed a reference watched nothing from then on.
+  j["status"] = !r.error.empty() && r.referenced ? "error" : watch_status(r);
   j["epochs_skipped"] = r.epochs_skipped;
   nlohmann::json tracked;
   for (int i = 0; i < feedid::kTrackedCount; ++i) {

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -427,7 +428,26 @@ TEST(Monitor, ALogStampedInMsStopsWithTheRemedyInsteadOfSkippingEveryEpoch) {
   const MonitorResult r = monitor(in, MonitorOptions{});
   EXPECT_NE(r.error.find("--time-scale 0.001"), std::string::npos) << r.error;
   EXPECT_TRUE(r.epochs.empty()) << r.epochs.size() << " epochs were read as if the log were sound";
-  // AND its JSON says the run stopped, not that it was watching
+  EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "not_watching");
+}
+
+TEST(Monitor, ARunThatStopsAfterItsReferenceSaysErrorNotWatching) {
+  // GIVEN a log whose reference forms, then more than 1 % of bad rows
+  SimConfig c = production(3);
+  c.motion.duration_s = 120.0;
+  const std::string path = ::testing::TempDir() + "feedid_monitor_bad_tail.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, simulate(c), err)) << err;
+  {
+    std::ofstream out(path, std::ios::app);
+    for (int k = 0; k < 6000; ++k) out << "130,abc,0,0\n";
+  }
+  CsvStream in(path, CsvColumns{});
+  ASSERT_TRUE(in.ok()) << in.error();
+  // WHEN monitored  THEN it stops, and its JSON does not say it was watching
+  const MonitorResult r = monitor(in, MonitorOptions{});
+  ASSERT_TRUE(r.referenced);
+  EXPECT_NE(r.error.find("bad"), std::string::npos) << r.error;
   EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "error");
 }
 
