@@ -1012,6 +1012,15 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
     out.error = sig.error;
     return out;
   }
+  // A block of fewer than two periods holds no velocity change to weigh
+  // (--block 0 gave blocks of one sample and missed a 2 N ripple).
+  if (!(std::isfinite(opt.block_s) && opt.block_s >= 2.0 * sig.period_s())) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "--block %g s: must be at least two sample periods (%g s at %g Hz)", opt.block_s,
+                  2.0 * sig.period_s(), sig.sample_rate_hz);
+    out.error = buf;
+    return out;
+  }
   const diag::Folds folds = diag::make_folds(sig, opt.folds, auto_config(sig, opt.identify).velocity_min_m_s);
   out.folds = folds.count();
   out.fold_edges = folds.edges;

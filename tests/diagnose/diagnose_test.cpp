@@ -73,6 +73,20 @@ host::SimConfig open_loop(host::Program program, ForceLog force, std::uint64_t s
   return c;
 }
 
+// GIVEN a block shorter than two sample periods (0, negative, NaN) or not
+// finite, THEN the diagnosis refuses it by name instead of missing what a
+// sound block finds.
+TEST(DiagnoseOptionsCheck, ABlockOfFewerThanTwoPeriodsIsRefused) {
+  const host::Trace t = host::simulate(test::sim_config(test::SimSpec{}));
+  for (double block : {0.0, -0.01, 1e-6, std::nan(""), HUGE_VAL}) {
+    host::DiagnoseOptions o;
+    o.block_s = block;
+    const std::string why = host::diagnose(t, o).error;
+    EXPECT_NE(why.find("--block"), std::string::npos) << block << ": " << why;
+    EXPECT_NE(why.find("two sample periods"), std::string::npos) << block << ": " << why;
+  }
+}
+
 TEST(DiagnoseOpenLoopPlant, EffectFreeProgramsAreCalledNone) {
   for (const host::Program p : {host::Program::ladder, host::Program::sine, host::Program::production}) {
     const host::DiagnoseResult r = host::diagnose(host::simulate(open_loop(p, ForceLog::instant, 5)), host::DiagnoseOptions{});
