@@ -73,6 +73,8 @@ Outcome<DriveParams> identified_on_the_spot(const DriveParams& drive, double rat
 
 /// The samples of the measured turn below which its glitches mean nothing.
 constexpr std::size_t kMinTurnSamples = 360;
+/// Most samples of one turn a run may take (about 10 minutes of this machine).
+constexpr double kMaxTurnSamples = 2e7;
 
 /// Wrapped difference a - b in (-pi, pi].
 double wrap(double d) { return d - 2.0 * kPi * std::floor((d + kPi) / (2.0 * kPi)); }
@@ -144,7 +146,21 @@ CircleOptions::CircleOptions() {
 namespace {
 /// Why the options describe no circle test, or empty.
 std::string circle_refusal(const CircleOptions& opt) {
-  if (!(opt.radius_m > 0) || !(opt.feed_m_s > 0) || !(opt.rate_hz > 0)) return "--radius, --feed and --rate must be positive";
+  if (!(opt.radius_m > 0) || !(opt.feed_m_s > 0) || !(opt.rate_hz > 0) || !std::isfinite(opt.radius_m) ||
+      !std::isfinite(opt.feed_m_s) || !std::isfinite(opt.rate_hz))
+    return "--radius, --feed and --rate must be positive and finite";
+  // Each of the four runs goes about two turns and a quarter: a radius typed
+  // in mm (100 for 0.1 m) ran for hours.
+  const double turn_samples = 2.0 * kPi * opt.radius_m / opt.feed_m_s * opt.rate_hz;
+  if (turn_samples > kMaxTurnSamples) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "--radius %g m at --feed %g m/s samples a turn %.3g times at --rate %g Hz, more than "
+                  "%.0e (a radius in mm?)", opt.radius_m, opt.feed_m_s, turn_samples, opt.rate_hz, kMaxTurnSamples);
+    return buf;
+  }
+  if (!(opt.wrong_fraction >= 0.0 && opt.wrong_fraction < 1.0))
+    return "--wrong " + std::to_string(opt.wrong_fraction) + ": must be in [0, 1) (1 - it scales the friction of the "
+           "'wrong_minus' run, which must stay positive)";
   if (!opt.model_paths.empty() && opt.model_paths.size() != 2)
     return "--model: give two (X, then Y), or none to identify the simulated drives";
   if (!opt.models.empty() && opt.models.size() != 2) return "models: give two (X, then Y)";
@@ -158,7 +174,11 @@ Outcome<DriveParams> compensation_model(const CircleOptions& opt, int a) {
   if (!opt.models.empty()) return {opt.models[i], ""};
   if (opt.model_paths.empty()) return identified_on_the_spot(opt.drives[i], opt.rate_hz);
   const ModelFile file = read_model_file(opt.model_paths[i]);
-  return {file.drive, file.error};
+  if (!file.error.empty()) return {file.drive, file.error};
+  // The circle's axes are linear, in m and N: a rotary model or one in volts is another axis's.
+  const std::string why = model_units_mismatch({{"units", file.units}}, Units{});
+  return {file.drive, why.empty() ? "" : opt.model_paths[i] + ": " + why.substr(0, why.find(", the log")) +
+                                             "; the circle's axes are linear, in m and N"};
 }
 }  // namespace
 

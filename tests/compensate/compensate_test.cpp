@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <utility>
 
@@ -139,6 +140,26 @@ TEST(CircleTest, IdentifiedCompensationCutsTheQuadrantGlitches) {
   const nlohmann::json j = to_json(r, CircleOptions{});
   EXPECT_EQ(j["runs"]["wrong_minus"]["glitch_um"].size(), 4u);
   EXPECT_TRUE(j["runs"]["identified"]["rms_um"].is_number());
+}
+
+// GIVEN options that give no sound circle test, THEN each is refused by name
+// before anything runs: a radius in mm (hours of simulation), a sensitivity
+// that makes friction negative or swaps its runs, a model of another axis.
+TEST(CircleTest, OptionsThatGiveNoSoundTestAreRefused) {
+  CircleOptions mm;
+  mm.radius_m = 100.0;
+  EXPECT_NE(run_circle(mm).error.find("a radius in mm?"), std::string::npos);
+  for (double wrong : {1.5, -0.2}) {
+    CircleOptions o;
+    o.wrong_fraction = wrong;
+    EXPECT_NE(run_circle(o).error.find("--wrong"), std::string::npos) << wrong;
+  }
+  const std::string rotary = ::testing::TempDir() + "feedid_circle_rotary.json";
+  std::ofstream(rotary) << R"({"m": 0.01, "pos": {"sigma": 0.2, "fc": 0.1}, "neg": {"sigma": 0.2, "fc": 0.1},
+                              "units": {"position": "rad", "force": "V"}})";
+  CircleOptions other;
+  other.model_paths = {rotary, rotary};
+  EXPECT_NE(run_circle(other).error.find("the circle's axes are linear"), std::string::npos) << run_circle(other).error;
 }
 
 }  // namespace
