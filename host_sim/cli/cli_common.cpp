@@ -270,10 +270,30 @@ std::string output_over_input(const CLI::App& sub) {
         for (const std::string& r : o->results()) v.push_back(r);
     return v;
   };
+  namespace fs = std::filesystem;
+  auto where = [](const fs::path& p) {
+    std::error_code ec;
+    const fs::path w = fs::weakly_canonical(p.empty() ? fs::path(".") : p, ec);
+    return ec ? p : w;
+  };
   const auto inputs = values({"--in", "--model", "--in-list", "--controller"});
-  for (const std::string& out : values({"--json", "--jsonl", "--out", "--plot", "--truth", "--friction-plot", "--markdown"}))
+  const auto outputs =
+      values({"--json", "--jsonl", "--out", "--plot", "--truth", "--friction-plot", "--markdown", "--model-out"});
+  for (const std::string& out : outputs)
     for (const std::string& in : inputs)
       if (same_file(out, in)) return out + ": refusing to write an output over the input " + in;
+  // A report folder's own files (report.html and its SVG figures) over an input kept in it.
+  for (const std::string& dir : values({"--report"}))
+    for (const std::string& in : inputs) {
+      const fs::path p(in);
+      if ((p.filename() == "report.html" || p.extension() == ".svg") && where(p.parent_path()) == where(dir))
+        return dir + ": refusing to write the report over the input " + in;
+    }
+  // Two outputs to one file: the second would replace the first.
+  for (std::size_t i = 0; i < outputs.size(); ++i)
+    for (std::size_t j = i + 1; j < outputs.size(); ++j)
+      if (outputs[i] != "-" && where(outputs[i]) == where(outputs[j]))
+        return outputs[j] + ": another output is written to this file too";
   return "";
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -130,5 +131,26 @@ TEST(Messages, CompensateRefusesATopSpeedThatIsNotPositive) {
     EXPECT_EQ(r.rc, 2) << v;
     EXPECT_NE(r.err.find("--max-speed: " + v + " m/s: must be > 0"), std::string::npos) << r.err;
   }
+}
+}  // namespace
+
+namespace {
+// GIVEN an input kept in the report folder under a name the report writes,
+// or two outputs named alike, THEN the command refuses before it writes.
+TEST(Messages, NoOutputReplacesAnInputOrAnotherOutput) {
+  const std::string dir = ::testing::TempDir() + "feedid_report_clash";
+  std::filesystem::create_directories(dir);
+  const std::string trace = dir + "/report.html", json = dir + "/o.json";
+  ASSERT_EQ(feedid("simulate --duration 20 --out " + trace).rc, 0);
+  const Outcome over = feedid("diagnose --in " + trace + " --report " + dir);
+  EXPECT_EQ(over.rc, 2);
+  EXPECT_NE(over.err.find("refusing to write the report over the input"), std::string::npos) << over.err;
+  std::ifstream kept(trace);
+  std::string header;
+  std::getline(kept, header);
+  EXPECT_EQ(header, "t,x,v,u") << "the input was replaced";
+  const Outcome twice = feedid("diagnose --in " + trace + " --json " + json + " --model-out " + json);
+  EXPECT_EQ(twice.rc, 2);
+  EXPECT_NE(twice.err.find("another output is written to this file too"), std::string::npos) << twice.err;
 }
 }  // namespace
