@@ -1012,12 +1012,12 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
     out.error = sig.error;
     return out;
   }
-  // A block of fewer than two periods holds no velocity change to weigh
-  // (--block 0 gave blocks of one sample and missed a 2 N ripple).
-  if (!(std::isfinite(opt.block_s) && opt.block_s >= 2.0 * sig.period_s())) {
+  // A block closes once it spans block_s: 0 or less (or NaN) is no length
+  // asked for, and infinity holds no observation.
+  if (!(std::isfinite(opt.block_s) && opt.block_s > 0.0)) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "--block %g s: must be at least two sample periods (%g s at %g Hz)", opt.block_s,
-                  2.0 * sig.period_s(), sig.sample_rate_hz);
+    std::snprintf(buf, sizeof buf, "--block %g s: must be a positive, finite length (default 0.005 s; a block is at "
+                  "least one sample period, %g s at %g Hz)", opt.block_s, sig.period_s(), sig.sample_rate_hz);
     out.error = buf;
     return out;
   }
