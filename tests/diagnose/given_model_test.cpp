@@ -334,8 +334,8 @@ TEST(DiagnoseGivenModelCli, ModelOutWritesTheNamedEffectsAndReplayRunsThem) {
     return nlohmann::json::parse(f)["relative_error_pct"]["force"].get<double>();
   };
   EXPECT_LT(force_pct(fx_json), 0.5 * force_pct(bare_json));
-  // AND an output that names an input is refused, the input kept
-  EXPECT_EQ(feedid("diagnose --model " + m + in + " --model-out " + m).exit_code, 1);
+  // AND an output that names an input is refused before anything runs (exit 2, as the README says), the input kept
+  EXPECT_EQ(feedid("diagnose --model " + m + in + " --model-out " + m).exit_code, 2);
   EXPECT_EQ(host::read_model_file(m).error, "");
 }
 
