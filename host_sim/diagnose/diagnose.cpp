@@ -490,7 +490,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   e.size = choose_size(st, with, em, e.p);
   // A larger size can move the parameter (a compliance's frequency with
   // its damping): searched again at the size chosen.
-  if (e.size != em.sizes.front() && em.continuous) e.p = search_parameter(st, with, em, e.size);
+  if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size) e.p = search_parameter(st, with, em, e.size);
   const ColumnBank::Extra ex =
       st.bank.extra(em.columns(e.p, e.size, Observations::Resolution::fine), all_columns(st.base, current));
   e.model = current;

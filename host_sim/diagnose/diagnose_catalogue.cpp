@@ -86,6 +86,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
   m.continuous = true;
   m.sizes = {1, 2, 3};
+  m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
   m.keep_grid_columns = true;
   m.columns = [&obs](double p, int harmonics, Observations::Resolution r) {
     const double k = 2.0 * M_PI / p;

@@ -23,6 +23,10 @@ struct EffectModel {
   /// diagnose.cpp) is kept. A size is the effect's own: harmonics of a
   /// ripple, elements of presliding, spline spans of position friction.
   std::vector<int> sizes = {1};
+  /// A continuous parameter is searched again at the size chosen (a
+  /// compliance's frequency moves with its damping), unless a larger size
+  /// aliases it (a ripple's harmonics fit a multiple of its period alike).
+  bool search_again_at_size = true;
   /// Columns for a parameter value and size; coarse segments serve the grid search.
   std::function<Mat(double, int, Observations::Resolution)> columns;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
