@@ -241,3 +241,32 @@ TEST(DiagnosePooledRuns, DistanceSinceReversalStartsAgainInEachRun) {
 
 }  // namespace
 }  // namespace feedid::test
+
+namespace feedid::test {
+namespace {
+
+// GIVEN two runs with one 2 N, 5 mm ripple, pooled in either order, THEN
+// the ripple's period and amplitude are the same: at two harmonics a 10 mm
+// period fits as 5 mm does, and the search again at that size found it in
+// one order (amplitude 0.008 N), not the other.
+TEST(DiagnosePooledRuns, ARipplesPeriodDoesNotDependOnTheOrderOfTheRuns) {
+  const auto ripple = [](host::SimConfig& c, std::size_t i) {
+    c.effects.ripple_amplitude_N = 2.0;
+    c.effects.ripple_period_m = 0.005;
+    if (i == 1) c.drive.pos.coulomb_N = 28.0;
+  };
+  const std::vector<test::Run> ab = {{20.0, 21}, {25.0, 22}}, ba = {{25.0, 22}, {20.0, 21}};
+  const host::DiagnoseResult r_ab = host::diagnose(pooled_each("ripple_ab", ab, ripple), host::DiagnoseOptions{});
+  const host::DiagnoseResult r_ba = host::diagnose(
+      pooled_each("ripple_ba", ba, [&ripple](host::SimConfig& c, std::size_t i) { ripple(c, 1 - i); }),
+      host::DiagnoseOptions{});
+  for (const host::DiagnoseResult* r : {&r_ab, &r_ba}) {
+    ASSERT_TRUE(r->error.empty()) << r->error;
+    ASSERT_EQ(r->effect, "position_ripple") << host::summary(*r);
+    EXPECT_NEAR(r->effect_parameters.value("period_m", 0.0), 0.005, 0.0001) << r->effect_parameters.dump();
+    EXPECT_NEAR(r->effect_parameters.value("amplitude_N", 0.0), 2.0, 0.2) << r->effect_parameters.dump();
+  }
+}
+
+}  // namespace
+}  // namespace feedid::test
