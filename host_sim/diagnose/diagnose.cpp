@@ -102,10 +102,11 @@ struct BaseColumns {
   std::vector<double> vs_grid;
   bool stribeck[2] = {false, false};
   std::vector<std::array<int, 2>> grid[2];
-  /// Pooled runs after the first: their own Coulomb and viscous level per
-  /// direction (add_run_levels), where the run moves that way.
+  /// Pooled runs after the first that moves in a direction: their own
+  /// Coulomb and viscous level in it (add_run_levels), from that run's.
   struct RunLevel {
     std::size_t run = 0;
+    std::size_t reference = 0;  ///< the first run identified in this direction, whose level the base's is
     int direction = 0;  ///< 0 positive, 1 negative
     bool viscous = false;
     int col = 0;
@@ -204,18 +205,32 @@ BaseColumns add_base_columns(const Observations& obs, ColumnBank& bank, const Id
 /// files), and position friction could read it as a range of travel one
 /// file covers (docs/diagnosis.md, "Pooled runs").
 void add_run_levels(const Observations& obs, ColumnBank& bank, const std::vector<double>& run_starts, BaseColumns& b) {
+  auto column = [&](std::size_t r, int d, bool viscous) {
+    return obs.sample_column([&](std::size_t j) {
+      const double v = obs.interval_v(j);
+      if ((d == 0 ? v <= 0 : v >= 0) || diag::run_of(run_starts, obs.interval_t(j)) != r) return 0.0;
+      return viscous ? v : (d == 0 ? 1.0 : -1.0);
+    });
+  };
+  auto identified = [&](const Vec& col) {  // a level only held-out folds see cannot be fitted
+    for (std::size_t i = 0; i < obs.size(); ++i)
+      if (!obs.obs()[i].heldout && col(static_cast<Eigen::Index>(i)) != 0.0) return true;
+    return false;
+  };
+  // The base's level in a direction is that of the first run identified in
+  // it: a level of its own for a later run where the first never moved that
+  // way was the base's term again (two one-direction SysId runs gave an
+  // offset in one order of the files and not in the other).
+  std::array<std::size_t, 2> reference = {run_starts.size(), run_starts.size()};
+  for (int d = 0; d < 2; ++d)
+    for (std::size_t r = 0; r < run_starts.size() && reference[d] == run_starts.size(); ++r)
+      if (identified(column(r, d, false))) reference[d] = r;
   for (std::size_t r = 1; r < run_starts.size(); ++r)
     for (int d = 0; d < 2; ++d)
       for (bool viscous : {false, true}) {
-        const Vec col = obs.sample_column([&](std::size_t j) {
-          const double v = obs.interval_v(j);
-          if ((d == 0 ? v <= 0 : v >= 0) || diag::run_of(run_starts, obs.interval_t(j)) != r) return 0.0;
-          return viscous ? v : (d == 0 ? 1.0 : -1.0);
-        });
-        bool identified = false;  // a level only held-out folds see cannot be fitted
-        for (std::size_t i = 0; i < obs.size() && !identified; ++i)
-          identified = !obs.obs()[i].heldout && col(static_cast<Eigen::Index>(i)) != 0.0;
-        if (identified) b.run_levels.push_back({r, d, viscous, bank.add(col)});
+        if (r <= reference[d]) continue;
+        const Vec col = column(r, d, viscous);
+        if (identified(col)) b.run_levels.push_back({r, reference[d], d, viscous, bank.add(col)});
       }
 }
 
@@ -725,17 +740,17 @@ void report_run_levels(const BaseColumns& b, const Model& m, const DiagnoseOptio
   for (std::size_t i = 0; i < b.run_levels.size(); ++i) {
     const auto& l = b.run_levels[i];
     const char* dir = l.direction == 0 ? "positive" : "negative";
-    runs.push_back({{"run", l.run + 1}, {"direction", dir}, {"term", l.viscous ? "viscous" : "coulomb"},
+    runs.push_back({{"run", l.run + 1}, {"from_run", l.reference + 1}, {"direction", dir}, {"term", l.viscous ? "viscous" : "coulomb"},
                     {"change", change[i]}, {"unit", l.viscous ? u.viscous() : u.force}});
     if (!l.viscous)
       text += (text.empty() ? "" : ", ") + std::string("run ") + std::to_string(l.run + 1) + " " + dir + " " +
-              fmt(change[i], u.force);
+              fmt(change[i], u.force) + (l.reference == 0 ? "" : " from run " + std::to_string(l.reference + 1) + "'s");
   }
   out.ambiguities.push_back(
       {{"kinds", {"run_friction_levels"}},
        {"levels", runs},
        {"note", "each pooled run has its own Coulomb and viscous friction level in the base model (Coulomb, from the "
-                "first run's: " + text + "): the time between recordings is unknown, so a difference between runs is "
+                "first run's that moves that way: " + text + "): the time between recordings is unknown, so a difference between runs is "
                 "not read as a drift or any other effect"}});
 }
 
