@@ -56,8 +56,18 @@ struct CallOptions {
   bool fit_gains = false;   ///< replay --fit-gains
 };
 
+/// value as a T, or a TypeError that names the option and the value
+/// (pybind11's own says only "Unable to cast Python instance to C++ type").
+template <typename T> T cast_option(const py::handle& value, const std::string& key, const char* what) {
+  try {
+    return py::cast<T>(value);
+  } catch (const py::cast_error&) {
+    throw py::type_error(key + ": " + std::string(py::repr(value)) + " is not " + what);
+  }
+}
+
 double number(const py::handle& value, const std::string& key) {
-  const double x = py::cast<double>(value);
+  const double x = cast_option<double>(value, key, "a number");
   if (!std::isfinite(x)) throw py::value_error(key + ": " + std::to_string(x) + " is not a finite number");
   return x;
 }
@@ -70,7 +80,7 @@ double zero_or_positive(const py::handle& value, const std::string& key) {
 }
 
 int whole_in(const py::handle& value, const std::string& key, int least, int most = INT_MAX) {
-  const int n = py::cast<int>(value);
+  const int n = cast_option<int>(value, key, "a whole number in range");
   if (n < least || n > most)
     throw py::value_error(key + ": " + std::to_string(n) + " is outside " + std::to_string(least) + " .. " +
                           (most == INT_MAX ? std::string("") : std::to_string(most)));
@@ -78,7 +88,7 @@ int whole_in(const py::handle& value, const std::string& key, int least, int mos
 }
 
 std::string one_of(const py::handle& value, const std::string& key, const std::set<std::string>& allowed) {
-  const auto s = py::cast<std::string>(value);
+  const auto s = cast_option<std::string>(value, key, "a string");
   if (allowed.count(s)) return s;
   std::string names;
   for (const auto& a : allowed) names += (names.empty() ? "" : ", ") + a;
@@ -88,15 +98,15 @@ std::string one_of(const py::handle& value, const std::string& key, const std::s
 /// The input options every command takes (columns, scales, units, bad rows); false: not one of them.
 bool input_option(const std::string& key, const py::handle& value, CsvColumns& c, Axis& axis, std::string& force_unit) {
   if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
-  else if (key == "force_unit") force_unit = py::cast<std::string>(value);
+  else if (key == "force_unit") force_unit = cast_option<std::string>(value, key, "a string");
   else if (key == "position_scale") c.position_scale = number(value, key);
   else if (key == "force_scale") c.force_scale = number(value, key);
   else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
   else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
-  else if (key == "time") c.time = py::cast<std::string>(value);
-  else if (key == "position") c.position = py::cast<std::string>(value);
-  else if (key == "velocity") c.velocity = py::cast<std::string>(value);
-  else if (key == "force") c.force = py::cast<std::string>(value);
+  else if (key == "time") c.time = cast_option<std::string>(value, key, "a string");
+  else if (key == "position") c.position = cast_option<std::string>(value, key, "a string");
+  else if (key == "velocity") c.velocity = cast_option<std::string>(value, key, "a string");
+  else if (key == "force") c.force = cast_option<std::string>(value, key, "a string");
   else return false;
   return true;
 }
@@ -104,7 +114,7 @@ bool input_option(const std::string& key, const py::handle& value, CsvColumns& c
 /// identify's own options (diagnose takes them too); false: not one of them.
 bool identify_option(const std::string& key, const py::handle& value, IdentifyOptions& id) {
   if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
-  else if (key == "alignment") id.alignment = py::cast<std::string>(value);
+  else if (key == "alignment") id.alignment = cast_option<std::string>(value, key, "a string");
   else if (key == "force_lag_s") id.force_lag_s = number(value, key);
   else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
   else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
@@ -153,7 +163,7 @@ bool replay_option(const std::string& key, const py::handle& value, CallOptions&
   if (key == "substeps") o.replay.substeps = whole_in(value, key, 1);
   else if (key == "filter") o.replay.filter_hz = number(value, key);
   else if (key == "drop_first") o.replay.drop_first = whole_in(value, key, 0);
-  else if (key == "fit_gains") o.fit_gains = py::cast<bool>(value);
+  else if (key == "fit_gains") o.fit_gains = cast_option<bool>(value, key, "True or False");
   else return false;
   return true;
 }
@@ -396,7 +406,7 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
     if (key == "points") opt.points = whole_in(value, key, 2, kMaxTablePoints);
     else if (key == "max_speed") opt.max_speed_m_s = zero_or_positive(value, key);
     else if (key == "force_scale") opt.force_scale = number(value, key);
-    else if (key == "force_unit") opt.force_unit = py::cast<std::string>(value);
+    else if (key == "force_unit") opt.force_unit = cast_option<std::string>(value, key, "a string");
     else if (key == "format") format = one_of(value, key, {"json", "csv"});
     else throw py::type_error("unknown option '" + key + "'");
   }

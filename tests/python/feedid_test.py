@@ -219,6 +219,11 @@ class Errors(unittest.TestCase):
             feedid.identify(t, t[:50], t)
         with self.assertRaisesRegex(TypeError, "unknown option 'velocity_filter'"):
             feedid.validate({}, t, t, t, velocity_filter=10)  # identify's option, not validate's
+        # An option of the wrong type is named with its value, not "Unable to cast"
+        with self.assertRaisesRegex(TypeError, "velocity_filter: '100' is not a number"):
+            feedid.identify(t, t, t, velocity_filter="100")
+        with self.assertRaisesRegex(TypeError, "folds: 1000000000000 is not a whole number"):
+            feedid.diagnose(t, t, t, folds=10**12)
 
     def test_a_missing_file_is_the_readers_message(self):
         with self.assertRaises(ValueError) as e:
