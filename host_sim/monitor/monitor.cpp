@@ -355,7 +355,10 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     for (; compared < end; ++compared) {
       MonitorEpoch& ep = out.epochs[compared];
       if (!ep.error.empty()) continue;
-      for (std::size_t d = 0; d < 2; ++d) ep.law_differs[d] = ep.stribeck[d] != out.law.stribeck[d];
+      // A direction whose friction the epoch did not identify has no law to differ.
+      for (std::size_t d = 0; d < 2; ++d)
+        ep.law_differs[d] = (d == 0 ? ep.estimate.pos : ep.estimate.neg).friction_identified() &&
+                            ep.stribeck[d] != out.law.stribeck[d];
       int fresh = 0;
       (void)health.update(compensated(as_compared(ep), ep, covariates, health), ep.t_start_s, ep.t_end_s, fresh);
       for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));

@@ -431,6 +431,22 @@ TEST(Monitor, ALogStampedInMsStopsWithTheRemedyInsteadOfSkippingEveryEpoch) {
   EXPECT_EQ(to_json(r, MonitorOptions{})["status"], "not_watching");
 }
 
+// GIVEN a production log, some of whose epochs do not move one way, THEN
+// no such epoch says its law differs from the log's: it identified none.
+TEST(Monitor, AnEpochWithoutFrictionInADirectionHasNoLawThatDiffers) {
+  SimConfig c = production(2);
+  c.motion.duration_s = 600.0;
+  const MonitorResult r = monitor_simulated(c, "feedid_monitor_law.csv");
+  int without = 0;
+  for (const MonitorEpoch& ep : r.epochs)
+    for (int d = 0; d < 2; ++d) {
+      if ((d == 0 ? ep.estimate.pos : ep.estimate.neg).friction_identified() || !ep.error.empty()) continue;
+      ++without;
+      EXPECT_FALSE(ep.law_differs[static_cast<std::size_t>(d)]) << "epoch at " << ep.t_start_s << " s, direction " << d;
+    }
+  ASSERT_GT(without, 0) << "no epoch without friction in a direction: the test would prove nothing";
+}
+
 TEST(Monitor, ARunThatStopsAfterItsReferenceSaysErrorNotWatching) {
   // GIVEN a log whose reference forms, then more than 1 % of bad rows
   SimConfig c = production(3);
