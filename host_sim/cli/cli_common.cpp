@@ -156,14 +156,20 @@ void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t
 }
 
 namespace {
+/// An option's text as a finite number, the whole of it; false otherwise.
+bool finite_value(const std::string& v, double& x) {
+  char* end = nullptr;
+  x = std::strtod(v.c_str(), &end);
+  return end != v.c_str() && *end == '\0' && std::isfinite(x);
+}
+
 /// A number option that must be finite: "nan" or "inf" were taken as
 /// "from the data" (a NaN lag is the unset value), silently.
 CLI::Validator finite_number() {
   return CLI::Validator(
       [](std::string& v) {
-        char* end = nullptr;
-        const double x = std::strtod(v.c_str(), &end);
-        return end != v.c_str() && *end == '\0' && std::isfinite(x) ? std::string() : v + " is not a finite number";
+        double x = 0.0;
+        return finite_value(v, x) ? std::string() : v + " is not a finite number";
       },
       "FINITE");
 }
@@ -177,6 +183,15 @@ CLI::Validator nonzero_scale() {
                                "NONZERO");
 }
 }  // namespace
+
+CLI::Validator positive_number(const std::string& unit, const std::string& remedy) {
+  return CLI::Validator(
+      [unit, remedy](std::string& v) {
+        double x = 0.0;
+        return finite_value(v, x) && x > 0.0 ? std::string() : v + " " + unit + ": must be > 0" + remedy;
+      },
+      "> 0");
+}
 
 
 namespace {

@@ -59,10 +59,16 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
 /// Writes j to path; prints the error and returns false when it cannot.
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs = {});
 
+/// A number option that must be finite and above 0, its message "<value>
+/// <unit>: must be > 0<remedy>" (0 or less was read as "not given").
+CLI::Validator positive_number(const std::string& unit, const std::string& remedy);
+
 /// Why the parsed subcommand would write an output over one of its inputs
-/// (--json, --out, --plot, --truth, --friction-plot or --markdown naming the
-/// file of --in, --model or --in-list), or empty. Checked once, in main,
-/// before any command runs.
+/// (--json, --jsonl, --out, --plot, --truth, --friction-plot, --markdown or
+/// --model-out naming the file of --in, --model, --in-list or --controller;
+/// a --report folder holding an input named report.html or *.svg), or two
+/// outputs into one file; empty when none. Checked once, in main, before
+/// any command runs.
 std::string output_over_input(const CLI::App& sub);
 
 /// simulate() with progress on stderr, or why the options cannot be simulated.

@@ -3,7 +3,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -60,15 +59,7 @@ struct CompensateCommand : Command {
     app->add_option("--format", format, "json or csv")->check(CLI::IsMember({"json", "csv"}))->capture_default_str();
     app->add_option("--out", out_path, "file to write (default: standard output)");
     app->add_option("--max-speed", opt.max_speed_m_s, "top of the table (m/s); default: the model's velocity_max_m_s")
-        ->check(CLI::Validator(
-            [](std::string& v) {  // 0 or less is refused, never read as "the default"
-              char* end = nullptr;
-              const double x = std::strtod(v.c_str(), &end);
-              return end != v.c_str() && *end == '\0' && x > 0.0 && std::isfinite(x)
-                         ? std::string()
-                         : v + " m/s: must be > 0 (leave it out for the model's velocity_max_m_s)";
-            },
-            "> 0"));
+        ->check(positive_number("m/s", " (leave it out for the model's velocity_max_m_s)"));  // 0 is not "the default"
     app->add_option("--force-scale", opt.force_scale,
                     "N per drive unit, as identify's --force-scale (e.g. N per A); the table is also given in that unit")
         ->capture_default_str();
