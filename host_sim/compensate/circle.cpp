@@ -176,9 +176,8 @@ Outcome<DriveParams> compensation_model(const CircleOptions& opt, int a) {
   const ModelFile file = read_model_file(opt.model_paths[i]);
   if (!file.error.empty()) return {file.drive, file.error};
   // The circle's axes are linear, in m and N: a rotary model or one in volts is another axis's.
-  const std::string why = model_units_mismatch({{"units", file.units}}, Units{});
-  return {file.drive, why.empty() ? "" : opt.model_paths[i] + ": " + why.substr(0, why.find(", the log")) +
-                                             "; the circle's axes are linear, in m and N"};
+  const std::string why = model_units_mismatch({{"units", file.units}}, Units{}, "the circle's axes are linear, in", "");
+  return {file.drive, why.empty() ? "" : opt.model_paths[i] + ": " + why};
 }
 }  // namespace
 

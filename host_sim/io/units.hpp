@@ -144,15 +144,20 @@ inline nlohmann::json json_as_written(const nlohmann::json& j) { return keys_in_
 /// inertia would be read in the wrong unit with no other sign. Empty when
 /// they agree, or when the model states no units (a hand-written file is
 /// taken in the log's units).
-inline std::string model_units_mismatch(const nlohmann::json& model, const Units& run) {
+/// `run_is` and `remedy` word the other side for a caller whose units are
+/// not a log's (the circle test's simulated axes).
+inline std::string model_units_mismatch(const nlohmann::json& model, const Units& run,
+                                        const std::string& run_is = "the log is read in",
+                                        const std::string& remedy =
+                                            ": give the log's --axis and --force-unit as the model was identified with "
+                                            "(--axis rotary for rad), or a model of this axis") {
   if (!model.is_object() || !model.contains("units") || !model.at("units").is_object()) return "";
   const nlohmann::json& u = model.at("units");
   auto stated = [&u](const char* key) { return u.contains(key) && u.at(key).is_string() ? u.at(key).get<std::string>() : ""; };
   const std::string position = stated("position"), force = stated("force");
   if ((position.empty() || position == run.position) && (force.empty() || force == run.force)) return "";
   return "the model is in " + (position.empty() ? run.position : position) + " and " + (force.empty() ? run.force : force) +
-         ", the log is read in " + run.position + " and " + run.force +
-         ": give the log's --axis and --force-unit as the model was identified with (--axis rotary for rad), or a model of this axis";
+         ", " + run_is + " " + run.position + " and " + run.force + remedy;
 }
 
 }  // namespace feedid::host
