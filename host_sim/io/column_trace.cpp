@@ -50,7 +50,7 @@ CsvResult trace_from_columns(const TraceColumns& c, const CsvColumns& columns, c
       if (!rules.bad(rules.at(row) + "a value is NaN/Inf")) return stop();
       continue;
     }
-    const TraceSample* last = tr.samples.empty() ? nullptr : &tr.samples.back();
+    const TraceSample* last = rules.last_kept();
     if (last && last->t_s == s.t_s && last->x_m == s.x_m && last->v_m_s == s.v_m_s && last->u_N == s.u_N) {
       rules.repeated();
       continue;

@@ -3,6 +3,7 @@
 #include "output_file.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -212,7 +213,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
 struct CsvStream::Impl {
   std::ifstream file;
   CsvColumns columns;
-  Trace counts;  ///< no samples kept (unless whole): RowRules' counters, skipped rows, notes
+  Trace counts;  ///< RowRules' counters, skipped rows, notes; samples: the row confirmed and not yet handed on (whole: all)
   RowRules rules;
   csv::Layout layout;
   std::vector<char> buf = std::vector<char>(kMaxLineBytes + 2);  ///< one line, NUL-terminated: the stream's bound
@@ -221,7 +222,11 @@ struct CsvStream::Impl {
   bool whole = false;    ///< a trace read whole (a .mat): counts.samples are handed on from `index`
   bool unit_stated = false;
   std::string prev_row;
-  std::size_t line_no = 0, kept = 0, index = 0;
+  std::size_t line_no = 0, index = 0;
+  bool finished = false;  ///< the end of the file was met and the last row flushed
+  /// Temperature and load of the row RowRules holds, and of the row handed
+  /// on last: the stream is a row behind the file.
+  std::array<double, 2> held_covariates{}, covariates{};
   csv::Fields fields;
   Impl(const std::string& path, const CsvColumns& c, bool open)
       : columns(c), rules(columns, counts, path + ":", "line") {
@@ -312,8 +317,8 @@ CsvStream::~CsvStream() = default;
 bool CsvStream::time_unit_stated() const { return impl_->unit_stated; }
 bool CsvStream::has_temperature() const { return impl_->layout.has_covariate[0]; }
 bool CsvStream::has_load() const { return impl_->layout.has_covariate[1]; }
-double CsvStream::temperature() const { return impl_->layout.covariate[0]; }
-double CsvStream::load() const { return impl_->layout.covariate[1]; }
+double CsvStream::temperature() const { return impl_->covariates[0]; }
+double CsvStream::load() const { return impl_->covariates[1]; }
 const std::vector<std::string>& CsvStream::notes() const { return impl_->counts.notes; }
 
 bool CsvStream::next(TraceSample& s) {
@@ -325,15 +330,32 @@ bool CsvStream::next(TraceSample& s) {
     return ok_;
   }
   for (;;) {
+    // RowRules appends a row once the next one confirms its time (or at
+    // the end): the stream hands it on from there, one row behind the file.
+    if (!m.counts.samples.empty()) {
+      s = m.counts.samples.front();
+      m.counts.samples.clear();
+      m.covariates = m.held_covariates;
+      m.held_covariates = m.layout.covariate;  // the row held now (none after the end)
+      return true;
+    }
+    if (m.finished) {
+      // Too many bad rows, or none kept, is an error, in the whole-file reader's words.
+      if (!m.rules.finish(source_)) error_ = m.rules.error();
+      break;
+    }
     if (m.pending) {
       m.pending = false;
     } else {
       const Impl::Line got = m.next_line();
-      if (got == Impl::Line::end) break;
+      if (got == Impl::Line::end) {
+        m.finished = true;
+        m.rules.flush();  // the last row, handed on before the whole is judged
+        continue;
+      }
       if (got == Impl::Line::too_long) {
         error_ = too_long_line(source_, m.line_no + 1);
-        ok_ = false;
-        return false;
+        break;
       }
     }
     const char* b = m.line.data();
@@ -342,20 +364,13 @@ bool CsvStream::next(TraceSample& s) {
     const csv::RowRead r = csv::read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
     if (r == csv::RowRead::stop) {
       error_ = m.rules.error();
-      ok_ = false;
-      return false;
+      break;
     }
-    if (r == csv::RowRead::kept) {
-      ++m.kept;
-      m.counts.samples.clear();  // RowRules keeps each row; the stream hands it on instead
-      m.prev_row.assign(b, e);   // reuses its capacity
-      return true;
-    }
+    if (r != csv::RowRead::kept) continue;
+    m.prev_row.assign(b, e);  // reuses its capacity
+    // The first row held, or a row held in place of one out of order: its covariates wait with it.
+    if (m.counts.samples.empty()) m.held_covariates = m.layout.covariate;
   }
-  // End of the file: too many bad rows, or none kept, is an error, in the
-  // whole-file reader's words (finish() tells "no rows" by an empty trace).
-  if (m.kept > 0) m.counts.samples.push_back(s);
-  if (!m.rules.finish(source_)) error_ = m.rules.error();
   ok_ = false;
   return false;
 }

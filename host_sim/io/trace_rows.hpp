@@ -3,7 +3,9 @@
 // not increase, is skipped and counted with where and why (or, strict, is
 // the error); a row that repeats the one before exactly is counted and left
 // out, never kept as a zero-length interval; more than a set share of bad
-// rows is an error. Host only.
+// rows is an error. A row is held until the next one confirms its time, so
+// that a lone row stamped ahead of its neighbours is the one skipped, not
+// every row after it. Host only.
 #pragma once
 #include <cmath>
 #include <string>
@@ -66,27 +68,45 @@ class RowRules {
   /// handed on (a stream that did fed the core a step back in time).
   enum class Taken { kept, skipped, stop };
 
-  /// Row `row`, read whole: kept if its time increases, else a bad row
+  /// Row `row`, read whole: held if its time increases, else a bad row
   /// (skipped, or stop: error() says why). `time_text` is the time as
-  /// written, for the message.
+  /// written, for the message. The row held before it is then confirmed
+  /// and appended to the trace's samples, where a reader takes it from;
+  /// finish() appends the last. Where the new row goes back before the
+  /// held one but not before the row confirmed ahead of it, and the held
+  /// row's step is far longer than the steps around it, the held row is
+  /// the one out of order (one row stamped in the future): it is the row
+  /// skipped, and the new one is held instead.
   Taken take(const TraceSample& s, std::string_view time_text, std::size_t row) {
-    if (have_prev_ && !(s.t_s > prev_time_)) {
-      const bool skipped = bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
-                               " is not greater than previous " + quoted_text(prev_time_text_) + " on " + row_word_ +
-                               " " + std::to_string(prev_row_) + " (time must increase)");
-      return skipped ? Taken::skipped : Taken::stop;
+    if (have_held_ && !(s.t_s > held_.t_s)) {
+      if (!held_is_ahead(s.t_s)) return skip_new(time_text, row);
+      if (!bad(at(held_row_) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(held_text_) +
+               " is ahead of the rows around it (" + quoted_text(confirmed_text_) + " on " + row_word_ + " " +
+               std::to_string(confirmed_row_) + ", " + quoted_text(time_text) + " on " + row_word_ + " " +
+               std::to_string(row) + "): a lone time stamp out of order"))
+        return Taken::stop;
+      hold(s, time_text, row);
+      return Taken::kept;
     }
-    prev_time_ = s.t_s;
-    prev_time_text_.assign(time_text);  // reuses its capacity: no allocation per row
-    prev_row_ = row;
-    have_prev_ = true;
-    trace_.samples.push_back(s);
+    if (have_held_) confirm_held();
+    hold(s, time_text, row);
     return Taken::kept;
   }
 
-  /// After the last row: true, or false with error() set (more than the
-  /// allowed share of bad rows; no rows at all).
+  /// The row kept last (held or confirmed), or null: what a repeated row is compared with.
+  const TraceSample* last_kept() const { return have_held_ ? &held_ : nullptr; }
+
+  /// After the last row: the held row appended to the samples (a stream
+  /// hands it on before finish() judges the whole).
+  void flush() {
+    if (have_held_) confirm_held();
+    have_held_ = false;
+  }
+
+  /// After the last row: flush(), and true, or false with error() set
+  /// (more than the allowed share of bad rows; no rows at all).
   bool finish(const std::string& path) {
+    flush();
     if (trace_.rows_skipped > 0 &&
         static_cast<double>(trace_.rows_skipped) > columns_.max_bad_row_share * static_cast<double>(rows_)) {
       error_ = path + ": " + std::to_string(trace_.rows_skipped) + " of " + std::to_string(rows_) +
@@ -96,7 +116,7 @@ class RowRules {
       trace_.samples.clear();
       return false;
     }
-    if (trace_.samples.empty()) {
+    if (confirmed_ == 0) {
       error_ = path + ": no data rows";
       return false;
     }
@@ -106,14 +126,53 @@ class RowRules {
   const std::string& error() const { return error_; }
 
  private:
+  /// A held row this many times the steps around it ahead is a time stamp
+  /// out of order, not the new row a step back (a log's jitter is a
+  /// fraction of a period; a lone wrong stamp is seconds or years off).
+  static constexpr double kAheadSteps = 2.0;
+
+  /// Whether the held row, not the new one at time t, is out of order: t
+  /// lies after the row confirmed before the held one, and the held row's
+  /// step from it is over kAheadSteps times both t's and the step before.
+  bool held_is_ahead(double t) const {
+    if (!have_confirmed_ || !(t > confirmed_time_)) return false;
+    const double held_step = held_.t_s - confirmed_time_;
+    return held_step > kAheadSteps * (t - confirmed_time_) && (!(confirmed_step_ > 0.0) || held_step > kAheadSteps * confirmed_step_);
+  }
+
+  Taken skip_new(std::string_view time_text, std::size_t row) {
+    const bool skipped = bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
+                             " is not greater than previous " + quoted_text(held_text_) + " on " + row_word_ + " " +
+                             std::to_string(held_row_) + " (time must increase)");
+    return skipped ? Taken::skipped : Taken::stop;
+  }
+
+  void hold(const TraceSample& s, std::string_view time_text, std::size_t row) {
+    held_ = s;
+    held_text_.assign(time_text);  // reuses its capacity: no allocation per row
+    held_row_ = row;
+    have_held_ = true;
+  }
+
+  void confirm_held() {
+    if (have_confirmed_) confirmed_step_ = held_.t_s - confirmed_time_;
+    confirmed_time_ = held_.t_s;
+    confirmed_text_.swap(held_text_);
+    confirmed_row_ = held_row_;
+    have_confirmed_ = true;
+    ++confirmed_;
+    trace_.samples.push_back(held_);
+  }
+
   const CsvColumns& columns_;
   Trace& trace_;
   std::string where_prefix_;
   const char* row_word_;
-  std::size_t rows_ = 0, prev_row_ = 0;
-  bool have_prev_ = false;
-  double prev_time_ = 0.0;
-  std::string prev_time_text_, error_;
+  std::size_t rows_ = 0, held_row_ = 0, confirmed_row_ = 0, confirmed_ = 0;
+  bool have_held_ = false, have_confirmed_ = false;
+  TraceSample held_{};
+  double confirmed_time_ = 0.0, confirmed_step_ = 0.0;
+  std::string held_text_, confirmed_text_, error_;
 };
 
 }  // namespace feedid::host

@@ -85,14 +85,17 @@ TEST(MatTrace, BadAndRepeatedElementsFollowTheCsvRules) {
   }
   x[100] = nan;                         // one bad element: skipped and named
   t[201] = t[200], x[201] = x[200], u[201] = u[200];  // a repeated sample: counted apart
+  t[250] = 1e6;                         // one time stamp far ahead: that element skipped, not those after it
   const std::string path = write_mat("rules", {{"t", t}, {"x", x}, {"u", u}});
   const CsvResult r = read_trace_file(path, named("t", "x", "u"));
   ASSERT_TRUE(r.ok) << r.error;
-  EXPECT_EQ(r.trace.samples.size(), 298u);
-  EXPECT_EQ(r.trace.rows_skipped, 1u);
+  EXPECT_EQ(r.trace.samples.size(), 297u);
+  EXPECT_EQ(r.trace.rows_skipped, 2u);
   EXPECT_EQ(r.trace.rows_repeated, 1u);
-  ASSERT_FALSE(r.trace.skipped_rows.empty());
+  ASSERT_EQ(r.trace.skipped_rows.size(), 2u);
   EXPECT_TRUE(contains(r.trace.skipped_rows.front(), "element 101")) << r.trace.skipped_rows.front();
+  EXPECT_TRUE(contains(r.trace.skipped_rows.back(), "ahead of the rows around it")) << r.trace.skipped_rows.back();
+  for (const TraceSample& k : r.trace.samples) EXPECT_NE(k.u_N, 250.0);
 
   CsvColumns strict = named("t", "x", "u");
   strict.skip_bad_rows = false;
