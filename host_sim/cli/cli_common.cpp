@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <memory>
 
 #include "identify/gravity.hpp"
@@ -271,8 +272,36 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   group_since(c, before_advanced, "Advanced: method and signal timing (default: from the data)");
 }
 
+namespace {
+/// Where a failed run keeps the result it would replace: axis.json -> axis.prev.json.
+std::string previous_result_path(const std::string& path) {
+  std::filesystem::path p(path);
+  return (p.parent_path() / (p.stem().string() + ".prev" + p.extension().string())).string();
+}
+
+/// A failed run's JSON (a top-level "error") says why at `path`, so that
+/// nothing reads an earlier "ok" there as this run's answer; but the earlier
+/// result it replaces is no output to lose: it is kept, whole, beside it
+/// first. "" or the error; nothing is replaced when the keeping fails.
+std::string keep_result_replaced_by_error(const std::string& path, const nlohmann::json& j,
+                                          const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  if (!j.is_object() || !j.contains("error") || !std::filesystem::is_regular_file(path, ec)) return "";
+  std::ifstream in(path, std::ios::binary);
+  const std::string earlier((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const nlohmann::json was = nlohmann::json::parse(earlier, nullptr, false);
+  if (!was.is_object() || was.contains("error")) return "";  // an earlier failure, or no result of ours
+  const std::string kept = previous_result_path(path);
+  const std::string err = write_whole_file(kept, earlier, inputs);
+  if (!err.empty()) return err + " (keeping the earlier result of " + path + " before this failed run's report replaces it)";
+  std::fprintf(stderr, "note: this run failed; the earlier result in %s is kept as %s\n", path.c_str(), kept.c_str());
+  return "";
+}
+}  // namespace
+
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {
-  const std::string err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
+  std::string err = keep_result_replaced_by_error(path, j, inputs);
+  if (err.empty()) err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
   if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
   return err.empty();
 }

@@ -56,7 +56,9 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u);
 /// The options of identify and diagnose: input, conventions, method.
 void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, IdentifyOptions& o, std::string& method);
 
-/// Writes j to path; prints the error and returns false when it cannot.
+/// Writes j to path; prints the error and returns false when it cannot. A
+/// failed run's JSON (a top-level "error") keeps the earlier result it
+/// replaces as <stem>.prev<ext> beside it.
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs = {});
 
 /// A number option that must be finite and above 0, its message "<value>

@@ -153,4 +153,31 @@ TEST(Messages, NoOutputReplacesAnInputOrAnotherOutput) {
   EXPECT_EQ(twice.rc, 2);
   EXPECT_NE(twice.err.find("another output is written to this file too"), std::string::npos) << twice.err;
 }
+// GIVEN a result at --json, WHEN a later run fails after reading (too little
+// motion) THEN its report with the error is at --json, and the earlier
+// result is kept whole beside it, not lost; a second failure keeps it too.
+TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
+  const std::string dir = ::testing::TempDir() + "feedid_failed_run";
+  std::filesystem::create_directories(dir);
+  const std::string good = dir + "/good.csv", still = dir + "/still.csv", json = dir + "/axis.json";
+  std::filesystem::remove(dir + "/axis.prev.json");
+  ASSERT_EQ(feedid("simulate --duration 20 --out " + good).rc, 0);
+  {
+    std::ofstream out(still);
+    out << "t,x,u\n";
+    for (int k = 0; k < 500; ++k) out << k * 1e-3 << ",0," << (k % 7) << "\n";
+  }
+  ASSERT_EQ(feedid("identify --in " + good + " --json " + json).rc, 0);
+  std::ifstream first(json);
+  const std::string earlier((std::istreambuf_iterator<char>(first)), std::istreambuf_iterator<char>());
+  for (int failure = 0; failure < 2; ++failure) {
+    const Outcome failed = feedid("identify --in " + still + " --json " + json);
+    EXPECT_EQ(failed.rc, 2) << failed.err;
+    std::ifstream now(json), prev(dir + "/axis.prev.json");
+    const nlohmann::json report = nlohmann::json::parse(now, nullptr, false);
+    EXPECT_TRUE(report.is_object() && report.contains("error")) << "the failed run's report is not at --json";
+    const std::string kept((std::istreambuf_iterator<char>(prev)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(kept, earlier) << "the earlier result was lost";
+  }
+}
 }  // namespace
