@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 #include "signals/filters.hpp"
 
@@ -117,8 +118,21 @@ Observations::Observations(const Signals& s, double v_min, double block_s, const
     force_integral_[k] = force_integral_[k - 1] + 0.5 * (force_lp_[k] + force_lp_[k - 1]) * (s.t[k] - s.t[k - 1]);
   make_blocks(v_min, block_s, folds);
   fine_ = make_segments(accel, v_min, block_s / 5.0);
+  fine_lengths_ = index_lengths(fine_);
   make_observations(accel);
   coarse_ = make_segments(accel, v_min, 2.0 * block_s);
+  coarse_lengths_ = index_lengths(coarse_);
+}
+
+std::vector<double> Observations::index_lengths(std::vector<Segment>& segments) {
+  std::vector<double> lengths;
+  std::unordered_map<double, std::size_t> index;
+  for (Segment& sg : segments) {
+    const auto [it, added] = index.emplace(sg.dt, lengths.size());
+    if (added) lengths.push_back(sg.dt);
+    sg.length = it->second;
+  }
+  return lengths;
 }
 
 double Observations::interval_force(std::size_t j) const { return paired_force(s_.u, pairing_, j + 1, s_.stretch_start(j + 1)); }

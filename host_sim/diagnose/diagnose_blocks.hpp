@@ -84,6 +84,7 @@ struct Segment {
   double rev0 = 0.0, rev1 = 0.0;      ///< distance since the last reversal, start and end (m)
   double start0 = 0.0, start1 = 0.0;  ///< ... since the last reversal or start from rest (m)
   double accel = 0.0;        ///< mean smoothed acceleration (m/s^2)
+  std::size_t length = 0;    ///< index of dt among Observations::segment_lengths, exactly equal lengths one index
 };
 
 class Observations {
@@ -97,6 +98,13 @@ class Observations {
   enum class Resolution { coarse, fine };
   const std::vector<Segment>& segments(Resolution r = Resolution::fine) const {
     return r == Resolution::fine ? fine_ : coarse_;
+  }
+  /// The distinct segment lengths (s) at resolution r, each once
+  /// (Segment::length indexes them): a filter of the segments computes
+  /// what depends on the length alone once per length. A logged clock's
+  /// periods differ in their last bits (EMPS: 27 lengths in 25 s).
+  const std::vector<double>& segment_lengths(Resolution r = Resolution::fine) const {
+    return r == Resolution::fine ? fine_lengths_ : coarse_lengths_;
   }
   const Signals& signals() const { return s_; }
   std::size_t heldout_count() const;
@@ -170,12 +178,15 @@ class Observations {
   void make_blocks(double v_min, double block_s, const Folds& folds);
   void make_observations(const std::vector<double>& accel);
   std::vector<Segment> make_segments(const std::vector<double>& accel, double v_min, double segment_s) const;
+  /// Sets each segment's length index; returns the distinct lengths.
+  static std::vector<double> index_lengths(std::vector<Segment>& segments);
 
   const Signals& s_;
   feedid::ForcePairing<double> pairing_;
   std::vector<Block> blocks_;
   std::vector<Observation> obs_;
   std::vector<Segment> fine_, coarse_;
+  std::vector<double> fine_lengths_, coarse_lengths_;
   double force_integral(double t, std::size_t& j) const;
   std::vector<double> force_lp_, force_integral_;  ///< per sample: low-passed force, its integral from the start
 };

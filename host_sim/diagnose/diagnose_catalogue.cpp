@@ -413,30 +413,19 @@ std::vector<double> load_acceleration(const Observations& obs, Observations::Res
   std::vector<double> out(segs.size());
   double y = segs.empty() ? 0.0 : segs[0].accel, yd = 0.0;
   const double wd = w * std::sqrt(1.0 - z * z);
-  // Phi for the first kKept segment lengths met. A logged clock's periods
-  // differ in their last bits from sample to sample (EMPS: 27 lengths in
-  // 25 s, met alternately), so Phi is kept per exact length, not for the
-  // last one only: the same bits, without an exp and a sincos per segment
-  // (a tenth of diagnose on that run). A jittered clock's lengths beyond
-  // the first kKept are computed each time, as before.
+  // Phi once per distinct segment length (Observations::segment_lengths),
+  // not an exp and a sincos per segment.
   struct Phi {
-    double h, p11, p12, p21, p22;
+    double p11, p12, p21, p22;
   };
-  constexpr std::size_t kKept = 64;
-  std::array<Phi, kKept + 1> seen;  // the last slot: a length not kept
-  std::size_t kept = 0, last = 0;
-  auto phi_of = [&](double h) -> const Phi& {
-    if (last < kept && seen[last].h == h) return seen[last];
-    for (last = 0; last < kept; ++last)
-      if (seen[last].h == h) return seen[last];
+  std::vector<Phi> phi;
+  phi.reserve(obs.segment_lengths(r).size());
+  for (const double h : obs.segment_lengths(r)) {
     const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
-    Phi& p = seen[kept < kKept ? kept++ : kKept];
-    p = {h, decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)};
-    last = static_cast<std::size_t>(&p - seen.data());
-    return p;
-  };
+    phi.push_back({decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)});
+  }
   for (std::size_t i = 0; i < segs.size(); ++i) {
-    const Phi& p = phi_of(segs[i].dt);
+    const Phi& p = phi[segs[i].length];
     const double e = y - segs[i].accel, y0 = y;
     y = segs[i].accel + p.p11 * e + p.p12 * yd;
     yd = p.p21 * e + p.p22 * yd;
