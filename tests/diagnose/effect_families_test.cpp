@@ -38,6 +38,19 @@ TEST(DiagnoseFamilies, LightlyDampedComplianceIsNamedWithItsDamping) {
   EXPECT_FALSE(r.gap_remains) << host::summary(r);
 }
 
+// The damper acts between motor and load, so the load's acceleration
+// follows the motor's through H(s) = (2 z w s + w^2)/(s^2 + 2 z w s + w^2):
+// without the zero (a damper to ground) the fitted compliance closed 87.8 %
+// and 88.7 % of the excess at damping 0.05 and 0.08; with it 92.6 % and 91.8 %.
+TEST(DiagnoseFamilies, TheDamperBetweenTheMassesIsInTheLoadResponse) {
+  for (const double zeta : {0.05, 0.08}) {
+    const host::DiagnoseResult r = host::diagnose(host::simulate(damped_compliance(zeta)), host::DiagnoseOptions{});
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    ASSERT_EQ(r.effect, "compliance") << host::summary(r);
+    EXPECT_GT(r.closed_fraction, 0.9) << "damping " << zeta << "\n" << host::summary(r);
+  }
+}
+
 TEST(DiagnoseFamilies, ComplianceAtTheFixedDampingKeepsIt) {
   const host::SimConfig cfg = damped_compliance(0.05);
   const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
