@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -396,11 +397,18 @@ VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const Identi
   return v;
 }
 
-/// The core's velocity at cut-off fc_hz, then the force lag on it.
+/// The core's velocity at cut-off fc_hz (`derived`: that velocity, already
+/// derived from raw's position), then the force lag on it.
 Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
-                         double fc_hz, const LagEstimate* found = nullptr, HeldFriction* held = nullptr) {
+                         double fc_hz, const LagEstimate* found = nullptr, HeldFriction* held = nullptr,
+                         std::vector<double>* derived = nullptr) {
   Signals s = raw;
-  derive_velocity(s, fc_hz);
+  if (derived && derived->size() == s.t.size()) {
+    s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+    s.v = std::move(*derived);
+  } else {
+    derive_velocity(s, fc_hz);
+  }
   std::ostringstream o;
   o << "derived: zero-phase 4th-order Butterworth " << std::setprecision(3) << s.velocity_filter_hz << " Hz ("
     << s.velocity_filter_origin << ") on position" << (trace.has_position ? "" : " (integrated velocity)")
@@ -505,7 +513,11 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // the column is scored on the same samples.
   const bool whole = s.t.size() <= kScanSamplesMax;
   const std::vector<char> scanned = whole ? std::vector<char>{} : scan_selection(s);
-  const FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges);
+  // The scan's velocities serve the choice and its rivals where it derived
+  // them from the logged position itself: the whole log, not delayed by
+  // the lag, which the choice then keeps (the found one).
+  const bool reuse = whole && s.velocity_delay_samples == 0 && s.lag_search.ok;
+  FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges, reuse);
   if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, &held);
     if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
@@ -517,9 +529,20 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   o << "the smoothest of " << choice.candidates << " cut-offs" << (raw.has_velocity_column && trace.has_position ? " and the velocity column" : "")
     << " within a standard error of the least block residual";
   raw.velocity_filter_origin = o.str();
-  Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr);
+  std::vector<double>* at_choice = choice.velocities.empty() ? nullptr : &choice.velocities.front();
+  Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr,
+                                    nullptr, at_choice);
   chosen.velocity_filter_rivals_hz = choice.rivals_hz;
-  derive_rival_velocities(chosen);
+  if (reuse && chosen.velocity_delay_samples == 0 && choice.velocities.size() == choice.rivals_hz.size() + 1) {
+    chosen.rival_velocities.assign(std::make_move_iterator(choice.velocities.begin() + 1),
+                                   std::make_move_iterator(choice.velocities.end()));
+    // A rival the scan no longer held is derived again.
+    for (std::size_t i = 0; i < chosen.rival_velocities.size(); ++i)
+      if (chosen.rival_velocities[i].size() != chosen.t.size())
+        chosen.rival_velocities[i] = derived_velocity(chosen, choice.rivals_hz[i]);
+  } else {
+    derive_rival_velocities(chosen);
+  }
   return chosen;
 }
 

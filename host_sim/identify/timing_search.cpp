@@ -233,7 +233,7 @@ const LagCost& least_of(const std::vector<std::pair<double, LagCost>>& tried) {
 }
 }  // namespace
 
-FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg) {
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg, bool keep_velocities) {
   FilterChoice best;
   best.cutoff_hz = s.velocity_filter_hz;
   Signals work = s;
@@ -245,6 +245,7 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   // least so far (neither can be chosen or a rival, nor can any above them).
   const double top = 0.4 * s.sample_rate_hz;
   std::vector<std::pair<double, LagCost>> tried;
+  std::vector<std::vector<double>> held;  // each tried cut-off's velocity while it can still be chosen or a rival
   int risen = 0;
   for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
     derive_velocity(work, fc);
@@ -253,6 +254,11 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
     risen = rose ? risen + 1 : 0;
     tried.emplace_back(fc, cost);
     ++best.candidates;
+    if (!keep_velocities) continue;
+    held.push_back(work.v);
+    const LagCost& least = least_of(tried);
+    for (std::size_t i = 0; i < tried.size(); ++i)
+      if (!held[i].empty() && !within_one_se(tried[i].second, least)) std::vector<double>().swap(held[i]);
   }
   if (tried.empty()) return best;
   const LagCost least = least_of(tried);
@@ -262,8 +268,10 @@ FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<doubl
   // of the cut-offs whose residual is within a standard error of the
   // least, the smoothest. The others stay as rivals for the standard errors.
   bool chosen = false;
-  for (const auto& [fc, cost] : tried) {
+  for (std::size_t i = 0; i < tried.size(); ++i) {
+    const auto& [fc, cost] = tried[i];
     if (!within_one_se(cost, least)) continue;
+    if (keep_velocities) best.velocities.push_back(std::move(held[i]));
     if (chosen) { best.rivals_hz.push_back(fc); continue; }
     best.cutoff_hz = fc;
     best.block_ssr = cost.ssr;

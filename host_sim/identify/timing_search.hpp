@@ -64,6 +64,10 @@ struct FilterChoice {
   /// (delete-one-chunk jackknife of the difference) of the least: the data
   /// cannot tell them from the choice.
   std::vector<double> rivals_hz;
+  /// With keep_velocities: the velocity derived at cutoff_hz, then at each
+  /// rival, where the scan still held it (empty where it did not): the
+  /// same bits as deriving it again from the same position.
+  std::vector<std::vector<double>> velocities;
 };
 
 /// The cut-off, from lowest_velocity_filter_hz up to 0.4 of the rate in
@@ -80,7 +84,10 @@ struct FilterChoice {
 /// Where the residual cannot tell cut-offs apart (FilterChoice::rivals_hz),
 /// the spread of the parameters over them enters their standard errors
 /// (uncertainty.hpp).
-FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg);
+/// keep_velocities: hand the chosen and the rival cut-offs' velocities back
+/// (FilterChoice::velocities) instead of dropping them; only the
+/// candidates still within a standard error of the least are held.
+FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg, bool keep_velocities = false);
 
 /// Most samples the cut-off scan identifies on: 2^20, 131 s at 8 kHz,
 /// more than any trace the method's coverage, the blind benchmark and the
