@@ -337,6 +337,22 @@ std::string watch_status(const MonitorResult& r) {
   return referenced == 5 ? "watching" : r.referenced ? "partly_watching" : "not_watching";
 }
 
+namespace {
+/// The tracked index (feedid::tracked_value's) of an alarm's parameter.
+int tracked_index(const feedid::ChangeAlarm<double>& a) {
+  if (a.parameter == feedid::Tracked::mass) return 0;
+  return 1 + (a.direction < 0 ? 4 : 0) + (static_cast<int>(a.parameter) - 1);
+}
+
+/// MonitorResult::alarm_earliest_t_s of alarm a, raised at epochs[at].
+double last_carried_before(const std::vector<MonitorEpoch>& epochs, std::size_t at, const feedid::ChangeAlarm<double>& a) {
+  const auto bit = static_cast<std::uint16_t>(1u << tracked_index(a));
+  for (std::size_t k = std::min(at + 1, epochs.size()); k-- > 0;)
+    if (epochs[k].t_end_s <= a.t_s && (epochs[k].compared_mask & bit)) return epochs[k].t_start_s;
+  return a.t_s;
+}
+}  // namespace
+
 MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
   MonitorResult out;
   out.units = opt.identify.units;
@@ -360,8 +376,16 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
         ep.law_differs[d] = (d == 0 ? ep.estimate.pos : ep.estimate.neg).friction_identified() &&
                             ep.stribeck[d] != out.law.stribeck[d];
       int fresh = 0;
-      (void)health.update(compensated(as_compared(ep), ep, covariates, health), ep.t_start_s, ep.t_end_s, fresh);
-      for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) out.alarms.push_back(health.alarm(i));
+      const feedid::Estimate<double> e = compensated(as_compared(ep), ep, covariates, health);
+      for (int i = 0; i < feedid::kTrackedCount; ++i) {
+        double v, se;
+        if (health.watched(i) && feedid::tracked_value(e, i, v, se)) ep.compared_mask |= static_cast<std::uint16_t>(1u << i);
+      }
+      (void)health.update(e, ep.t_start_s, ep.t_end_s, fresh);
+      for (int i = health.alarm_count() - fresh; i < health.alarm_count(); ++i) {
+        out.alarms.push_back(health.alarm(i));
+        out.alarm_earliest_t_s.push_back(last_carried_before(out.epochs, compared, out.alarms.back()));
+      }
     }
   };
   auto identify_pending = [&] {
@@ -454,8 +478,11 @@ nlohmann::json epoch_json(const MonitorEpoch& ep) {
   return j;
 }
 
-nlohmann::json alarm_json(const feedid::ChangeAlarm<double>& a) {
+/// Alarm k of r.
+nlohmann::json alarm_json(const MonitorResult& r, std::size_t k) {
+  const feedid::ChangeAlarm<double>& a = r.alarms[k];
   return {{"t_s", a.t_s},
+          {"earliest_t_s", k < r.alarm_earliest_t_s.size() ? r.alarm_earliest_t_s[k] : a.t_s},
           {"raised_t_s", a.raised_t_s},
           {"parameter", feedid::tracked_name(a.parameter)},
           {"direction", a.direction == 0 ? nlohmann::json(nullptr) : nlohmann::json(direction_name(a.direction))},
@@ -472,7 +499,7 @@ std::string jsonl_lines(const MonitorResult& r, const std::string& source) {
   // Alarms in time order among the epochs: after the epoch that raised them.
   auto alarms_until = [&](double t) {
     for (; next_alarm < r.alarms.size() && r.alarms[next_alarm].raised_t_s <= t; ++next_alarm) {
-      nlohmann::json a = alarm_json(r.alarms[next_alarm]);
+      nlohmann::json a = alarm_json(r, next_alarm);
       a["type"] = "alarm";
       a["source"] = source;
       out += a.dump() + "\n";
@@ -496,7 +523,7 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
   nlohmann::json epochs = nlohmann::json::array();
   for (const auto& ep : r.epochs) epochs.push_back(epoch_json(ep));
   nlohmann::json alarms = nlohmann::json::array();
-  for (const auto& a : r.alarms) alarms.push_back(alarm_json(a));
+  for (std::size_t k = 0; k < r.alarms.size(); ++k) alarms.push_back(alarm_json(r, k));
   const LogConventions& c = r.conventions;
   nlohmann::json conventions = {{"fixed", c.fixed},
                                 {"force_sign", c.stated.force_sign},
@@ -586,9 +613,13 @@ std::string trend_table(const MonitorResult& r) {
   }
   o << watch_summary(r);
   if (r.alarms.empty() && watch_status(r) != "not_watching") o << "no alarms in what was watched\n";
-  for (const auto& a : r.alarms) {
+  for (std::size_t k = 0; k < r.alarms.size(); ++k) {
+    const feedid::ChangeAlarm<double>& a = r.alarms[k];
     const Rounded c = round_to_se(a.change, a.change_se);
-    std::snprintf(buf, sizeof buf, "ALARM at %.1f s (raised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, a.raised_t_s,
+    const double earliest = k < r.alarm_earliest_t_s.size() ? r.alarm_earliest_t_s[k] : a.t_s;
+    char when[64] = "";
+    if (earliest < a.t_s) std::snprintf(when, sizeof when, "changed since %.1f s at the earliest; ", earliest);
+    std::snprintf(buf, sizeof buf, "ALARM at %.1f s (%sraised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, when, a.raised_t_s,
                   feedid::tracked_name(a.parameter), a.direction ? " " : "", direction_name(a.direction).c_str(),
                   c.value.c_str(), c.se.c_str(), unit_of(a.parameter, r.units).c_str(), a.reference != 0 ? 100.0 * a.change / a.reference : 0.0);
     o << buf;

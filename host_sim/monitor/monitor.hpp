@@ -5,6 +5,7 @@
 // alarms. Host only.
 #pragma once
 #include <array>
+#include <cstdint>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -43,6 +44,8 @@ struct MonitorEpoch {
   /// Epoch means of the temperature and load columns (--temperature,
   /// --load); NaN when the column is not read.
   double temperature = NAN, load = NAN;
+  /// Bit i: tracked index i (feedid::tracked_value) went to the change monitor from this epoch.
+  std::uint16_t compared_mask = 0;
 };
 
 /// Each direction's friction law, fixed once per log like the conventions:
@@ -79,6 +82,14 @@ struct MonitorResult {
   std::string error;             ///< reading failed (the epochs so far are kept)
   std::vector<MonitorEpoch> epochs;
   std::vector<feedid::ChangeAlarm<double>> alarms;
+  /// Per alarm: the start of the last epoch before its run that carried
+  /// the parameter to the change monitor. The change lies after it (that
+  /// epoch may hold its start, mixed in below the allowance) and by the end
+  /// of the run's first epoch (ChangeAlarm::t_s is that epoch's start).
+  /// With short epochs few carry Fc or sigma (an epoch must fix the
+  /// slope), and t_s alone, read as the change's time, was up to 30 s late
+  /// at 5 s epochs. The run's first epoch's start where none carried it before.
+  std::vector<double> alarm_earliest_t_s;
   LogConventions conventions;
   LogLaw law;
   std::size_t epochs_skipped = 0;   ///< epochs that could not be identified at all

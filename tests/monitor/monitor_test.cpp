@@ -244,6 +244,36 @@ TEST(Monitor, StepInNegativeCoulombOnProductionMotionIsNamedWithinAMinute) {
   EXPECT_LT(with_vs, 12);
 }
 
+// GIVEN a Coulomb step at 302 s on production motion, monitored in 5 s
+// epochs, few of which carry Fc (an epoch must fix the slope too), THEN
+// each alarm's interval, from earliest_t_s to the end of its run's first
+// epoch, holds the step. The run's first epoch alone was up to 28 s late.
+TEST(Monitor, AnAlarmsIntervalHoldsTheStepWithShortEpochs) {
+  SimConfig c = production(2);
+  c.motion.duration_s = 480.0;
+  c.change.time_s = 302.0;
+  c.change.coulomb_fraction = 0.1;
+  const std::string path = ::testing::TempDir() + "feedid_monitor_dating.csv";
+  std::string err;
+  ASSERT_TRUE(write_trace_csv(path, simulate(c), err)) << err;
+  CsvStream in(path, CsvColumns{});
+  ASSERT_TRUE(in.ok()) << in.error();
+  MonitorOptions opt;
+  opt.detector.epoch_s = 5.0;
+  const MonitorResult r = monitor(in, opt);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_FALSE(r.alarms.empty()) << trend_table(r);
+  ASSERT_EQ(r.alarm_earliest_t_s.size(), r.alarms.size());
+  const nlohmann::json j = to_json(r, opt);
+  for (std::size_t k = 0; k < r.alarms.size(); ++k) {
+    const auto& a = r.alarms[k];
+    EXPECT_EQ(a.parameter, feedid::Tracked::coulomb);
+    EXPECT_LE(r.alarm_earliest_t_s[k], c.change.time_s) << "alarm " << k;
+    EXPECT_GE(a.t_s + opt.detector.epoch_s, c.change.time_s) << "alarm " << k;
+    EXPECT_EQ(j["alarms"][k]["earliest_t_s"].get<double>(), r.alarm_earliest_t_s[k]);
+  }
+}
+
 /// Production motion warming up: friction 10 % down over 5 min as the
 /// logged temperature rises, then (optionally) Fc of both directions 5 % up at 450 s.
 MonitorResult monitor_warm_up(double step_fraction, bool read_temperature, const std::string& name) {
