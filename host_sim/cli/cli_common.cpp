@@ -282,26 +282,40 @@ std::string previous_result_path(const std::string& path) {
 /// A failed run's JSON (a top-level "error") says why at `path`, so that
 /// nothing reads an earlier "ok" there as this run's answer; but the earlier
 /// result it replaces is no output to lose: it is kept, whole, beside it
-/// first. "" or the error; nothing is replaced when the keeping fails.
-std::string keep_result_replaced_by_error(const std::string& path, const nlohmann::json& j,
-                                          const std::vector<std::string>& inputs) {
+/// first. Only a regular file is kept (through a link, beside its target;
+/// not a stream such as /dev/stdout). False (with the reason printed)
+/// where the keeping failed: then nothing is replaced.
+bool keep_result_replaced_by_error(const std::string& path, const nlohmann::json& j,
+                                   const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
   std::error_code ec;
-  if (!j.is_object() || !j.contains("error") || !std::filesystem::is_regular_file(path, ec)) return "";
-  std::ifstream in(path, std::ios::binary);
+  if (!j.is_object() || !j.contains("error") || path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0 ||
+      !fs::is_regular_file(path, ec))
+    return true;
+  const std::string file = fs::is_symlink(fs::symlink_status(path, ec)) ? fs::weakly_canonical(path, ec).string() : path;
+  std::ifstream in(file, std::ios::binary);
   const std::string earlier((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const nlohmann::json was = nlohmann::json::parse(earlier, nullptr, false);
-  if (!was.is_object() || was.contains("error")) return "";  // an earlier failure, or no result of ours
-  const std::string kept = previous_result_path(path);
+  if (!was.is_object() || was.contains("error")) return true;  // an earlier failure, or no result of ours
+  const std::string kept = previous_result_path(file);
   const std::string err = write_whole_file(kept, earlier, inputs);
-  if (!err.empty()) return err + " (keeping the earlier result of " + path + " before this failed run's report replaces it)";
+  if (!err.empty()) {
+    std::fprintf(stderr,
+                 "error: %s, so %s is left as it was: it holds an EARLIER result, not this failed run's (its error "
+                 "follows)\n",
+                 err.c_str(), path.c_str());
+    return false;
+  }
   std::fprintf(stderr, "note: this run failed; the earlier result in %s is kept as %s\n", path.c_str(), kept.c_str());
-  return "";
+  return true;
 }
 }  // namespace
 
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs) {
-  std::string err = keep_result_replaced_by_error(path, j, inputs);
-  if (err.empty()) err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
+  // Where the earlier result could not be kept the report is not written;
+  // the caller goes on to say the run's own error and exit with it.
+  if (!keep_result_replaced_by_error(path, j, inputs)) return true;
+  const std::string err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
   if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
   return err.empty();
 }
@@ -326,6 +340,19 @@ std::string output_over_input(const CLI::App& sub) {
   for (const std::string& out : outputs)
     for (const std::string& in : inputs)
       if (same_file(out, in)) return out + ": refusing to write an output over the input " + in;
+  // Where a failed run would keep the earlier --json result (write_json):
+  // neither an input nor another output.
+  std::vector<std::string> kept;
+  for (const std::string& json : values({"--json"}))
+    if (json != "-") kept.push_back(previous_result_path(json));
+  for (const std::string& k : kept) {
+    for (const std::string& in : inputs)
+      if (same_file(k, in) || where(k) == where(in))
+        return k + ": a failed run would keep the earlier --json result there, over the input " + in;
+    for (const std::string& out : outputs)
+      if (out != "-" && where(k) == where(out))
+        return out + ": a failed run would keep the earlier --json result in this file; name another output";
+  }
   // A report folder's own files (report.html and its SVG figures) over an input kept in it.
   for (const std::string& dir : values({"--report"}))
     for (const std::string& in : inputs) {

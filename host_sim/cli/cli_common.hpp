@@ -58,7 +58,9 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
 
 /// Writes j to path; prints the error and returns false when it cannot. A
 /// failed run's JSON (a top-level "error") keeps the earlier result it
-/// replaces as <stem>.prev<ext> beside it.
+/// replaces as <stem>.prev<ext> beside it; where that cannot be kept, the
+/// report is not written (said on stderr) and true is returned, so that
+/// the caller says the run's own error and exits with it.
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs = {});
 
 /// A number option that must be finite and above 0, its message "<value>

@@ -24,6 +24,42 @@ bool is_special(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
 }
 
+/// A name for the system's streams (/dev/stdout, /dev/fd/N, /proc/self/fd/N):
+/// written in place even where it resolves to a regular file (a redirected
+/// stdout), since renaming over it would replace the link, not reach the file.
+bool names_a_stream(const std::string& path) {
+  return path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0;
+}
+
+/// The process's own descriptor a stream's name stands for, or -1:
+/// /dev/stdout 1, /dev/stderr 2, /dev/fd/N and /proc/self/fd/N N. Opened
+/// by name, a redirected stdout got a second offset at 0 (and was
+/// truncated), and the run's own output overwrote what was written there.
+int own_descriptor(const std::string& path) {
+  if (path == "/dev/stdout") return 1;
+  if (path == "/dev/stderr") return 2;
+  for (const char* prefix : {"/dev/fd/", "/proc/self/fd/"}) {
+    const std::string p(prefix);
+    if (path.rfind(p, 0) != 0 || path.size() == p.size()) continue;
+    int n = 0;
+    for (std::size_t i = p.size(); i < path.size(); ++i) {
+      if (path[i] < '0' || path[i] > '9' || n > 100000) return -1;
+      n = 10 * n + (path[i] - '0');
+    }
+    return n;
+  }
+  return -1;
+}
+
+/// Where a rename must land: a symbolic link's target, so that the link stays
+/// (renaming over the link itself replaced it by a file).
+std::string rename_target(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_symlink(std::filesystem::symlink_status(path, ec))) return path;
+  const std::filesystem::path target = std::filesystem::weakly_canonical(path, ec);
+  return ec ? path : target.string();
+}
+
 }  // namespace
 
 bool same_file(const std::string& a, const std::string& b) {
@@ -43,10 +79,19 @@ OutputFile::OutputFile(std::string path, const std::vector<std::string>& inputs)
     return;
   }
   errno = 0;
-  if (is_special(path_)) {
+  if (const int fd = own_descriptor(path_); fd >= 0) {
+    if (fd == 1) std::fflush(stdout);  // what the run printed before comes first
+    if (fd == 2) std::fflush(stderr);
+    const int copy = ::dup(fd);
+    if (copy >= 0) {
+      f_ = ::fdopen(copy, "wb");
+      if (f_ == nullptr) ::close(copy);
+    }
+  } else if (is_special(path_) || names_a_stream(path_)) {
     f_ = std::fopen(path_.c_str(), "wb");
   } else {
-    temp_ = temporary_beside(path_);
+    target_ = rename_target(path_);
+    temp_ = temporary_beside(target_);
     const int fd = ::mkstemp(temp_.data());
     if (fd >= 0) {
       ::fchmod(fd, 0644);
@@ -88,7 +133,7 @@ bool OutputFile::commit() {
   if (closed != 0) fail(reason(errno));
   if (ok() && !temp_.empty()) {
     errno = 0;
-    if (std::rename(temp_.c_str(), path_.c_str()) != 0) fail(reason(errno));
+    if (std::rename(temp_.c_str(), target_.c_str()) != 0) fail(reason(errno));
     else temp_.clear();
   }
   return ok();

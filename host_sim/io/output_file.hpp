@@ -17,8 +17,10 @@ bool same_file(const std::string& a, const std::string& b);
 /// One output file being written. Open it, write(), then commit(); a file
 /// destroyed without a successful commit() removes its temporary and
 /// leaves the target untouched. A target that exists and is not a regular
-/// file (/dev/stdout, a pipe, /dev/null) is written in place, every write
-/// and the close checked the same way.
+/// file (a pipe, /dev/null), or is named under /dev or /proc (/dev/stdout,
+/// even redirected to a file), is written in place, every write and the
+/// close checked the same way. A symbolic link is replaced through: its
+/// target gets the new file, the link stays.
 class OutputFile {
  public:
   /// `inputs`: the run's input files; naming one of them is refused.
@@ -37,7 +39,7 @@ class OutputFile {
 
  private:
   void fail(const std::string& why);
-  std::string path_, temp_;
+  std::string path_, temp_, target_;  ///< target_: what the temporary is renamed to (a link's target)
   std::FILE* f_ = nullptr;
   std::string error_;
 };

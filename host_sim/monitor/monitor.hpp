@@ -89,6 +89,7 @@ struct MonitorResult {
   /// With short epochs few carry Fc or sigma (an epoch must fix the
   /// slope), and t_s alone, read as the change's time, was up to 30 s late
   /// at 5 s epochs. The run's first epoch's start where none carried it before.
+  /// A step's bound: a drift below the allowance began before it.
   std::vector<double> alarm_earliest_t_s;
   LogConventions conventions;
   LogLaw law;

@@ -179,5 +179,20 @@ TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
     const std::string kept((std::istreambuf_iterator<char>(prev)), std::istreambuf_iterator<char>());
     EXPECT_EQ(kept, earlier) << "the earlier result was lost";
   }
+  // Where the earlier result cannot be kept (a folder in the way), nothing
+  // is replaced, and the run still says its own error and exits with it.
+  ASSERT_EQ(feedid("identify --in " + good + " --json " + json).rc, 0);
+  std::filesystem::remove(dir + "/axis.prev.json");
+  std::filesystem::create_directory(dir + "/axis.prev.json");
+  const Outcome blocked = feedid("identify --in " + still + " --json " + json);
+  EXPECT_EQ(blocked.rc, 2) << blocked.err;
+  EXPECT_NE(blocked.err.find("not enough motion"), std::string::npos) << blocked.err;
+  EXPECT_NE(blocked.err.find("left as it was"), std::string::npos) << blocked.err;
+  std::ifstream left(json);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(left)), std::istreambuf_iterator<char>()), earlier);
+  std::filesystem::remove(dir + "/axis.prev.json");
+  // An output named where the earlier result would be kept is refused before anything runs.
+  const Outcome clash = feedid("identify --in " + good + " --json " + json + " --friction-plot " + dir + "/axis.prev.json");
+  EXPECT_EQ(clash.rc, 2) << clash.err;
 }
 }  // namespace

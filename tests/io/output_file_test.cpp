@@ -46,6 +46,26 @@ TEST(OutputFile, CommitReplacesTheFileWholeAndLeavesNoTemporary) {
   fs::remove_all(d);
 }
 
+// A link is written through: its target gets the new file and the link
+// stays (renaming over the link replaced it, as root even /dev/stdout).
+// A redirected /dev/stdout is written in place, not renamed over.
+TEST(OutputFile, ALinkIsWrittenThroughAndStaysALink) {
+  const fs::path d = fresh_dir("link");
+  const fs::path target = d / "model.json", link = d / "latest.json";
+  ASSERT_EQ(feedid::host::write_whole_file(target.string(), "old\n"), "");
+  fs::create_symlink(target.filename(), link);
+  ASSERT_EQ(feedid::host::write_whole_file(link.string(), "new\n"), "");
+  EXPECT_TRUE(fs::is_symlink(fs::symlink_status(link)));
+  EXPECT_EQ(slurp(target), "new\n");
+  EXPECT_EQ(entries(d), 2u) << "no temporary left";
+  const std::string out = (d / "stdout.txt").string();
+  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid simulate --duration 1 --out /dev/stdout > " + out).c_str());
+  EXPECT_EQ(rc, 0);
+  EXPECT_EQ(slurp(out).rfind("t,x,v,u\n", 0), 0u) << "the trace reached the redirected stdout";
+  EXPECT_TRUE(fs::is_symlink(fs::symlink_status("/dev/stdout")) || !fs::is_regular_file(fs::symlink_status("/dev/stdout")));
+  fs::remove_all(d);
+}
+
 TEST(OutputFile, AnOutputNeverCommittedLeavesThePreviousFileAsItWas) {
   const fs::path d = fresh_dir("abandon");
   const std::string p = (d / "trace.csv").string();
