@@ -239,9 +239,20 @@ double BlockPair::impulse(const feedid::ForcePairing<double>& p, int lead) const
          friction;
 }
 
+namespace {
+/// Room for the blocks of s: its span over the block length, but never more
+/// than its samples (one row stamped years ahead made the span's count a
+/// hundred billion, and identify died of bad_alloc).
+std::size_t block_capacity(const Signals& s, double block_s) {
+  if (s.t.empty() || !(block_s > 0)) return 1;
+  const double by_time = (s.t.back() - s.t.front()) / block_s;
+  return static_cast<std::size_t>(std::min(by_time, static_cast<double>(s.t.size()))) + 1;
+}
+}  // namespace
+
 std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, double v_min, double block_s) {
   std::vector<BlockPair> out;
-  out.reserve(static_cast<std::size_t>(s.t.empty() ? 0.0 : (s.t.back() - s.t.front()) / block_s) + 1);
+  out.reserve(block_capacity(s, block_s));
   auto taps = [&s](std::size_t k, std::size_t first, std::size_t last) { return force_ages(s.u, k, first, last); };
   for_each_block<Integrands>(s, p, v_min, block_s, taps, [&](const Integrands& w, double dv, double area, double t_end) {
     out.push_back({w.friction, w.force, dv, area, chunk_of(s, t_end)});
@@ -251,7 +262,7 @@ std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, doubl
 
 std::vector<PairedBlock> paired_blocks(const Signals& s, const DriveParams& p, double v_min, double block_s) {
   std::vector<PairedBlock> out;
-  out.reserve(static_cast<std::size_t>(s.t.empty() ? 0.0 : (s.t.back() - s.t.front()) / block_s) + 1);
+  out.reserve(block_capacity(s, block_s));
   const feedid::ForcePairing<double> pairing = s.pairing();
   // BlockPair::impulse at lead 0 taps ages 0 and older only, so `last` plays no part.
   auto paired = [&](std::size_t k, std::size_t first, std::size_t) { return paired_force(s.u, pairing, k, first); };

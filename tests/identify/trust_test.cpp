@@ -72,6 +72,17 @@ TEST(Trust, OneOutlierRowChangesNothing) {
   }
 }
 
+// GIVEN the simulated log whose last row is stamped a billion seconds
+// ahead (a clock glitch the reader keeps: it follows a gap), THEN identify
+// runs and answers: it died of bad_alloc sizing its blocks by the span.
+TEST(Trust, ALastRowYearsAheadIsNoOutOfMemory) {
+  Trace tr = sim_trace();
+  tr.samples.back().t_s = 1e9;
+  IdentifyResult r;
+  EXPECT_NO_THROW(r = identify(tr, IdentifyOptions{}));
+  EXPECT_EQ(r.status, feedid::Status::ok) << r.error;
+}
+
 // GIVEN the same log in a force unit of 1/3e7 N and of 1/1e8 N (the fixed
 // limit of 1e9 dropped 40 % of such a log, or all of it), THEN every
 // sample is used and m, sigma and Fc are the clean ones times the scale.
