@@ -287,12 +287,9 @@ std::string previous_result_path(const std::string& path) {
 /// where the keeping failed: then nothing is replaced.
 bool keep_result_replaced_by_error(const std::string& path, const nlohmann::json& j,
                                    const std::vector<std::string>& inputs) {
-  namespace fs = std::filesystem;
   std::error_code ec;
-  if (!j.is_object() || !j.contains("error") || path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0 ||
-      !fs::is_regular_file(path, ec))
-    return true;
-  const std::string file = fs::is_symlink(fs::symlink_status(path, ec)) ? fs::weakly_canonical(path, ec).string() : path;
+  const std::string file = replaced_file(path);
+  if (!j.is_object() || !j.contains("error") || file.empty() || !std::filesystem::is_regular_file(file, ec)) return true;
   std::ifstream in(file, std::ios::binary);
   const std::string earlier((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const nlohmann::json was = nlohmann::json::parse(earlier, nullptr, false);

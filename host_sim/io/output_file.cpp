@@ -51,16 +51,15 @@ int own_descriptor(const std::string& path) {
   return -1;
 }
 
-/// Where a rename must land: a symbolic link's target, so that the link stays
-/// (renaming over the link itself replaced it by a file).
-std::string rename_target(const std::string& path) {
+}  // namespace
+
+std::string replaced_file(const std::string& path) {
+  if (names_a_stream(path)) return "";
   std::error_code ec;
   if (!std::filesystem::is_symlink(std::filesystem::symlink_status(path, ec))) return path;
   const std::filesystem::path target = std::filesystem::weakly_canonical(path, ec);
   return ec ? path : target.string();
 }
-
-}  // namespace
 
 bool same_file(const std::string& a, const std::string& b) {
   struct stat sa {}, sb {};
@@ -90,7 +89,7 @@ OutputFile::OutputFile(std::string path, const std::vector<std::string>& inputs)
   } else if (is_special(path_) || names_a_stream(path_)) {
     f_ = std::fopen(path_.c_str(), "wb");
   } else {
-    target_ = rename_target(path_);
+    target_ = replaced_file(path_);
     temp_ = temporary_beside(target_);
     const int fd = ::mkstemp(temp_.data());
     if (fd >= 0) {

@@ -44,6 +44,11 @@ class OutputFile {
   std::string error_;
 };
 
+/// The file a commit to `path` replaces: a symbolic link's target (the
+/// link stays), `path` itself otherwise; "" for a stream's name under /dev
+/// or /proc, which is written in place and replaces nothing.
+std::string replaced_file(const std::string& path);
+
 /// `content` to `path` through an OutputFile; empty string, or the error.
 std::string write_whole_file(const std::string& path, const std::string& content,
                              const std::vector<std::string>& inputs = {});

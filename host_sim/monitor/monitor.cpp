@@ -340,8 +340,9 @@ std::string watch_status(const MonitorResult& r) {
 namespace {
 /// The tracked index (feedid::tracked_value's) of an alarm's parameter.
 int tracked_index(const feedid::ChangeAlarm<double>& a) {
-  if (a.parameter == feedid::Tracked::mass) return 0;
-  return 1 + (a.direction < 0 ? 4 : 0) + (static_cast<int>(a.parameter) - 1);
+  for (int i = 0; i < feedid::kTrackedCount; ++i)
+    if (Monitor::parameter_of(i) == a.parameter && Monitor::direction_of(i) == a.direction) return i;
+  return 0;
 }
 
 /// MonitorResult::alarm_earliest_t_s of alarm a, raised at epochs[at].
@@ -478,11 +479,16 @@ nlohmann::json epoch_json(const MonitorEpoch& ep) {
   return j;
 }
 
+/// Alarm k's MonitorResult::alarm_earliest_t_s (its t_s in a result built without them).
+double earliest_of(const MonitorResult& r, std::size_t k) {
+  return k < r.alarm_earliest_t_s.size() ? r.alarm_earliest_t_s[k] : r.alarms[k].t_s;
+}
+
 /// Alarm k of r.
 nlohmann::json alarm_json(const MonitorResult& r, std::size_t k) {
   const feedid::ChangeAlarm<double>& a = r.alarms[k];
   return {{"t_s", a.t_s},
-          {"earliest_t_s", k < r.alarm_earliest_t_s.size() ? r.alarm_earliest_t_s[k] : a.t_s},
+          {"earliest_t_s", earliest_of(r, k)},
           {"raised_t_s", a.raised_t_s},
           {"parameter", feedid::tracked_name(a.parameter)},
           {"direction", a.direction == 0 ? nlohmann::json(nullptr) : nlohmann::json(direction_name(a.direction))},
@@ -616,7 +622,7 @@ std::string trend_table(const MonitorResult& r) {
   for (std::size_t k = 0; k < r.alarms.size(); ++k) {
     const feedid::ChangeAlarm<double>& a = r.alarms[k];
     const Rounded c = round_to_se(a.change, a.change_se);
-    const double earliest = k < r.alarm_earliest_t_s.size() ? r.alarm_earliest_t_s[k] : a.t_s;
+    const double earliest = earliest_of(r, k);
     char when[64] = "";
     if (earliest < a.t_s) std::snprintf(when, sizeof when, "changed since %.1f s at the earliest; ", earliest);
     std::snprintf(buf, sizeof buf, "ALARM at %.1f s (%sraised at %.1f s): %s%s%s changed by %s +- %s %s (%+.1f %%)\n", a.t_s, when, a.raised_t_s,
