@@ -380,7 +380,7 @@ class GridColumns {
     if (it != kept_.end()) return it->second;
     Mat cols = em.columns(em.grid[i], size, r);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    if (em.keep_grid_columns && !drawn_.insert(key).second && bytes_ + bytes <= kBytes) {
+    if (em.keep_grid_columns && bytes_ + bytes <= kBytes) {
       bytes_ += bytes;
       kept_.emplace(key, cols);
     }
@@ -391,7 +391,6 @@ class GridColumns {
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
   using Key = std::tuple<const EffectModel*, std::size_t, int, int>;
   std::map<Key, Mat> kept_;
-  std::set<Key> drawn_;
   std::size_t bytes_ = 0;
 };
 
@@ -409,6 +408,9 @@ struct Stage {
 /// or the fitted one's (the first base column).
 double stage_mass(const Stage& st, const Vec& theta) { return st.base.fixed.empty() ? st.given_mass_kg : theta(0); }
 
+/// Relative SSR difference below which two grid points tie.
+constexpr double kGridTieRelative = 1e-9;
+
 /// Width in log(p) at which a continuous parameter's search stops.
 constexpr double kParameterLogTolerance = 1e-3;
 
@@ -418,18 +420,19 @@ constexpr double kParameterLogTolerance = 1e-3;
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
-  auto ssr_of = [&](Mat cols) {
-    const ColumnBank::Extra ex = st.bank.extra(std::move(cols), with);
-    const LinearFit f = st.bank.fit(with, &ex);
-    return f.ok ? f.ssr_id : kInf;
-  };
+  const ColumnBank::Held held = st.bank.hold(with);
+  auto ssr_of = [&](Mat cols) { return st.bank.ssr_beside(held, st.bank.extra(std::move(cols), with)); };
   auto cost = [&](double p, Res r) { return ssr_of(em.columns(p, size, r)); };
   const Res grid_res = em.fine_grid || grid.size() == 1 ? Res::fine : Res::coarse;
   double best_ssr = kInf, best_p = grid[0];
   std::size_t best_i = 0;
   for (std::size_t i = 0; i < grid.size(); ++i) {
     const double c = em.grid.empty() ? cost(grid[i], grid_res) : ssr_of(st.grid_columns.at(em, i, size, grid_res));
-    if (c < best_ssr) best_ssr = c, best_p = grid[i], best_i = i;
+    // Grid points whose columns agree on the identification observations
+    // (two position ranges over the same blocks) tie to the last digits:
+    // the first one is kept, so that rounding does not choose.
+    const double margin = std::isfinite(best_ssr) ? kGridTieRelative * std::fabs(best_ssr) : 0.0;
+    if (c < best_ssr - margin) best_ssr = c, best_p = grid[i], best_i = i;
   }
   if (grid.size() == 1) return best_p;
   if (grid_res != Res::fine) best_ssr = cost(best_p, Res::fine);

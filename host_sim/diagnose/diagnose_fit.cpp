@@ -28,6 +28,12 @@ double ColumnBank::gram(int i, int j) const {
   return g;
 }
 
+Mat ColumnBank::gather(const std::vector<int>& cols) const {
+  Mat x(y_.size(), static_cast<Eigen::Index>(cols.size()));
+  for (std::size_t i = 0; i < cols.size(); ++i) x.col(static_cast<Eigen::Index>(i)) = column(cols[i]);
+  return x;
+}
+
 ColumnBank::Extra ColumnBank::extra(Mat cols, const std::vector<int>& with) const {
   Extra e;
   e.with = with;
@@ -44,14 +50,25 @@ ColumnBank::Extra ColumnBank::extra(Mat cols, const std::vector<int>& with) cons
   return e;
 }
 
-LinearFit ColumnBank::fit(const std::vector<int>& cols, const Extra* extra) const {
-  const Eigen::Index p = static_cast<Eigen::Index>(cols.size()), q = extra ? extra->cols.cols() : 0;
-  Mat g(p + q, p + q);
-  Vec gy(p + q);
+void ColumnBank::products(const std::vector<int>& cols, Mat& g, Vec& gy) const {
+  const Eigen::Index p = static_cast<Eigen::Index>(cols.size());
+  g.resize(p, p);
+  gy.resize(p);
   for (Eigen::Index i = 0; i < p; ++i) {
     gy(i) = xty_[static_cast<std::size_t>(cols[static_cast<std::size_t>(i)])];
     for (Eigen::Index j = 0; j <= i; ++j) g(i, j) = g(j, i) = gram(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
   }
+}
+
+LinearFit ColumnBank::fit(const std::vector<int>& cols, const Extra* extra) const {
+  const Eigen::Index p = static_cast<Eigen::Index>(cols.size()), q = extra ? extra->cols.cols() : 0;
+  Mat gp;
+  Vec gyp;
+  products(cols, gp, gyp);
+  Mat g(p + q, p + q);
+  Vec gy(p + q);
+  g.topLeftCorner(p, p) = gp;
+  gy.head(p) = gyp;
   if (q > 0) {
     for (Eigen::Index i = 0; i < p; ++i) {
       const auto it = std::find(extra->with.begin(), extra->with.end(), cols[static_cast<std::size_t>(i)]);
@@ -65,6 +82,46 @@ LinearFit ColumnBank::fit(const std::vector<int>& cols, const Extra* extra) cons
   return solve_normal_equations(g, gy, yty_);
 }
 
+ColumnBank::Held ColumnBank::hold(const std::vector<int>& with) const {
+  Held h;
+  h.with = with;
+  Mat g;
+  Vec gy;
+  products(with, g, gy);
+  h.g_inv = with.empty() ? Mat() : pseudo_inverse_normal(g);
+  h.fit = solve_normal_equations(g, gy, yty_);
+  return h;
+}
+
+double ColumnBank::ssr_beside(const Held& held, const Extra& extra) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (!held.fit.ok) return kInf;
+  const Mat& c = extra.cross;
+  Mat s = extra.gram;
+  Vec r = extra.xty;
+  if (c.rows() > 0) {
+    s.noalias() -= c.transpose() * held.g_inv * c;
+    r.noalias() -= c.transpose() * held.fit.theta;
+  }
+  // What the extra columns add beyond the held ones, in the same
+  // correlation form and cut as solve_normal_equations: a column (nearly)
+  // in the held columns' span adds nothing instead of noise.
+  const Eigen::Index q = s.rows();
+  Vec scale(q);
+  for (Eigen::Index i = 0; i < q; ++i) scale(i) = extra.gram(i, i) > 0 ? 1.0 / std::sqrt(extra.gram(i, i)) : 0.0;
+  const Mat sc = scale.asDiagonal() * s * scale.asDiagonal();
+  const Vec rc = scale.asDiagonal() * r;
+  Eigen::SelfAdjointEigenSolver<Mat> eig(sc);
+  if (eig.info() != Eigen::Success) return kInf;
+  double drop = 0.0;
+  for (Eigen::Index k = 0; k < q; ++k) {
+    const double lambda = eig.eigenvalues()(k);
+    if (lambda > kNormalEquationsCut) drop += std::pow(eig.eigenvectors().col(k).dot(rc), 2) / lambda;
+  }
+  const double ssr = held.fit.ssr_id - drop;
+  return std::isfinite(ssr) ? ssr : kInf;
+}
+
 Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const {
   Vec r = y_;
   for (std::size_t i = 0; i < cols.size(); ++i) r -= theta(static_cast<Eigen::Index>(i)) * column(cols[i]);
@@ -73,12 +130,10 @@ Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const
 }
 
 Vec ColumnBank::leverage(const std::vector<int>& cols) const {
-  const auto p = static_cast<Eigen::Index>(cols.size());
-  Mat g(p, p), x(y_.size(), p);
-  for (Eigen::Index i = 0; i < p; ++i) {
-    x.col(i) = column(cols[static_cast<std::size_t>(i)]);
-    for (Eigen::Index j = 0; j <= i; ++j) g(i, j) = g(j, i) = gram(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
-  }
+  Mat g;
+  Vec gy;
+  products(cols, g, gy);
+  const Mat x = gather(cols);
   const Mat g_inv = pseudo_inverse_normal(g);
   return ((x * g_inv).array() * x.array()).rowwise().sum();
 }
@@ -109,7 +164,7 @@ Mat pseudo_inverse_normal(const Mat& g) {
   Eigen::SelfAdjointEigenSolver<Mat> eig(scale.asDiagonal() * g * scale.asDiagonal());
   if (eig.info() != Eigen::Success) return Mat::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
   const Vec& lambda = eig.eigenvalues();
-  const double cut = 1e-10 * std::max(lambda.maxCoeff(), 0.0);
+  const double cut = kNormalEquationsCut * std::max(lambda.maxCoeff(), 0.0);
   Vec inv(n);
   for (Eigen::Index i = 0; i < n; ++i) inv(i) = lambda(i) > cut ? 1.0 / lambda(i) : 0.0;
   const Mat v = eig.eigenvectors();

@@ -40,6 +40,22 @@ class ColumnBank {
 
   /// Fit y on bank columns `cols` (then extra's, if given; cols must be in extra->with).
   LinearFit fit(const std::vector<int>& cols, const Extra* extra = nullptr) const;
+
+  /// A fit on bank columns `with`, held so that a search over many extra
+  /// columns beside them (a family's grid) solves only for the extra ones:
+  /// by the Schur complement of the held columns' products, the SSR of
+  /// `with` plus extra is the held SSR less r' S^+ r, with
+  /// S = X'X - C' G^+ C and r = X'y - C' theta (C: the extra's cross
+  /// products). In exact arithmetic the same SSR as fit(with, &extra).
+  struct Held {
+    std::vector<int> with;
+    Mat g_inv;  ///< pseudo-inverse of the held columns' products
+    LinearFit fit;
+  };
+  Held hold(const std::vector<int>& with) const;
+  /// The identification SSR of the held fit with extra's columns added
+  /// (extra made with held.with); +infinity where either fit fails.
+  double ssr_beside(const Held& held, const Extra& extra) const;
   /// y minus the fitted columns, on every observation.
   Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
   /// Leverage x_i' G^+ x_i of every observation under the fit on bank
@@ -53,6 +69,10 @@ class ColumnBank {
   double max_collinearity(const std::vector<int>& cols, const Extra& extra) const;
 
  private:
+  /// The held columns' products with each other (g) and with y (gy).
+  void products(const std::vector<int>& cols, Mat& g, Vec& gy) const;
+  /// Bank columns `cols` side by side.
+  Mat gather(const std::vector<int>& cols) const;
   double id_dot(const Vec& a, const Vec& b) const;
   double gram(int i, int j) const;
 
@@ -69,6 +89,9 @@ class ColumnBank {
 /// exactly collinear columns (an offset beside Coulomb terms of both signs)
 /// share their coefficient instead of blowing it up.
 LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty);
+/// Eigenvalues of the correlation-form products below this (relative to
+/// the largest) are treated as zero.
+inline constexpr double kNormalEquationsCut = 1e-10;
 /// The pseudo-inverse that solve uses (correlation form, the same cut).
 Mat pseudo_inverse_normal(const Mat& g);
 

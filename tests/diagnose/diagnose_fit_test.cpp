@@ -1,0 +1,77 @@
+// The column bank's held fit. GIVEN a fit on some bank columns held once,
+// WHEN extra columns are scored beside it (a family's grid search), THEN the
+// SSR is the full joint fit's, also where an extra column lies in the held
+// columns' span (it adds nothing) or the held columns are themselves
+// collinear (an offset beside Coulomb terms of both signs).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "diagnose/diagnose_fit.hpp"
+
+namespace feedid::test {
+namespace {
+
+using host::diag::ColumnBank;
+using host::diag::Mat;
+using host::diag::Vec;
+
+struct Bank {
+  ColumnBank bank;
+  std::vector<int> with;
+};
+
+/// y = 2 a - b + 0.5 c + noise on 400 observations, a third of them held out.
+Bank make_bank(bool collinear_held) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01;
+  const Eigen::Index n = 400;
+  Vec a(n), b(n), c(n), y(n);
+  std::vector<char> id(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    a(i) = n01(rng), b(i) = std::sin(0.05 * static_cast<double>(i)), c(i) = n01(rng);
+    y(i) = 2.0 * a(i) - b(i) + 0.5 * c(i) + 0.1 * n01(rng);
+    id[static_cast<std::size_t>(i)] = i % 3 != 0;
+  }
+  Bank out{ColumnBank(y, id), {}};
+  out.with.push_back(out.bank.add(a));
+  out.with.push_back(out.bank.add(b));
+  if (collinear_held) out.with.push_back(out.bank.add(a + b));
+  return out;
+}
+
+double joint_ssr(const Bank& b, const Mat& cols) {
+  const ColumnBank::Extra ex = b.bank.extra(cols, b.with);
+  const host::diag::LinearFit f = b.bank.fit(b.with, &ex);
+  return f.ok ? f.ssr_id : INFINITY;
+}
+
+TEST(DiagnoseFit, AHeldFitScoresExtraColumnsAsTheJointFit) {
+  for (bool collinear : {false, true}) {
+    Bank b = make_bank(collinear);
+    const ColumnBank::Held held = b.bank.hold(b.with);
+    const Vec& a = b.bank.column(b.with[0]);
+    const Vec& s = b.bank.column(b.with[1]);
+    Mat informative(a.size(), 2), in_span(a.size(), 1), mixed(a.size(), 2);
+    for (Eigen::Index i = 0; i < a.size(); ++i) {
+      informative(i, 0) = b.bank.y()(i) - 2.0 * a(i) + s(i);  // carries c: the SSR falls to the noise
+      informative(i, 1) = std::cos(0.3 * static_cast<double>(i));
+      in_span(i, 0) = 3.0 * a(i) - s(i);
+      mixed(i, 0) = in_span(i, 0);
+      mixed(i, 1) = informative(i, 0);
+    }
+    for (const Mat& cols : {informative, in_span, mixed}) {
+      const double want = joint_ssr(b, cols);
+      const double got = b.bank.ssr_beside(held, b.bank.extra(cols, b.with));
+      EXPECT_NEAR(got, want, 1e-9 * held.fit.ssr_id) << "collinear held columns: " << collinear;
+    }
+    // A column in the held span lowers nothing; the informative one does.
+    EXPECT_NEAR(b.bank.ssr_beside(held, b.bank.extra(in_span, b.with)), held.fit.ssr_id, 1e-9 * held.fit.ssr_id);
+    EXPECT_LT(b.bank.ssr_beside(held, b.bank.extra(informative, b.with)), 0.2 * held.fit.ssr_id);
+  }
+}
+
+}  // namespace
+}  // namespace feedid::test
