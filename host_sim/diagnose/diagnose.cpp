@@ -527,6 +527,12 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   // one (a v|v| beside v on sine motion, R^2 0.998): the held-out test decides.
   const double r2 = st.bank.max_collinearity(with, ex);
   e.c.indistinguishable = r2 > 1.0 - 1e-6;
+  if (e.c.indistinguishable) {
+    // It changes the prediction only by rounding: what it "closes" and its
+    // z are rounding's, and would change with the order of a sum.
+    e.c.heldout_rms_N = heldout_rms(current.residual, st.obs);
+    e.c.z_statistic = 0.0;
+  }
   if (r2 > 0.995)
     e.c.note = std::string(e.c.indistinguishable ? "its term is" : "its term is nearly") +
                " a combination of the model's terms on this data (R^2 " + std::to_string(r2) + ")";

@@ -230,15 +230,16 @@ void Observations::make_observations(const std::vector<double>& accel) {
     o.fold = ba.fold;
     o.heldout = Folds::heldout(ba.fold);
     obs_.push_back(o);
+    // The triangle weight rises over block a and falls over block b.
+    triangle_.push_back({a, 1.0 / (ba.tau * o.area), 1.0 / o.area, -1.0 / (bb.tau * o.area)});
   }
 }
 
 Vec Observations::from_moments(const Moments& m) const {
   Vec c(static_cast<Eigen::Index>(obs_.size()));
-  for (std::size_t i = 0; i < obs_.size(); ++i) {
-    const std::size_t a = obs_[i].a, b = a + 1;
-    const double ta = blocks_[a].tau, tb = blocks_[b].tau;
-    c(static_cast<Eigen::Index>(i)) = (m.m1[a] / ta + (tb * m.m0[b] - m.m1[b]) / tb) / obs_[i].area;
+  for (std::size_t i = 0; i < triangle_.size(); ++i) {
+    const Triangle& w = triangle_[i];
+    c(static_cast<Eigen::Index>(i)) = w.rise * m.m1[w.a] + w.top * m.m0[w.a + 1] + w.fall * m.m1[w.a + 1];
   }
   return c;
 }

@@ -185,6 +185,13 @@ class Observations {
   feedid::ForcePairing<double> pairing_;
   std::vector<Block> blocks_;
   std::vector<Observation> obs_;
+  /// Per observation, from_moments' weights of its blocks' moments (the
+  /// divisions by the blocks' lengths and the area, done once).
+  struct Triangle {
+    std::size_t a;
+    double rise, top, fall;  ///< of M1 of block a, M0 and M1 of block a + 1
+  };
+  std::vector<Triangle> triangle_;
   std::vector<Segment> fine_, coarse_;
   std::vector<double> fine_lengths_, coarse_lengths_;
   double force_integral(double t, std::size_t& j) const;
