@@ -6,7 +6,7 @@
 //      truth as two separate things;
 //   2. diagnose_blind(): gets the trace only (t, x, v, u and which columns
 //      exist) and calls diagnose(trace, DiagnoseOptions{}) exactly as the CLI
-//      does on a user's file;
+//      does on a user's file (on one thread: the cases run in parallel);
 //   3. the scorer: the only code that reads the truth (the answer key), after
 //      all cases are diagnosed.
 //
@@ -390,7 +390,9 @@ struct Verdict {
 Verdict diagnose_blind(const Trace& trace) {
   Verdict v;
   try {
-    const DiagnoseResult r = diagnose(trace, DiagnoseOptions{});
+    DiagnoseOptions opt;
+    opt.threads = 1;  // the cases already share the machine's threads; a diagnosis is the same on any number
+    const DiagnoseResult r = diagnose(trace, opt);
     if (!r.error.empty()) {
       v.effect = "error";
       v.error = r.error;

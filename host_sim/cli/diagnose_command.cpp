@@ -30,6 +30,10 @@ struct DiagnoseCommand : Command {
     add_identify_options(app, cols, input, opt.identify, method);
     app->add_option("--folds", opt.folds, "time folds; odd ones are held out")->capture_default_str();
     app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
+    app->add_option("--threads", opt.threads, "effect families searched at once (0: the machine's hardware "
+                                              "threads); the result is the same on any number")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 256));
     app->add_option("--model", model_path, "diagnose this model as given (identify --json, or hand-written: m, pos, neg, "
                                            "offset_N): the base model is not refitted");
     app->add_option("--controller", controller_path, "with --model: replay the model in this drive loop (replay's "

@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <map>
-#include <set>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 #include <tuple>
 
 #include "diagnose_blocks.hpp"
@@ -364,34 +367,37 @@ double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs
 // ---------------------------------------------------------------------------
 
 /// The grid columns of the families whose columns are costly
-/// (EffectModel::keep_grid_columns), kept from their second draw on: the
-/// grids are fixed and the columns depend on nothing else, only the model
-/// they are fitted beside changes with the selection's steps and pair
-/// trials (on the 25 s EMPS PULSES run with a given model, the ripple's
-/// 160 periods were drawn 7 times and the compliance's 50 frequencies 6).
-/// A diagnosis that searches each family once holds nothing more. The same
-/// bits as drawing them again. Kept up to kBytes; beyond that, drawn each
-/// time as before, so a long log's memory stays bounded.
+/// (EffectModel::keep_grid_columns), kept from their first draw: the grids
+/// are fixed and the columns depend on nothing else, only the model they
+/// are fitted beside changes with the selection's steps and pair trials (on
+/// the 25 s EMPS PULSES run with a given model, the ripple's 160 periods
+/// were drawn 7 times and the compliance's 50 frequencies 6). The same bits
+/// as drawing them again. Kept up to kBytes; beyond that, drawn each time,
+/// so a long log's memory stays bounded.
 class GridColumns {
  public:
+  /// One store per family of `catalogue`, so that families searched at
+  /// once (evaluate_all's threads) never share one.
+  explicit GridColumns(const std::vector<EffectModel>& catalogue) {
+    for (const EffectModel& em : catalogue) family_.emplace(&em, Store{});
+  }
   Mat at(const EffectModel& em, std::size_t i, int size, Observations::Resolution r) {
-    const Key key{&em, i, size, static_cast<int>(r)};
-    const auto it = kept_.find(key);
-    if (it != kept_.end()) return it->second;
+    Store& store = family_.at(&em);
+    const Key key{i, size, static_cast<int>(r)};
+    const auto it = store.find(key);
+    if (it != store.end()) return it->second;
     Mat cols = em.columns(em.grid[i], size, r);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    if (em.keep_grid_columns && bytes_ + bytes <= kBytes) {
-      bytes_ += bytes;
-      kept_.emplace(key, cols);
-    }
+    if (em.keep_grid_columns && bytes_.fetch_add(bytes) + bytes <= kBytes) store.emplace(key, cols);
     return cols;
   }
 
  private:
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
-  using Key = std::tuple<const EffectModel*, std::size_t, int, int>;
-  std::map<Key, Mat> kept_;
-  std::size_t bytes_ = 0;
+  using Key = std::tuple<std::size_t, int, int>;
+  using Store = std::map<Key, Mat>;
+  std::map<const EffectModel*, Store> family_;
+  std::atomic<std::size_t> bytes_{0};  ///< claimed, also by columns that did not fit: the bound holds
 };
 
 struct Stage {
@@ -577,16 +583,39 @@ Model adopt(const Stage& st, const Evaluation& e) {
   return m;
 }
 
+/// Each unused family evaluated beside the current model, on up to
+/// opt.threads threads: the families share only read-only state (the
+/// observations, the bank's columns) and their own grid stores, so the
+/// evaluations, and their order, are the same on any number of threads.
 std::vector<Evaluation> evaluate_all(const Stage& st, const Model& current, const std::vector<bool>& used,
                                      const Gap& gap, const DiagnoseOptions& opt, double progress_from, double progress_to) {
-  std::vector<Evaluation> evals;
-  for (std::size_t i = 0; i < st.catalogue.size(); ++i) {
-    if (used[i]) continue;
-    evals.push_back(evaluate(st, current, i));
-    judge(evals.back(), gap, opt);
-    if (opt.progress)
-      opt.progress(progress_from + (progress_to - progress_from) * static_cast<double>(i + 1) / st.catalogue.size());
-  }
+  std::vector<std::size_t> todo;
+  for (std::size_t i = 0; i < st.catalogue.size(); ++i)
+    if (!used[i]) todo.push_back(i);
+  std::vector<Evaluation> evals(todo.size());
+  std::atomic<std::size_t> next{0}, done{0};
+  std::exception_ptr failure;
+  std::mutex failure_lock;
+  auto work = [&](bool reports_progress) {
+    for (std::size_t k = next++; k < todo.size(); k = next++) {
+      try {
+        evals[k] = evaluate(st, current, todo[k]);
+      } catch (...) {
+        const std::lock_guard<std::mutex> hold(failure_lock);
+        if (!failure) failure = std::current_exception();
+      }
+      const double share = static_cast<double>(++done) / static_cast<double>(todo.size());
+      if (reports_progress && opt.progress) opt.progress(progress_from + (progress_to - progress_from) * share);
+    }
+  };
+  const unsigned wanted = opt.threads > 0 ? static_cast<unsigned>(opt.threads) : std::thread::hardware_concurrency();
+  const std::size_t threads = std::clamp<std::size_t>(wanted, 1, std::max<std::size_t>(todo.size(), 1));
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, false);
+  work(true);  // the caller's thread: the only one that reports progress
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+  for (auto& e : evals) judge(e, gap, opt);
   std::stable_sort(evals.begin(), evals.end(), [](const Evaluation& a, const Evaluation& b) {
     if (a.eligible != b.eligible) return a.eligible;
     return a.c.heldout_rms_N < b.c.heldout_rms_N;
@@ -1084,7 +1113,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(
       obs, extent, out.lag_beyond_conventions_s,
       opt.model ? given_friction(opt.model->drive, base_cols, base, runs) : measured_friction(base_cols, base, runs));
-  GridColumns grid_columns;
+  GridColumns grid_columns(catalogue);
   const Stage st{obs, bank, grid_columns, base_cols, catalogue,
                  point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
                  opt.model ? mass_kg : 0.0};

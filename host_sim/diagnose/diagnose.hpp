@@ -37,7 +37,11 @@ struct DiagnoseOptions {
   /// (its prediction variance above half the noise variance) lies where the
   /// identification folds do not reach; it is set aside, not scored.
   double max_leverage = 0.5;
-  std::function<void(double)> progress;
+  /// Families evaluated at once at each selection step (0: the machine's
+  /// hardware threads): the result is the same on any number; more threads
+  /// only shorten the wall time.
+  int threads = 0;
+  std::function<void(double)> progress;  ///< called from the caller's thread only
   /// A model to diagnose as given (`diagnose --model`): its mass, friction
   /// and offset are the base model, not refitted; only the effects are
   /// fitted on the identification folds, and the gap is judged on the

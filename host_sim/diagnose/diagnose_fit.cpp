@@ -17,15 +17,23 @@ double ColumnBank::id_dot(const Vec& a, const Vec& b) const { return (a.array() 
 int ColumnBank::add(Vec column) {
   cols_.push_back(std::move(column));
   xty_.push_back(id_dot(cols_.back(), y_));
-  gram_.emplace_back(cols_.size(), std::numeric_limits<double>::quiet_NaN());
-  return static_cast<int>(cols_.size()) - 1;
+  const std::size_t n = cols_.size();
+  gram_.push_back(std::make_unique<std::atomic<double>[]>(n));
+  for (std::size_t j = 0; j < n; ++j) gram_.back()[j].store(std::numeric_limits<double>::quiet_NaN(), std::memory_order_relaxed);
+  return static_cast<int>(n) - 1;
 }
 
 double ColumnBank::gram(int i, int j) const {
   if (i < j) std::swap(i, j);
-  double& g = gram_[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-  if (std::isnan(g)) g = id_dot(column(i), column(j));
-  return g;
+  // Fits of several candidates may fill the same product at once: each
+  // writes the same bits, so a relaxed atomic is all they need.
+  std::atomic<double>& g = gram_[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+  double value = g.load(std::memory_order_relaxed);
+  if (std::isnan(value)) {
+    value = id_dot(column(i), column(j));
+    g.store(value, std::memory_order_relaxed);
+  }
+  return value;
 }
 
 Mat ColumnBank::gather(const std::vector<int>& cols) const {

@@ -4,7 +4,9 @@
 // is a solve of its size, not a pass over the data. Host only.
 #pragma once
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -81,7 +83,9 @@ class ColumnBank {
   double yty_ = 0.0;
   std::vector<Vec> cols_;
   std::vector<double> xty_;
-  mutable std::vector<std::vector<double>> gram_;  ///< lower triangle, NaN until used
+  /// Lower triangle, NaN until used. Read and filled by concurrent
+  /// candidate fits (diagnose's families in parallel); add() only between them.
+  std::vector<std::unique_ptr<std::atomic<double>[]>> gram_;
 };
 
 /// Least squares from normal equations G theta = g, in correlation form (unit

@@ -246,6 +246,27 @@ TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
   EXPECT_GT(r.closed_fraction, 0.8);
 }
 
+// The families of a selection step are searched on several threads at
+// once; they share the observations, the column bank's products and
+// nothing they write. Two effects take two steps (the second beside the
+// first's columns, whose products with the others the threads fill in),
+// so the JSON must be the same to the bit on one thread and on three.
+TEST(DiagnoseEffects, TheDiagnosisIsTheSameOnAnyNumberOfThreads) {
+  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 60.0}, 4);
+  cfg.effects.ripple_amplitude_N = 4.0;
+  cfg.effects.ripple_period_m = 8e-3;
+  cfg.effects.drift_fraction = 0.4;
+  cfg.effects.drift_time_constant_s = 15.0;
+  const host::Trace trace = host::simulate(cfg);
+  host::DiagnoseOptions one, three;
+  one.threads = 1;
+  three.threads = 3;
+  const host::DiagnoseResult a = host::diagnose(trace, one), b = host::diagnose(trace, three);
+  ASSERT_TRUE(a.error.empty()) << a.error;
+  ASSERT_GE(a.effects.size(), 2u) << host::summary(a);
+  EXPECT_EQ(host::to_json(a).dump(), host::to_json(b).dump());
+}
+
 // An offset is the same regressor as Coulomb friction that differs by
 // direction: the diagnosis reports the ambiguity with the offset's size
 // and names no effect from it.
