@@ -6,7 +6,9 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -376,27 +378,36 @@ double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs
 /// so a long log's memory stays bounded.
 class GridColumns {
  public:
-  /// One store per family of `catalogue`, so that families searched at
-  /// once (evaluate_all's threads) never share one.
+  /// One store per family of `catalogue`, each with its own lock: a pair
+  /// search draws one family beside several partners at once.
   explicit GridColumns(const std::vector<EffectModel>& catalogue) {
-    for (const EffectModel& em : catalogue) family_.emplace(&em, Store{});
+    for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
   Mat at(const EffectModel& em, std::size_t i, int size, Observations::Resolution r) {
-    Store& store = family_.at(&em);
+    Store& store = *family_.at(&em);
     const Key key{i, size, static_cast<int>(r)};
-    const auto it = store.find(key);
-    if (it != store.end()) return it->second;
+    {
+      const std::lock_guard<std::mutex> hold(store.lock);
+      const auto it = store.kept.find(key);
+      if (it != store.kept.end()) return it->second;
+    }
     Mat cols = em.columns(em.grid[i], size, r);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    if (em.keep_grid_columns && bytes_.fetch_add(bytes) + bytes <= kBytes) store.emplace(key, cols);
+    if (em.keep_grid_columns && bytes_.fetch_add(bytes) + bytes <= kBytes) {
+      const std::lock_guard<std::mutex> hold(store.lock);
+      store.kept.emplace(key, cols);
+    }
     return cols;
   }
 
  private:
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
   using Key = std::tuple<std::size_t, int, int>;
-  using Store = std::map<Key, Mat>;
-  std::map<const EffectModel*, Store> family_;
+  struct Store {
+    std::mutex lock;
+    std::map<Key, Mat> kept;
+  };
+  std::map<const EffectModel*, std::unique_ptr<Store>> family_;
   std::atomic<std::size_t> bytes_{0};  ///< claimed, also by columns that did not fit: the bound holds
 };
 
@@ -583,38 +594,48 @@ Model adopt(const Stage& st, const Evaluation& e) {
   return m;
 }
 
-/// Each unused family evaluated beside the current model, on up to
-/// opt.threads threads: the families share only read-only state (the
-/// observations, the bank's columns) and their own grid stores, so the
-/// evaluations, and their order, are the same on any number of threads.
+/// job(k) for every k < n on up to opt.threads threads, the caller's among
+/// them; `progress(share done)` on the caller's thread only. The jobs share
+/// only read-only state (the observations, the bank's columns and their
+/// products) and the grid stores, so what they compute is the same on any
+/// number of threads. The first exception a job throws is rethrown here.
+template <class Job>
+void run_jobs(std::size_t n, const DiagnoseOptions& opt, Job job, const std::function<void(double)>& progress = {}) {
+  std::atomic<std::size_t> next{0}, done{0};
+  std::exception_ptr failure;
+  std::mutex failure_lock;
+  auto work = [&](bool on_caller) {
+    for (std::size_t k = next++; k < n; k = next++) {
+      try {
+        job(k);
+      } catch (...) {
+        const std::lock_guard<std::mutex> hold(failure_lock);
+        if (!failure) failure = std::current_exception();
+      }
+      const double share = static_cast<double>(++done) / static_cast<double>(n);
+      if (on_caller && progress) progress(share);
+    }
+  };
+  const unsigned wanted = opt.threads > 0 ? static_cast<unsigned>(opt.threads) : std::thread::hardware_concurrency();
+  const std::size_t threads = std::clamp<std::size_t>(wanted, 1, std::max<std::size_t>(n, 1));
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, false);
+  work(true);
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+/// Each unused family evaluated beside the current model (run_jobs), then
+/// judged and sorted.
 std::vector<Evaluation> evaluate_all(const Stage& st, const Model& current, const std::vector<bool>& used,
                                      const Gap& gap, const DiagnoseOptions& opt, double progress_from, double progress_to) {
   std::vector<std::size_t> todo;
   for (std::size_t i = 0; i < st.catalogue.size(); ++i)
     if (!used[i]) todo.push_back(i);
   std::vector<Evaluation> evals(todo.size());
-  std::atomic<std::size_t> next{0}, done{0};
-  std::exception_ptr failure;
-  std::mutex failure_lock;
-  auto work = [&](bool reports_progress) {
-    for (std::size_t k = next++; k < todo.size(); k = next++) {
-      try {
-        evals[k] = evaluate(st, current, todo[k]);
-      } catch (...) {
-        const std::lock_guard<std::mutex> hold(failure_lock);
-        if (!failure) failure = std::current_exception();
-      }
-      const double share = static_cast<double>(++done) / static_cast<double>(todo.size());
-      if (reports_progress && opt.progress) opt.progress(progress_from + (progress_to - progress_from) * share);
-    }
-  };
-  const unsigned wanted = opt.threads > 0 ? static_cast<unsigned>(opt.threads) : std::thread::hardware_concurrency();
-  const std::size_t threads = std::clamp<std::size_t>(wanted, 1, std::max<std::size_t>(todo.size(), 1));
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, false);
-  work(true);  // the caller's thread: the only one that reports progress
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+  std::function<void(double)> progress;
+  if (opt.progress) progress = [&](double share) { opt.progress(progress_from + (progress_to - progress_from) * share); };
+  run_jobs(todo.size(), opt, [&](std::size_t k) { evals[k] = evaluate(st, current, todo[k]); }, progress);
   for (auto& e : evals) judge(e, gap, opt);
   std::stable_sort(evals.begin(), evals.end(), [](const Evaluation& a, const Evaluation& b) {
     if (a.eligible != b.eligible) return a.eligible;
@@ -643,19 +664,29 @@ PairStep best_pair(const Stage& st, const std::vector<Evaluation>& evals, const 
   std::vector<const Evaluation*> pool;
   for (const auto& e : evals)
     if (e.plausible) pool.push_back(&e);
-  PairStep best;
+  // Each candidate adopted alone once (it adds its columns to the bank, so
+  // not on the threads), then every second member searched beside its first.
+  std::vector<Model> alone;
+  for (const Evaluation* e : pool) alone.push_back(adopt(st, *e));
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
   for (std::size_t i = 0; i < pool.size(); ++i)
-    for (std::size_t j = i + 1; j < pool.size(); ++j) {
-      const Evaluation& a = *pool[i];  // evals are sorted: a fits better alone
-      const Model with_a = adopt(st, a);
-      Evaluation b = evaluate(st, with_a, pool[j]->effect);
-      judge(b, gap, opt);  // z of b given a; energy share of the pair against the step's gap
-      if (!b.eligible || (best.found && b.c.heldout_rms_N >= best.second.c.heldout_rms_N)) continue;
-      const Model both = adopt(st, b);
-      const double a_given_b = improvement_z(adopt(st, *pool[j]).residual, both.residual, st.obs);
-      if (a_given_b < opt.significance_z) continue;
-      best = {a, b, both, a_given_b, true};
-    }
+    for (std::size_t j = i + 1; j < pool.size(); ++j) pairs.emplace_back(i, j);
+  std::vector<Evaluation> second(pairs.size());
+  run_jobs(pairs.size(), opt, [&](std::size_t k) {
+    second[k] = evaluate(st, alone[pairs[k].first], pool[pairs[k].second]->effect);
+  });
+  PairStep best;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const auto [i, j] = pairs[k];
+    const Evaluation& a = *pool[i];  // evals are sorted: a fits better alone
+    Evaluation& b = second[k];
+    judge(b, gap, opt);  // z of b given a; energy share of the pair against the step's gap
+    if (!b.eligible || (best.found && b.c.heldout_rms_N >= best.second.c.heldout_rms_N)) continue;
+    const Model both = adopt(st, b);
+    const double a_given_b = improvement_z(alone[j].residual, both.residual, st.obs);
+    if (a_given_b < opt.significance_z) continue;
+    best = {a, b, both, a_given_b, true};
+  }
   return best;
 }
 

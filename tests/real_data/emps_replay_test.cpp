@@ -118,6 +118,7 @@ TEST_F(EmpsReplay, DiagnoseOfTheIdentifiedModelOnPulsesNamesACauseAndClosesTheAc
   ASSERT_EQ(id.status, feedid::Status::ok) << id.error;
   DiagnoseOptions opt;
   opt.model = model_file_from_json(to_json(id), "identify");
+  opt.threads = 3;
   const Controller c = read_controller_file(examples + "/emps_controller.json");
   const CsvResult pulses = read_trace_file(emps_dir + "/DATA_EMPS_PULSES.csv", emps_columns());
   ASSERT_TRUE(pulses.ok) << pulses.error;
@@ -130,6 +131,12 @@ TEST_F(EmpsReplay, DiagnoseOfTheIdentifiedModelOnPulsesNamesACauseAndClosesTheAc
   EXPECT_LE(g.after_pct.force, g.before_pct.force) << summary(g);
   // The effects in the plant alone do not grow the force error either.
   EXPECT_LE(g.after_effects_pct.force, g.before_pct.force) << summary(g);
+  // The families, and here the pairs of them, were searched on three
+  // threads: on one the diagnosis is the same to the bit.
+  ASSERT_GE(g.diagnosis.effects.size(), 2u) << summary(g);
+  DiagnoseOptions one = opt;
+  one.threads = 1;
+  EXPECT_EQ(to_json(diagnose(pulses.trace, one)).dump(), to_json(g.diagnosis).dump());
 }
 
 TEST_F(EmpsReplay, LoggedCommandRevealsTheDocumentedGains) {
