@@ -161,7 +161,7 @@ struct BlockSums {
 /// The one block rule: blocks of block_s within a direction (above v_min),
 /// and observations from adjacent pairs under a triangular weight w rising
 /// over the first block and falling over the second. visit(integrals, dv,
-/// area, t_end) gets the weighted integrals of F(v) and of the force taps
+/// area, k_end) gets, for the pair ending at sample k_end, the weighted integrals of F(v) and of the force taps
 /// (N s) and of dv (m/s) and the weight's area (s). Under w the velocity change sums by
 /// parts to the difference of the two blocks' mean velocities, so no raw
 /// velocity sample carries it: with raw block-end samples, m times the
@@ -186,7 +186,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
       cur.phi_dv = moment_dv / cur.tau;
       if (prev.dir == cur.dir)
         visit(I{prev.phi_impulse}.add(cur.impulse, 1.0).add(cur.phi_impulse, -1.0),
-              prev.phi_dv + cur.dv - cur.phi_dv, 0.5 * (prev.tau + cur.tau), s.t[k_end]);
+              prev.phi_dv + cur.dv - cur.phi_dv, 0.5 * (prev.tau + cur.tau), k_end);
       prev = adjacent_next ? cur : Sums{};
     } else {
       prev = Sums{};
@@ -254,8 +254,8 @@ std::vector<BlockPair> block_pairs(const Signals& s, const DriveParams& p, doubl
   std::vector<BlockPair> out;
   out.reserve(block_capacity(s, block_s));
   auto taps = [&s](std::size_t k, std::size_t first, std::size_t last) { return force_ages(s.u, k, first, last); };
-  for_each_block<Integrands>(s, p, v_min, block_s, taps, [&](const Integrands& w, double dv, double area, double t_end) {
-    out.push_back({w.friction, w.force, dv, area, chunk_of(s, t_end)});
+  for_each_block<Integrands>(s, p, v_min, block_s, taps, [&](const Integrands& w, double dv, double area, std::size_t k_end) {
+    out.push_back({w.friction, w.force, dv, area, chunk_of(k_end, s.t.size())});
   });
   return out;
 }
@@ -267,8 +267,8 @@ std::vector<PairedBlock> paired_blocks(const Signals& s, const DriveParams& p, d
   // BlockPair::impulse at lead 0 taps ages 0 and older only, so `last` plays no part.
   auto paired = [&](std::size_t k, std::size_t first, std::size_t) { return paired_force(s.u, pairing, k, first); };
   for_each_block<PairedIntegrands>(s, p, v_min, block_s, paired,
-                                   [&](const PairedIntegrands& w, double dv, double area, double t_end) {
-                                     out.push_back({w.force - w.friction, dv, area, chunk_of(s, t_end)});
+                                   [&](const PairedIntegrands& w, double dv, double area, std::size_t k_end) {
+                                     out.push_back({w.force - w.friction, dv, area, chunk_of(k_end, s.t.size())});
                                    });
   return out;
 }
@@ -281,10 +281,11 @@ std::vector<PairedBlock> at_pairing(const std::vector<BlockPair>& pairs, const f
   return out;
 }
 
-int chunk_of(const Signals& s, double t) {
-  const double t0 = s.t.empty() ? 0.0 : s.t.front(), span = s.t.empty() ? 0.0 : s.t.back() - t0;
-  if (!(span > 0)) return 0;
-  return static_cast<int>(std::clamp(std::floor((t - t0) / span * kJackknifeChunks), 0.0, kJackknifeChunks - 1.0));
+int chunk_of(std::size_t k, std::size_t n) {
+  // The last chunk whose first sample is at or before k.
+  int c = 0;
+  while (c + 1 < kJackknifeChunks && chunk_begin(c + 1, n) <= k) ++c;
+  return c;
 }
 
 double jackknife_se(const std::vector<double>& leave_one_out) {

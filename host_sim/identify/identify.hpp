@@ -358,12 +358,19 @@ extern template SolvedCore<BandsCore> solve_core(const Signals&, const feedid::C
 /// trace's length (IdentifyResult::core_passes).
 std::uint64_t core_samples_pushed();
 
-/// Contiguous stretches of time of every delete-one jackknife (parameters,
-/// the block mass, the force lag).
+/// Contiguous stretches of every delete-one jackknife (parameters, the
+/// block mass, the force lag), of equal sample counts: chunk c holds the
+/// samples from chunk_begin(c, n) up to chunk_begin(c + 1, n). By samples,
+/// not time: one row stamped years ahead (or a long pause between pooled
+/// runs) put every block in one chunk of time, and the mass's standard
+/// error on EMPS fell from 0.12 to 0.028 kg with status ok.
 constexpr int kJackknifeChunks = 10;
+constexpr std::size_t chunk_begin(int c, std::size_t n) {
+  return n * static_cast<std::size_t>(c) / static_cast<std::size_t>(kJackknifeChunks);
+}
 
-/// The jackknife chunk (0 .. kJackknifeChunks-1) that time t falls in.
-int chunk_of(const Signals& s, double t);
+/// The jackknife chunk (0 .. kJackknifeChunks-1) that sample k of n falls in.
+int chunk_of(std::size_t k, std::size_t n);
 
 /// Standard error from delete-one estimates theta_-i:
 /// sqrt((g-1)/g sum (theta_-i - mean)^2); NaN for fewer than two.

@@ -39,7 +39,7 @@ int jackknife(const Signals& s, const feedid::Config<double>& cfg, feedid::Metho
     const int k = kJackknifeChunks;
     std::vector<std::unique_ptr<C>> cores;
     for (int c = 0; c < k; ++c) {
-      SolvedCore<C> run = solve_core<C>(s, cfg, method, n * c / k, n * (c + 1) / k);
+      SolvedCore<C> run = solve_core<C>(s, cfg, method, chunk_begin(c, n), chunk_begin(c + 1, n));
       if (run.status == feedid::Status::invalid_config) return 0;
       cores.push_back(std::move(run.core));
     }
