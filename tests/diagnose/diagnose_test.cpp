@@ -231,13 +231,18 @@ TEST(DiagnoseParameters, ComplianceFrequencyAndLoadMass) {
 
 // Two effects at once: forward selection names both, each from what the
 // other leaves, and together they close most of the held-out gap.
-TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
+/// A 4 N ripple of 8 mm and a thermal drift of 40 % over 15 s, 60 s held force.
+host::SimConfig ripple_and_drift() {
   host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 60.0}, 4);
   cfg.effects.ripple_amplitude_N = 4.0;
   cfg.effects.ripple_period_m = 8e-3;
   cfg.effects.drift_fraction = 0.4;
   cfg.effects.drift_time_constant_s = 15.0;
-  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
+  return cfg;
+}
+
+TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
+  const host::DiagnoseResult r = host::diagnose(host::simulate(ripple_and_drift()), host::DiagnoseOptions{});
   ASSERT_TRUE(r.error.empty()) << r.error;
   std::vector<std::string> named;
   for (const auto& e : r.effects) named.push_back(e.kind);
@@ -252,12 +257,7 @@ TEST(DiagnoseEffects, RippleAndThermalDriftAreBothNamed) {
 // first's columns, whose products with the others the threads fill in),
 // so the JSON must be the same to the bit on one thread and on three.
 TEST(DiagnoseEffects, TheDiagnosisIsTheSameOnAnyNumberOfThreads) {
-  host::SimConfig cfg = logged({ForceLog::held, VelocityLog::backward_difference, 60.0}, 4);
-  cfg.effects.ripple_amplitude_N = 4.0;
-  cfg.effects.ripple_period_m = 8e-3;
-  cfg.effects.drift_fraction = 0.4;
-  cfg.effects.drift_time_constant_s = 15.0;
-  const host::Trace trace = host::simulate(cfg);
+  const host::Trace trace = host::simulate(ripple_and_drift());
   host::DiagnoseOptions one, three;
   one.threads = 1;
   three.threads = 3;
