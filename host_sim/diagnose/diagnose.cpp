@@ -12,6 +12,7 @@
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 #include <thread>
 #include <tuple>
 
@@ -602,27 +603,36 @@ Model adopt(const Stage& st, const Evaluation& e) {
 template <class Job>
 void run_jobs(std::size_t n, const DiagnoseOptions& opt, Job job, const std::function<void(double)>& progress = {}) {
   std::atomic<std::size_t> next{0}, done{0};
+  double reported = 0.0;  ///< the share last reported: the caller's thread only
   std::exception_ptr failure;
   std::mutex failure_lock;
+  // Nothing escapes a worker: a throwing job or progress callback is kept
+  // for the caller, and the remaining jobs are dropped.
   auto work = [&](bool on_caller) {
     for (std::size_t k = next++; k < n; k = next++) {
       try {
         job(k);
+        const double share = static_cast<double>(++done) / static_cast<double>(n);
+        if (on_caller && progress) progress(reported = share);
       } catch (...) {
         const std::lock_guard<std::mutex> hold(failure_lock);
         if (!failure) failure = std::current_exception();
+        next = n;
       }
-      const double share = static_cast<double>(++done) / static_cast<double>(n);
-      if (on_caller && progress) progress(share);
     }
   };
   const unsigned wanted = opt.threads > 0 ? static_cast<unsigned>(opt.threads) : std::thread::hardware_concurrency();
   const std::size_t threads = std::clamp<std::size_t>(wanted, 1, std::max<std::size_t>(n, 1));
   std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, false);
+  try {
+    for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, false);
+  } catch (const std::system_error&) {
+    // No more threads to be had: the jobs run on those there are.
+  }
   work(true);
   for (auto& t : pool) t.join();
   if (failure) std::rethrow_exception(failure);
+  if (progress && reported < 1.0) progress(1.0);  // the last jobs ended on other threads
 }
 
 /// Each unused family evaluated beside the current model (run_jobs), then

@@ -501,18 +501,20 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
   m.kind = effect_name(Effect::delay);
   m.grid = log_grid(0.2 / e.sample_rate_hz, 25.0 / e.sample_rate_hz, 40);
   m.continuous = true;
+  // Mean over the segment's interval ends (a half period after their middles).
+  const double h = 0.5 / e.sample_rate_hz;
   // The unshifted mean does not depend on d: taken once per segment and
   // resolution, not at every delay tried (the walks to it were a twelfth of
-  // diagnose on 10 minutes at 8 kHz).
+  // diagnose on 10 minutes at 8 kHz). Taken here, so that columns() only
+  // reads it: several threads may draw this family's columns at once.
   auto unshifted = std::make_shared<std::array<std::vector<double>, 2>>();
-  m.columns = [&obs, h = 0.5 / e.sample_rate_hz, unshifted](double d, int, Observations::Resolution r) {
-    // Mean over the segment's interval ends (a half period after their middles).
-    const std::vector<Segment>& segs = obs.segments(r);
+  for (const auto r : {Observations::Resolution::fine, Observations::Resolution::coarse}) {
     std::vector<double>& at = (*unshifted)[r == Observations::Resolution::fine ? 0 : 1];
-    if (at.size() != segs.size()) {
-      at.clear();
-      for (const Segment& sg : segs) at.push_back(obs.lowpass_force_mean(sg.t_start + h, sg.t_start + sg.dt + h, sg.j0));
-    }
+    for (const Segment& sg : obs.segments(r)) at.push_back(obs.lowpass_force_mean(sg.t_start + h, sg.t_start + sg.dt + h, sg.j0));
+  }
+  m.columns = [&obs, h, unshifted = std::shared_ptr<const std::array<std::vector<double>, 2>>(unshifted)](
+                  double d, int, Observations::Resolution r) {
+    const std::vector<double>& at = (*unshifted)[r == Observations::Resolution::fine ? 0 : 1];
     return obs.segment_columns(1, false, r, [&obs, &at, d, h](std::size_t i, const Segment& sg, double* out) {
       const double a = sg.t_start + h, b = sg.t_start + sg.dt + h;
       out[0] = obs.lowpass_force_mean(a + d, b + d, sg.j0) - at[i];

@@ -96,8 +96,8 @@ ColumnBank::Held ColumnBank::hold(const std::vector<int>& with) const {
   Mat g;
   Vec gy;
   products(with, g, gy);
-  h.g_inv = with.empty() ? Mat() : pseudo_inverse_normal(g);
-  h.fit = solve_normal_equations(g, gy, yty_);
+  h.g_inv = with.empty() ? Mat() : pseudo_inverse_normal(g, &h.largest_eigenvalue);
+  h.fit = solve_with_inverse(h.g_inv, g, gy, yty_);
   return h;
 }
 
@@ -111,10 +111,16 @@ double ColumnBank::ssr_beside(const Held& held, const Extra& extra) const {
     s.noalias() -= c.transpose() * held.g_inv * c;
     r.noalias() -= c.transpose() * held.fit.theta;
   }
-  // What the extra columns add beyond the held ones, in the same
-  // correlation form and cut as solve_normal_equations: a column (nearly)
-  // in the held columns' span adds nothing instead of noise.
+  // A column with a NaN or an infinity fails, as the joint fit does.
+  if (!(s.allFinite() && r.allFinite())) return kInf;
   const Eigen::Index q = s.rows();
+  if (q == 0) return held.fit.ssr_id;
+  // What the extra columns add beyond the held ones, in the correlation
+  // form of solve_normal_equations and about its cut: the joint matrix's
+  // largest eigenvalue is at least the held one's and at least 1 (a unit
+  // diagonal). A column (nearly) in the held columns' span adds nothing
+  // instead of noise.
+  const double cut = kNormalEquationsCut * std::max(1.0, held.largest_eigenvalue);
   Vec scale(q);
   for (Eigen::Index i = 0; i < q; ++i) scale(i) = extra.gram(i, i) > 0 ? 1.0 / std::sqrt(extra.gram(i, i)) : 0.0;
   const Mat sc = scale.asDiagonal() * s * scale.asDiagonal();
@@ -124,7 +130,7 @@ double ColumnBank::ssr_beside(const Held& held, const Extra& extra) const {
   double drop = 0.0;
   for (Eigen::Index k = 0; k < q; ++k) {
     const double lambda = eig.eigenvalues()(k);
-    if (lambda > kNormalEquationsCut) drop += std::pow(eig.eigenvectors().col(k).dot(rc), 2) / lambda;
+    if (lambda > cut) drop += std::pow(eig.eigenvectors().col(k).dot(rc), 2) / lambda;
   }
   const double ssr = held.fit.ssr_id - drop;
   return std::isfinite(ssr) ? ssr : kInf;
@@ -165,14 +171,16 @@ double ColumnBank::max_collinearity(const std::vector<int>& cols, const Extra& e
   return worst;
 }
 
-Mat pseudo_inverse_normal(const Mat& g) {
+Mat pseudo_inverse_normal(const Mat& g, double* largest) {
   const Eigen::Index n = g.rows();
   Vec scale(n);
   for (Eigen::Index i = 0; i < n; ++i) scale(i) = g(i, i) > 0 ? 1.0 / std::sqrt(g(i, i)) : 0.0;
   Eigen::SelfAdjointEigenSolver<Mat> eig(scale.asDiagonal() * g * scale.asDiagonal());
   if (eig.info() != Eigen::Success) return Mat::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
   const Vec& lambda = eig.eigenvalues();
-  const double cut = kNormalEquationsCut * std::max(lambda.maxCoeff(), 0.0);
+  const double top = n > 0 ? std::max(lambda.maxCoeff(), 0.0) : 0.0;
+  if (largest) *largest = top;
+  const double cut = kNormalEquationsCut * top;
   Vec inv(n);
   for (Eigen::Index i = 0; i < n; ++i) inv(i) = lambda(i) > cut ? 1.0 / lambda(i) : 0.0;
   const Mat v = eig.eigenvectors();
@@ -180,6 +188,10 @@ Mat pseudo_inverse_normal(const Mat& g) {
 }
 
 LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty) {
+  return solve_with_inverse(g.rows() == 0 ? Mat() : pseudo_inverse_normal(g), g, gy, yty);
+}
+
+LinearFit solve_with_inverse(const Mat& g_inv, const Mat& g, const Vec& gy, double yty) {
   LinearFit f;
   if (g.rows() == 0) {
     f.theta = Vec();
@@ -187,7 +199,7 @@ LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty) {
     f.ok = true;
     return f;
   }
-  f.theta = pseudo_inverse_normal(g) * gy;
+  f.theta = g_inv * gy;
   f.ssr_id = yty - 2.0 * f.theta.dot(gy) + f.theta.dot(g * f.theta);
   f.ok = f.theta.allFinite() && std::isfinite(f.ssr_id);
   return f;

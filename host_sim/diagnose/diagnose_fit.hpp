@@ -52,6 +52,7 @@ class ColumnBank {
   struct Held {
     std::vector<int> with;
     Mat g_inv;  ///< pseudo-inverse of the held columns' products
+    double largest_eigenvalue = 0.0;  ///< of those products in correlation form
     LinearFit fit;
   };
   Held hold(const std::vector<int>& with) const;
@@ -93,11 +94,14 @@ class ColumnBank {
 /// exactly collinear columns (an offset beside Coulomb terms of both signs)
 /// share their coefficient instead of blowing it up.
 LinearFit solve_normal_equations(const Mat& g, const Vec& gy, double yty);
+/// The same with g's pseudo-inverse already at hand.
+LinearFit solve_with_inverse(const Mat& g_inv, const Mat& g, const Vec& gy, double yty);
 /// Eigenvalues of the correlation-form products below this (relative to
 /// the largest) are treated as zero.
 inline constexpr double kNormalEquationsCut = 1e-10;
-/// The pseudo-inverse that solve uses (correlation form, the same cut).
-Mat pseudo_inverse_normal(const Mat& g);
+/// The pseudo-inverse that solve uses (correlation form, the same cut);
+/// `largest`, if given, gets the largest eigenvalue of that form.
+Mat pseudo_inverse_normal(const Mat& g, double* largest = nullptr);
 
 /// Held-out improvement of a candidate over its noise-only spread, for n
 /// held-out values in order, pair(k) = (r_cur, r_new) of the k-th. With

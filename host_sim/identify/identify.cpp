@@ -327,7 +327,7 @@ BlockMass block_mass(const std::vector<BlockPair>& pairs, const feedid::ForcePai
 BlockMass block_mass(const std::vector<PairedBlock>& blocks) {
   BlockMass out;
   constexpr int chunks = kJackknifeChunks;
-  // Sums per contiguous stretch of time, for the delete-one jackknife.
+  // Sums per jackknife chunk (contiguous samples), for the delete-one jackknife.
   std::vector<double> num(static_cast<std::size_t>(chunks), 0.0), den(num);
   for (const PairedBlock& b : blocks) {
     const auto c = static_cast<std::size_t>(b.chunk);

@@ -387,7 +387,7 @@ double convention_force_delay_limit();
 struct BlockResidual {
   double sum_squares = 0.0;  ///< N^2
   std::size_t blocks = 0;
-  std::array<double, kJackknifeChunks> chunk_sum_squares{};  ///< the same per chunk of time
+  std::array<double, kJackknifeChunks> chunk_sum_squares{};  ///< the same per jackknife chunk
   double rms() const { return blocks > 0 ? std::sqrt(sum_squares / static_cast<double>(blocks)) : 0.0; }
 };
 BlockResidual block_residual(const Signals& s, const DriveParams& p, double v_min, double block_s);
@@ -413,7 +413,7 @@ BlockResidual block_residual(const std::vector<BlockPair>& pairs, const feedid::
                              double mass_kg, int lead = 0);
 
 /// Mass fitted on the same blocks, friction held at p: sum(impulse dv) /
-/// sum(dv^2), with a delete-one jackknife over the chunks of time.
+/// sum(dv^2), with a delete-one jackknife over the jackknife chunks.
 struct BlockMass {
   bool ok = false;
   double mass_kg = 0.0;

@@ -73,5 +73,28 @@ TEST(DiagnoseFit, AHeldFitScoresExtraColumnsAsTheJointFit) {
   }
 }
 
+// A candidate column with a NaN fails as the joint fit does (it scored
+// the held SSR, a finite number), and with nothing held the score is the
+// candidate's own fit.
+TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
+  Bank b = make_bank(false);
+  const ColumnBank::Held held = b.bank.hold(b.with);
+  Mat bad(b.bank.y().size(), 1);
+  bad.col(0) = b.bank.column(b.with[0]);
+  bad(7, 0) = NAN;
+  const ColumnBank::Extra with_nan = b.bank.extra(bad, b.with);
+  EXPECT_FALSE(b.bank.fit(b.with, &with_nan).ok);
+  EXPECT_EQ(b.bank.ssr_beside(held, with_nan), INFINITY);
+
+  const ColumnBank::Held none = b.bank.hold({});
+  Mat own(b.bank.y().size(), 2);
+  own.col(0) = b.bank.column(b.with[0]);
+  own.col(1) = b.bank.column(b.with[1]);
+  const ColumnBank::Extra ex = b.bank.extra(own, {});
+  const host::diag::LinearFit f = b.bank.fit({}, &ex);
+  ASSERT_TRUE(f.ok);
+  EXPECT_NEAR(b.bank.ssr_beside(none, ex), f.ssr_id, 1e-9 * none.fit.ssr_id);
+}
+
 }  // namespace
 }  // namespace feedid::test

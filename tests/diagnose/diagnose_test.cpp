@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -264,7 +265,20 @@ TEST(DiagnoseEffects, TheDiagnosisIsTheSameOnAnyNumberOfThreads) {
   const host::DiagnoseResult a = host::diagnose(trace, one), b = host::diagnose(trace, three);
   ASSERT_TRUE(a.error.empty()) << a.error;
   ASSERT_GE(a.effects.size(), 2u) << host::summary(a);
+  ASSERT_GE(a.steps.size(), 2u) << host::summary(a);
   EXPECT_EQ(host::to_json(a).dump(), host::to_json(b).dump());
+}
+
+// A progress callback that throws while the families run on threads: the
+// exception reaches the caller (the threads are joined), not
+// std::terminate.
+TEST(DiagnoseEffects, AThrowingProgressCallbackOnThreadsIsTheCallersException) {
+  host::DiagnoseOptions opt;
+  opt.threads = 3;
+  opt.progress = [](double share) {
+    if (share > 0.3) throw std::runtime_error("stop");
+  };
+  EXPECT_THROW(host::diagnose(host::simulate(ripple_and_drift()), opt), std::runtime_error);
 }
 
 // An offset is the same regressor as Coulomb friction that differs by
