@@ -128,6 +128,7 @@ bool identify_option(const std::string& key, const py::handle& value, IdentifyOp
 bool diagnose_option(const std::string& key, const py::handle& value, DiagnoseOptions& d) {
   if (key == "folds") d.folds = whole_in(value, key, 2);
   else if (key == "block") d.block_s = number(value, key);
+  else if (key == "threads") d.threads = whole_in(value, key, 0, 256);
   else return identify_option(key, value, d.identify);
   return true;
 }

@@ -91,6 +91,8 @@ class EmpsArrays(unittest.TestCase):
         p = np.genfromtxt(pulses, delimiter=",", names=True)
         # WHEN diagnosed and validated from Python and by the CLI
         dg = feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"])
+        # (on one thread as on the machine's: the same diagnosis)
+        self.assertEqual(feedid.diagnose(d["t_s"], d["qm_m"], d["force_N"], threads=1), dg)
         val = feedid.validate(model, p["t_s"], p["qm_m"], p["force_N"])
         with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
             json.dump(model, f)
@@ -215,6 +217,8 @@ class Errors(unittest.TestCase):
             feedid.identify(t, t, t, velocity_fliter=10)
         with self.assertRaisesRegex(ValueError, "velocity_filter: .* is negative"):
             feedid.identify(t, t, t, velocity_filter=-1)
+        with self.assertRaisesRegex(ValueError, "threads: -1 is outside 0 .. 256"):
+            feedid.diagnose(t, t, t, threads=-1)
         with self.assertRaisesRegex(ValueError, "differ in length"):
             feedid.identify(t, t[:50], t)
         with self.assertRaisesRegex(TypeError, "unknown option 'velocity_filter'"):
