@@ -400,7 +400,8 @@ class GridColumns {
     if (!em.keep_grid_columns) return cols;
     const std::lock_guard<std::mutex> hold(store.lock);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    if (!store.drawn.insert(key).second && bytes_.fetch_add(bytes) + bytes <= kBytes) store.kept.emplace(key, cols);
+    const bool second_draw = !store.drawn.insert(key).second;
+    if (second_draw && store.kept.count(key) == 0 && claim(bytes)) store.kept.emplace(key, cols);
     return cols;
   }
 
@@ -413,7 +414,16 @@ class GridColumns {
     std::map<Key, Mat> kept;
   };
   std::map<const EffectModel*, std::unique_ptr<Store>> family_;
-  std::atomic<std::size_t> bytes_{0};  ///< claimed, also by columns that did not fit: the bound holds
+  std::atomic<std::size_t> bytes_{0};  ///< kept, over all families
+
+  /// Room for `bytes` more within kBytes, taken at once (families keep
+  /// columns from several threads); false when they do not fit.
+  bool claim(std::size_t bytes) {
+    std::size_t now = bytes_.load();
+    while (now + bytes <= kBytes)
+      if (bytes_.compare_exchange_weak(now, now + bytes)) return true;
+    return false;
+  }
 };
 
 struct Stage {
