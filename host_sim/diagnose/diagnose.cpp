@@ -5,8 +5,8 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -688,6 +688,7 @@ PairStep best_pair(const Stage& st, const std::vector<Evaluation>& evals, const 
   std::vector<const Evaluation*> pool;
   for (const auto& e : evals)
     if (e.plausible) pool.push_back(&e);
+  if (pool.size() < 2) return PairStep{};
   // Each candidate adopted alone once (it adds its columns to the bank, so
   // not on the threads), then every second member searched beside its first.
   std::vector<Model> alone;
