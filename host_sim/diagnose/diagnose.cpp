@@ -388,9 +388,9 @@ class GridColumns {
   explicit GridColumns(const std::vector<EffectModel>& catalogue) {
     for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
-  Mat at(const EffectModel& em, std::size_t i, int size, Observations::Resolution r) {
+  Mat at(const EffectModel& em, std::size_t i, int size, Observations::Draw r) {
     Store& store = *family_.at(&em);
-    const Key key{i, size, static_cast<int>(r)};
+    const Key key{i, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
     {
       const std::lock_guard<std::mutex> hold(store.lock);
       const auto it = store.kept.find(key);
@@ -407,7 +407,7 @@ class GridColumns {
 
  private:
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
-  using Key = std::tuple<std::size_t, int, int>;
+  using Key = std::tuple<std::size_t, int, int, int>;
   struct Store {
     std::mutex lock;
     std::set<Key> drawn;
@@ -448,18 +448,21 @@ constexpr double kParameterLogTolerance = 1e-3;
 
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
-/// discrete refinement or golden section in log on fine ones.
+/// discrete refinement or golden section in log on fine ones. Only the
+/// identification observations' SSR is read, so only they are drawn.
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
+  using Rows = Observations::Rows;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
   const ColumnBank::Held held = st.bank.hold(with);
-  auto ssr_of = [&](Mat cols) { return st.bank.ssr_beside(held, st.bank.extra(std::move(cols), with)); };
-  auto cost = [&](double p, Res r) { return ssr_of(em.columns(p, size, r)); };
+  auto ssr_of = [&](const Mat& cols_id) { return st.bank.ssr_beside(held, cols_id); };
+  auto cost = [&](double p, Res r) { return ssr_of(em.columns(p, size, {r, Rows::identification})); };
   const Res grid_res = em.fine_grid || grid.size() == 1 ? Res::fine : Res::coarse;
   double best_ssr = kInf, best_p = grid[0];
   std::size_t best_i = 0;
   for (std::size_t i = 0; i < grid.size(); ++i) {
-    const double c = em.grid.empty() ? cost(grid[i], grid_res) : ssr_of(st.grid_columns.at(em, i, size, grid_res));
+    const double c = em.grid.empty() ? cost(grid[i], grid_res)
+                                     : ssr_of(st.grid_columns.at(em, i, size, {grid_res, Rows::identification}));
     // Grid points whose columns agree on the identification observations
     // (two position ranges over the same blocks) tie to the last digits:
     // the first one is kept, so that rounding does not choose.
@@ -510,7 +513,7 @@ int choose_size(const Stage& st, const std::vector<int>& with, const EffectModel
   double best_cost = kInf;
   int best = em.sizes.front();
   for (int size : em.sizes) {
-    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, size, Observations::Resolution::fine), with);
+    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, size, {}), with);
     const LinearFit f = st.bank.fit(with, &ex);
     if (!f.ok) continue;
     const double ssr = 2.0 * n * std::pow(heldout_rms(st.bank.residual(with, &ex, f.theta), st.obs), 2);
@@ -542,7 +545,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   // its damping): searched again at the size chosen.
   if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size) e.p = search_parameter(st, with, em, e.size);
   const ColumnBank::Extra ex =
-      st.bank.extra(em.columns(e.p, e.size, Observations::Resolution::fine), all_columns(st.base, current));
+      st.bank.extra(em.columns(e.p, e.size, {}), all_columns(st.base, current));
   e.model = current;
   const LinearFit f = fit_vs_free(st.bank, st.base, e.model, &ex);
   if (!f.ok) {
@@ -596,7 +599,7 @@ Model::Term make_term(const Stage& st, std::size_t effect, double p, int size) {
   term.effect = effect;
   term.p = p;
   term.size = size;
-  const Mat cols = st.catalogue[effect].columns(p, size, Observations::Resolution::fine);
+  const Mat cols = st.catalogue[effect].columns(p, size, {});
   for (Eigen::Index c = 0; c < cols.cols(); ++c) term.cols.push_back(st.bank.add(cols.col(c)));
   return term;
 }
@@ -1143,7 +1146,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   Observations obs(sig, out.base.config.velocity_min_m_s, opt.block_s, folds);
   if (!enough_observations(trace, obs, out)) return out;
   std::vector<char> id(obs.size());
-  for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.obs()[i].heldout ? 0 : 1;
+  for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.identification(i) ? 1 : 0;
   Vec force = obs.sample_column([&](std::size_t j) { return obs.interval_force(j); });
   // A given model: its force is taken off and nothing of it is refitted
   // (no base columns), so the effects explain what it leaves. Pooled runs

@@ -233,14 +233,26 @@ void Observations::make_observations(const std::vector<double>& accel) {
     // The triangle weight rises over block a and falls over block b.
     triangle_.push_back({a, 1.0 / (ba.tau * o.area), 1.0 / o.area, -1.0 / (bb.tau * o.area)});
   }
+  identification_block_.assign(blocks_.size(), 0);
+  for (std::size_t i = 0; i < obs_.size(); ++i)
+    if (identification(i)) {
+      identification_obs_.push_back(i);
+      identification_block_[obs_[i].a] = identification_block_[obs_[i].a + 1] = 1;
+    }
 }
 
-Vec Observations::from_moments(const Moments& m) const {
-  Vec c(static_cast<Eigen::Index>(obs_.size()));
-  for (std::size_t i = 0; i < triangle_.size(); ++i) {
+Vec Observations::from_moments(const Moments& m, Rows rows) const {
+  auto value = [&](std::size_t i) {
     const Triangle& w = triangle_[i];
-    c(static_cast<Eigen::Index>(i)) = w.rise * m.m1[w.a] + w.top * m.m0[w.a + 1] + w.fall * m.m1[w.a + 1];
+    return w.rise * m.m1[w.a] + w.top * m.m0[w.a + 1] + w.fall * m.m1[w.a + 1];
+  };
+  if (rows == Rows::identification) {
+    Vec c(static_cast<Eigen::Index>(identification_obs_.size()));
+    for (std::size_t k = 0; k < identification_obs_.size(); ++k) c(static_cast<Eigen::Index>(k)) = value(identification_obs_[k]);
+    return c;
   }
+  Vec c(static_cast<Eigen::Index>(obs_.size()));
+  for (std::size_t i = 0; i < triangle_.size(); ++i) c(static_cast<Eigen::Index>(i)) = value(i);
   return c;
 }
 

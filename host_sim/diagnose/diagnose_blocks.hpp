@@ -96,6 +96,16 @@ class Observations {
   std::size_t size() const { return obs_.size(); }
   const std::vector<Observation>& obs() const { return obs_; }
   enum class Resolution { coarse, fine };
+  /// Which observations a column is drawn on: all, or the identification
+  /// folds' alone (in order; ColumnBank::identification_rows), which is
+  /// all a search that only scores candidates reads. The held-out half's
+  /// segments are then skipped: half the cost of a family's grid.
+  enum class Rows { all, identification };
+  /// How a family's columns are drawn.
+  struct Draw {
+    Resolution resolution = Resolution::fine;
+    Rows rows = Rows::all;
+  };
   const std::vector<Segment>& segments(Resolution r = Resolution::fine) const {
     return r == Resolution::fine ? fine_ : coarse_;
   }
@@ -107,6 +117,9 @@ class Observations {
     return r == Resolution::fine ? fine_lengths_ : coarse_lengths_;
   }
   const Signals& signals() const { return s_; }
+  /// Whether observation i is in an identification fold (as the
+  /// observations were made: set_aside_beyond does not move it).
+  bool identification(std::size_t i) const { return !Folds::heldout(obs_[i].fold); }
   std::size_t heldout_count() const;
   /// Takes the held-out observations whose prediction variance (in units of
   /// the noise variance) exceeds max_variance out of the held-out set; they
@@ -114,40 +127,43 @@ class Observations {
   std::size_t set_aside_beyond(const Vec& prediction_variance, double max_variance);
 
   /// Column of w-weighted means of g(j) over each observation, g per interval j.
-  template <typename G> Vec sample_column(G&& g) const {
-    return sample_columns(1, [&g](std::size_t j, double* out) { out[0] = g(j); }).col(0);
+  template <typename G> Vec sample_column(G&& g, Rows rows = Rows::all) const {
+    return sample_columns(1, [&g](std::size_t j, double* out) { out[0] = g(j); }, rows).col(0);
   }
   /// q columns at once from g(j, out[q]).
-  template <typename G> Mat sample_columns(int q, G&& g) const {
+  template <typename G> Mat sample_columns(int q, G&& g, Rows rows = Rows::all) const {
     std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
     std::vector<double> value(static_cast<std::size_t>(q), 0.0);
-    for (std::size_t b = 0; b < blocks_.size(); ++b)
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      if (!drawn(b, rows)) continue;
       for (std::size_t j = blocks_[b].j0; j < blocks_[b].j1; ++j) {
         g(j, value.data());
         const double dt = interval_dt(j), age = interval_t(j) - blocks_[b].t0;
         for (int c = 0; c < q; ++c)
           if (value[static_cast<std::size_t>(c)] != 0.0) m[static_cast<std::size_t>(c)].add(b, value[static_cast<std::size_t>(c)], dt, age);
       }
-    return to_columns(m);
+    }
+    return to_columns(m, rows);
   }
   /// Columns of w-weighted means of q values g(i, segment, out[q]) taken
   /// as constant over each segment. A stateful g (a filter) sees every
-  /// segment in time order; otherwise segments between blocks are skipped.
-  template <typename G> Mat segment_columns(int q, bool stateful, Resolution r, G&& g) const {
+  /// segment in time order; otherwise only the segments of the blocks drawn.
+  template <typename G> Mat segment_columns(int q, bool stateful, Draw draw, G&& g) const {
     std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
     std::vector<double> buffer(static_cast<std::size_t>(q), 0.0);
     double* value = buffer.data();
-    const std::vector<Segment>& segs = segments(r);
+    const std::vector<Segment>& segs = segments(draw.resolution);
     for (std::size_t i = 0; i < segs.size(); ++i) {
       const Segment& sg = segs[i];
-      if (sg.block == Segment::kNoBlock && !stateful) continue;
+      const bool wanted = sg.block != Segment::kNoBlock && drawn(sg.block, draw.rows);
+      if (!wanted && !stateful) continue;
       std::fill(buffer.begin(), buffer.end(), 0.0);
       g(i, sg, value);
-      if (sg.block == Segment::kNoBlock) continue;
+      if (!wanted) continue;
       for (int c = 0; c < q; ++c)
         if (value[c] != 0.0) m[static_cast<std::size_t>(c)].add(sg.block, value[c], sg.dt, sg.t_rel);
     }
-    return to_columns(m);
+    return to_columns(m, draw.rows);
   }
 
   double interval_dt(std::size_t j) const { return s_.t[j + 1] - s_.t[j]; }
@@ -169,12 +185,16 @@ class Observations {
     }
     std::vector<double> m0, m1;
   };
-  Vec from_moments(const Moments& m) const;
-  Mat to_columns(const std::vector<Moments>& m) const {
-    Mat out(static_cast<Eigen::Index>(obs_.size()), static_cast<Eigen::Index>(m.size()));
-    for (std::size_t c = 0; c < m.size(); ++c) out.col(static_cast<Eigen::Index>(c)) = from_moments(m[c]);
+  /// The observations' column from the moments, on `rows`.
+  Vec from_moments(const Moments& m, Rows rows) const;
+  Mat to_columns(const std::vector<Moments>& m, Rows rows) const {
+    const std::size_t n = rows == Rows::all ? obs_.size() : identification_obs_.size();
+    Mat out(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m.size()));
+    for (std::size_t c = 0; c < m.size(); ++c) out.col(static_cast<Eigen::Index>(c)) = from_moments(m[c], rows);
     return out;
   }
+  /// Whether block b is read by an observation on `rows`.
+  bool drawn(std::size_t b, Rows rows) const { return rows == Rows::all || identification_block_[b]; }
   void make_blocks(double v_min, double block_s, const Folds& folds);
   void make_observations(const std::vector<double>& accel);
   std::vector<Segment> make_segments(const std::vector<double>& accel, double v_min, double segment_s) const;
@@ -192,6 +212,8 @@ class Observations {
     double rise, top, fall;  ///< of M1 of block a, M0 and M1 of block a + 1
   };
   std::vector<Triangle> triangle_;
+  std::vector<std::size_t> identification_obs_;  ///< observations in identification folds, ascending
+  std::vector<char> identification_block_;       ///< per block: read by one of them
   std::vector<Segment> fine_, coarse_;
   std::vector<double> fine_lengths_, coarse_lengths_;
   double force_integral(double t, std::size_t& j) const;

@@ -34,7 +34,7 @@ double sign_of(const Segment& sg) { return sg.v > 0 ? 1.0 : -1.0; }
 EffectModel offset_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::offset);
-  m.columns = [&obs](double, int, Observations::Resolution r) {
+  m.columns = [&obs](double, int, Observations::Draw r) {
     return obs.segment_columns(1, false, r, [](std::size_t, const Segment&, double* out) { out[0] = 1.0; });
   };
   m.parameters = [](double, int, const Vec& c, double) { return nlohmann::json{{"force_N", c(0)}}; };
@@ -88,7 +88,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.sizes = {1, 2, 3};
   m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
   m.keep_grid_columns = true;
-  m.columns = [&obs](double p, int harmonics, Observations::Resolution r) {
+  m.columns = [&obs](double p, int harmonics, Observations::Draw r) {
     const double k = 2.0 * M_PI / p;
     HarmonicMeans means(k, harmonics);
     return obs.segment_columns(2 * harmonics, false, r,
@@ -184,7 +184,7 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
     return std::pair<double, double>{e.x_lo + e.travel * a / cells, e.x_lo + e.travel * b / cells};
   };
-  m.columns = [&obs, range, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Resolution r) {
+  m.columns = [&obs, range, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Draw r) {
     if (spans > 0)
       return obs.segment_columns(2 * (spans + 3), false, r, [=](std::size_t, const Segment& sg, double* out) {
         const SplineBasis b(0.5 * (sg.x0 + sg.x1), x_lo, travel, spans);
@@ -301,7 +301,7 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
   m.continuous = true;
   m.sizes = {1, 2};
   const bool pooled = e.run_starts.size() > 1;
-  m.columns = [&obs, starts = e.run_starts](double tc, int per_direction, Observations::Resolution r) {
+  m.columns = [&obs, starts = e.run_starts](double tc, int per_direction, Observations::Draw r) {
     return obs.segment_columns(2 * per_direction, false, r, [&](std::size_t, const Segment& sg, double* out) {
       const double decay = drift_decay(sg, starts, tc);
       const int at = per_direction == 2 && sg.v < 0 ? 2 : 0;
@@ -335,13 +335,12 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
 EffectModel quadratic_viscous_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::quadratic_viscous);
-  m.columns = [&obs](double, int, Observations::Resolution) {
-    Mat c(static_cast<Eigen::Index>(obs.size()), 1);
-    c.col(0) = obs.sample_column([&obs](std::size_t j) {
+  m.columns = [&obs](double, int, Observations::Draw r) {
+    const Vec c = obs.sample_column([&obs](std::size_t j) {
       const double v = obs.interval_v(j);
       return v * std::fabs(v);
-    });
-    return c;
+    }, r.rows);
+    return Mat(c);
   };
   m.parameters = [](double, int, const Vec& c, double) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; };
   return m;
@@ -367,7 +366,7 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   m.sizes = {1, 2, 3};
   const std::size_t n = m.grid.size();
   for (std::size_t i = 0; i < n; ++i) m.grid.push_back(-m.grid[i]);
-  m.columns = [&obs](double p, int elements, Observations::Resolution r) {
+  m.columns = [&obs](double p, int elements, Observations::Draw r) {
     const double d = std::fabs(p);
     const bool from_reversal = p > 0;
     return obs.segment_columns(elements, false, r, [=](std::size_t, const Segment& sg, double* out) {
@@ -463,9 +462,9 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.fine_grid = true;
   m.keep_grid_columns = true;
   m.sizes = {1, 2};
-  m.columns = [&obs](double f, int dampings, Observations::Resolution r) {
+  m.columns = [&obs](double f, int dampings, Observations::Draw r) {
     std::vector<std::vector<double>> a2;
-    for (int k = 0; k < dampings; ++k) a2.push_back(load_acceleration(obs, r, 2 * M_PI * f, kComplianceDamping[k]));
+    for (int k = 0; k < dampings; ++k) a2.push_back(load_acceleration(obs, r.resolution, 2 * M_PI * f, kComplianceDamping[k]));
     return obs.segment_columns(dampings, true, r, [&a2](std::size_t i, const Segment& sg, double* out) {
       for (std::size_t k = 0; k < a2.size(); ++k) out[k] = a2[k][i] - sg.accel;
     });
@@ -513,8 +512,8 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
     for (const Segment& sg : obs.segments(r)) at.push_back(obs.lowpass_force_mean(sg.t_start + h, sg.t_start + sg.dt + h, sg.j0));
   }
   m.columns = [&obs, h, unshifted = std::shared_ptr<const std::array<std::vector<double>, 2>>(unshifted)](
-                  double d, int, Observations::Resolution r) {
-    const std::vector<double>& at = (*unshifted)[r == Observations::Resolution::fine ? 0 : 1];
+                  double d, int, Observations::Draw r) {
+    const std::vector<double>& at = (*unshifted)[r.resolution == Observations::Resolution::fine ? 0 : 1];
     return obs.segment_columns(1, false, r, [&obs, &at, d, h](std::size_t i, const Segment& sg, double* out) {
       const double a = sg.t_start + h, b = sg.t_start + sg.dt + h;
       out[0] = obs.lowpass_force_mean(a + d, b + d, sg.j0) - at[i];

@@ -27,8 +27,10 @@ struct EffectModel {
   /// compliance's frequency moves with its damping), unless a larger size
   /// aliases it (a ripple's harmonics fit a multiple of its period alike).
   bool search_again_at_size = true;
-  /// Columns for a parameter value and size; coarse segments serve the grid search.
-  std::function<Mat(double, int, Observations::Resolution)> columns;
+  /// Columns for a parameter value and size, drawn as asked: coarse
+  /// segments serve the grid search, and a search draws the identification
+  /// observations alone.
+  std::function<Mat(double, int, Observations::Draw)> columns;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
   /// Its columns cost a transcendental or a filter step per segment (a

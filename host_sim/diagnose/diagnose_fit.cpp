@@ -7,16 +7,29 @@
 namespace feedid::host::diag {
 
 ColumnBank::ColumnBank(Vec y, std::vector<char> id) : y_(std::move(y)), id_(std::move(id)) {
-  mask_ = Vec::Zero(y_.size());
-  for (Eigen::Index i = 0; i < y_.size(); ++i) mask_(i) = id_[static_cast<std::size_t>(i)] ? 1.0 : 0.0;
-  yty_ = id_dot(y_, y_);
+  for (Eigen::Index i = 0; i < y_.size(); ++i)
+    if (id_[static_cast<std::size_t>(i)]) id_rows_.push_back(i);
+  y_id_ = identification_rows(y_);
+  yty_ = y_id_.dot(y_id_);
 }
 
-double ColumnBank::id_dot(const Vec& a, const Vec& b) const { return (a.array() * b.array() * mask_.array()).sum(); }
+Vec ColumnBank::identification_rows(const Vec& a) const {
+  Vec out(static_cast<Eigen::Index>(id_rows_.size()));
+  for (std::size_t k = 0; k < id_rows_.size(); ++k) out(static_cast<Eigen::Index>(k)) = a(id_rows_[k]);
+  return out;
+}
+
+Mat ColumnBank::identification_rows(const Mat& cols) const {
+  Mat out(static_cast<Eigen::Index>(id_rows_.size()), cols.cols());
+  for (Eigen::Index c = 0; c < cols.cols(); ++c)
+    for (std::size_t k = 0; k < id_rows_.size(); ++k) out(static_cast<Eigen::Index>(k), c) = cols(id_rows_[k], c);
+  return out;
+}
 
 int ColumnBank::add(Vec column) {
   cols_.push_back(std::move(column));
-  xty_.push_back(id_dot(cols_.back(), y_));
+  cols_id_.push_back(identification_rows(cols_.back()));
+  xty_.push_back(cols_id_.back().dot(y_id_));
   const std::size_t n = cols_.size();
   gram_.push_back(std::make_unique<std::atomic<double>[]>(n));
   for (std::size_t j = 0; j < n; ++j) gram_.back()[j].store(std::numeric_limits<double>::quiet_NaN(), std::memory_order_relaxed);
@@ -30,7 +43,7 @@ double ColumnBank::gram(int i, int j) const {
   std::atomic<double>& g = gram_[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
   double value = g.load(std::memory_order_relaxed);
   if (std::isnan(value)) {
-    value = id_dot(column(i), column(j));
+    value = cols_id_[static_cast<std::size_t>(i)].dot(cols_id_[static_cast<std::size_t>(j)]);
     g.store(value, std::memory_order_relaxed);
   }
   return value;
@@ -46,14 +59,12 @@ ColumnBank::Extra ColumnBank::extra(Mat cols, const std::vector<int>& with) cons
   Extra e;
   e.with = with;
   e.cross.resize(static_cast<Eigen::Index>(with.size()), cols.cols());
-  e.gram.resize(cols.cols(), cols.cols());
-  e.xty.resize(cols.cols());
-  const Mat masked = cols.array().colwise() * mask_.array();
-  for (Eigen::Index c = 0; c < cols.cols(); ++c) {
-    for (std::size_t w = 0; w < with.size(); ++w) e.cross(static_cast<Eigen::Index>(w), c) = masked.col(c).dot(column(with[w]));
-    for (Eigen::Index d = 0; d < cols.cols(); ++d) e.gram(c, d) = masked.col(c).dot(cols.col(d));
-    e.xty(c) = masked.col(c).dot(y_);
-  }
+  const Mat cols_id = identification_rows(cols);
+  for (Eigen::Index c = 0; c < cols.cols(); ++c)
+    for (std::size_t w = 0; w < with.size(); ++w)
+      e.cross(static_cast<Eigen::Index>(w), c) = cols_id.col(c).dot(cols_id_[static_cast<std::size_t>(with[w])]);
+  e.gram = cols_id.transpose() * cols_id;
+  e.xty = cols_id.transpose() * y_id_;
   e.cols = std::move(cols);
   return e;
 }
@@ -96,18 +107,23 @@ ColumnBank::Held ColumnBank::hold(const std::vector<int>& with) const {
   Mat g;
   Vec gy;
   products(with, g, gy);
+  h.x_id.resize(static_cast<Eigen::Index>(id_rows_.size()), static_cast<Eigen::Index>(with.size()));
+  for (std::size_t w = 0; w < with.size(); ++w) h.x_id.col(static_cast<Eigen::Index>(w)) = cols_id_[static_cast<std::size_t>(with[w])];
   h.g_inv = with.empty() ? Mat() : pseudo_inverse_normal(g, &h.largest_eigenvalue);
   h.fit = solve_with_inverse(h.g_inv, g, gy, yty_);
   return h;
 }
 
-double ColumnBank::ssr_beside(const Held& held, const Extra& extra) const {
+double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (!held.fit.ok) return kInf;
-  const Mat& c = extra.cross;
-  Mat s = extra.gram;
-  Vec r = extra.xty;
-  if (c.rows() > 0) {
+  // The products a joint fit would take, as one matrix product each (a
+  // grid point's few columns against up to ~50 held ones).
+  const Mat gram = cols_id.transpose() * cols_id;
+  Mat s = gram;
+  Vec r = cols_id.transpose() * y_id_;
+  if (held.x_id.cols() > 0) {
+    const Mat c = held.x_id.transpose() * cols_id;
     s.noalias() -= c.transpose() * held.g_inv * c;
     r.noalias() -= c.transpose() * held.fit.theta;
   }
@@ -122,7 +138,7 @@ double ColumnBank::ssr_beside(const Held& held, const Extra& extra) const {
   // instead of noise.
   const double cut = kNormalEquationsCut * std::max(1.0, held.largest_eigenvalue);
   Vec scale(q);
-  for (Eigen::Index i = 0; i < q; ++i) scale(i) = extra.gram(i, i) > 0 ? 1.0 / std::sqrt(extra.gram(i, i)) : 0.0;
+  for (Eigen::Index i = 0; i < q; ++i) scale(i) = gram(i, i) > 0 ? 1.0 / std::sqrt(gram(i, i)) : 0.0;
   const Mat sc = scale.asDiagonal() * s * scale.asDiagonal();
   const Vec rc = scale.asDiagonal() * r;
   Eigen::SelfAdjointEigenSolver<Mat> eig(sc);

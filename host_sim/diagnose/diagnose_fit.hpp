@@ -43,6 +43,12 @@ class ColumnBank {
   /// Fit y on bank columns `cols` (then extra's, if given; cols must be in extra->with).
   LinearFit fit(const std::vector<int>& cols, const Extra* extra = nullptr) const;
 
+  /// Rows of `cols` on the identification observations only, in order:
+  /// all a fit reads of them. A search that only scores candidates (a
+  /// family's grid) draws its columns there alone (Observations::Rows).
+  Mat identification_rows(const Mat& cols) const;
+  std::size_t identification_count() const { return id_rows_.size(); }
+
   /// A fit on bank columns `with`, held so that a search over many extra
   /// columns beside them (a family's grid) solves only for the extra ones:
   /// by the Schur complement of the held columns' products, the SSR of
@@ -51,14 +57,16 @@ class ColumnBank {
   /// products). In exact arithmetic the same SSR as fit(with, &extra).
   struct Held {
     std::vector<int> with;
+    Mat x_id;   ///< the held columns on the identification observations
     Mat g_inv;  ///< pseudo-inverse of the held columns' products
     double largest_eigenvalue = 0.0;  ///< of those products in correlation form
     LinearFit fit;
   };
   Held hold(const std::vector<int>& with) const;
-  /// The identification SSR of the held fit with extra's columns added
-  /// (extra made with held.with); +infinity where either fit fails.
-  double ssr_beside(const Held& held, const Extra& extra) const;
+  /// The identification SSR of the held fit with columns `cols_id` added,
+  /// given on the identification observations alone (identification_rows);
+  /// +infinity where either fit fails.
+  double ssr_beside(const Held& held, const Mat& cols_id) const;
   /// y minus the fitted columns, on every observation.
   Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
   /// Leverage x_i' G^+ x_i of every observation under the fit on bank
@@ -76,13 +84,16 @@ class ColumnBank {
   void products(const std::vector<int>& cols, Mat& g, Vec& gy) const;
   /// Bank columns `cols` side by side.
   Mat gather(const std::vector<int>& cols) const;
-  double id_dot(const Vec& a, const Vec& b) const;
+  /// Column a on the identification observations only.
+  Vec identification_rows(const Vec& a) const;
   double gram(int i, int j) const;
 
-  Vec y_, mask_;
+  Vec y_, y_id_;
   std::vector<char> id_;
+  std::vector<Eigen::Index> id_rows_;  ///< the identification observations, ascending
   double yty_ = 0.0;
   std::vector<Vec> cols_;
+  std::vector<Vec> cols_id_;  ///< cols_ on the identification observations: every product reads these
   std::vector<double> xty_;
   /// Lower triangle, NaN until used. Read and filled by concurrent
   /// candidate fits (diagnose's families in parallel); add() only between them.

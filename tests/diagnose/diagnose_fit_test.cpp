@@ -64,12 +64,12 @@ TEST(DiagnoseFit, AHeldFitScoresExtraColumnsAsTheJointFit) {
     }
     for (const Mat& cols : {informative, in_span, mixed}) {
       const double want = joint_ssr(b, cols);
-      const double got = b.bank.ssr_beside(held, b.bank.extra(cols, b.with));
+      const double got = b.bank.ssr_beside(held, b.bank.identification_rows(cols));
       EXPECT_NEAR(got, want, 1e-9 * held.fit.ssr_id) << "collinear held columns: " << collinear;
     }
     // A column in the held span lowers nothing; the informative one does.
-    EXPECT_NEAR(b.bank.ssr_beside(held, b.bank.extra(in_span, b.with)), held.fit.ssr_id, 1e-9 * held.fit.ssr_id);
-    EXPECT_LT(b.bank.ssr_beside(held, b.bank.extra(informative, b.with)), 0.2 * held.fit.ssr_id);
+    EXPECT_NEAR(b.bank.ssr_beside(held, b.bank.identification_rows(in_span)), held.fit.ssr_id, 1e-9 * held.fit.ssr_id);
+    EXPECT_LT(b.bank.ssr_beside(held, b.bank.identification_rows(informative)), 0.2 * held.fit.ssr_id);
   }
 }
 
@@ -84,7 +84,7 @@ TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
   bad(7, 0) = NAN;
   const ColumnBank::Extra with_nan = b.bank.extra(bad, b.with);
   EXPECT_FALSE(b.bank.fit(b.with, &with_nan).ok);
-  EXPECT_EQ(b.bank.ssr_beside(held, with_nan), INFINITY);
+  EXPECT_EQ(b.bank.ssr_beside(held, b.bank.identification_rows(bad)), INFINITY);
 
   const ColumnBank::Held none = b.bank.hold({});
   Mat own(b.bank.y().size(), 2);
@@ -93,7 +93,7 @@ TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
   const ColumnBank::Extra ex = b.bank.extra(own, {});
   const host::diag::LinearFit f = b.bank.fit({}, &ex);
   ASSERT_TRUE(f.ok);
-  EXPECT_NEAR(b.bank.ssr_beside(none, ex), f.ssr_id, 1e-9 * none.fit.ssr_id);
+  EXPECT_NEAR(b.bank.ssr_beside(none, b.bank.identification_rows(own)), f.ssr_id, 1e-9 * none.fit.ssr_id);
 }
 
 }  // namespace
