@@ -404,6 +404,9 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   return m;
 }
 
+/// Most damping ratios a compliance column set mixes (kComplianceDamping).
+constexpr std::size_t kMaxDampings = 2;
+
 /// Load acceleration a2 behind a spring and a damper to the motor,
 /// m2 x2'' = k (x1 - x2) + c (x1' - x2'), so H(s) = (2 z w s + w^2)/(s^2 +
 /// 2 z w s + w^2) of the motor's: discretised exactly for an acceleration
@@ -411,30 +414,43 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
 /// at a segment's start the damper passes straight on as a step of the
 /// load's jerk, 2 z w times it. Without that zero (a damper to ground) a
 /// compliance at the family's own damping 0.05 left 3.2 times the noise
-/// floor unexplained after its fit.
-std::vector<double> load_acceleration(const Observations& obs, Observations::Resolution r, double w, double z) {
+/// floor unexplained after its fit. One column per damping ratio of `z`,
+/// the filters stepped side by side: independent recurrences the
+/// processor overlaps, where one after the other each waited on its own
+/// latency.
+std::array<std::vector<double>, kMaxDampings> load_accelerations(const Observations& obs, Observations::Resolution r,
+                                                                 double w, const double* z, std::size_t dampings) {
   const std::vector<Segment>& segs = obs.segments(r);
-  std::vector<double> out(segs.size());
-  double y = segs.empty() ? 0.0 : segs[0].accel, yd = 0.0;
-  const double wd = w * std::sqrt(1.0 - z * z);
   // Phi once per distinct segment length (Observations::segment_lengths),
   // not an exp and a sincos per segment.
   struct Phi {
     double p11, p12, p21, p22;
   };
-  std::vector<Phi> phi;
-  phi.reserve(obs.segment_lengths(r).size());
-  for (const double h : obs.segment_lengths(r)) {
-    const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
-    phi.push_back({decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)});
+  std::array<std::vector<double>, kMaxDampings> out;
+  std::array<std::vector<Phi>, kMaxDampings> phi;
+  std::array<double, kMaxDampings> y{}, yd{}, jerk_gain{};
+  for (std::size_t k = 0; k < dampings; ++k) {
+    out[k].resize(segs.size());
+    y[k] = segs.empty() ? 0.0 : segs[0].accel;
+    jerk_gain[k] = 2.0 * z[k] * w;
+    const double wd = w * std::sqrt(1.0 - z[k] * z[k]);
+    phi[k].reserve(obs.segment_lengths(r).size());
+    for (const double h : obs.segment_lengths(r)) {
+      const double decay = std::exp(-z[k] * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
+      phi[k].push_back({decay * (c + z[k] * w / wd * s), decay * s / wd, -decay * w * w / wd * s,
+                        decay * (c - z[k] * w / wd * s)});
+    }
   }
   for (std::size_t i = 0; i < segs.size(); ++i) {
-    const Phi& p = phi[segs[i].length];
-    if (i > 0) yd += 2.0 * z * w * (segs[i].accel - segs[i - 1].accel);
-    const double e = y - segs[i].accel, y0 = y;
-    y = segs[i].accel + p.p11 * e + p.p12 * yd;
-    yd = p.p21 * e + p.p22 * yd;
-    out[i] = 0.5 * (y0 + y);
+    const double a = segs[i].accel, step = i > 0 ? a - segs[i - 1].accel : 0.0;
+    for (std::size_t k = 0; k < dampings; ++k) {
+      const Phi& p = phi[k][segs[i].length];
+      if (i > 0) yd[k] += jerk_gain[k] * step;
+      const double e = y[k] - a, y0 = y[k];
+      y[k] = a + p.p11 * e + p.p12 * yd[k];
+      yd[k] = p.p21 * e + p.p22 * yd[k];
+      out[k][i] = 0.5 * (y0 + y[k]);
+    }
   }
   return out;
 }
@@ -448,7 +464,7 @@ std::vector<double> load_acceleration(const Observations& obs, Observations::Res
 /// with a plausible load mass (m2 = m d w / (2 zeta)); with a column at
 /// zeta 0.5 a 2.5-period force delay was named as delay plus a 368 Hz
 /// "compliance" that took half the delay.
-constexpr double kComplianceDamping[2] = {0.05, 0.015};
+constexpr double kComplianceDamping[kMaxDampings] = {0.05, 0.015};
 
 /// Compliance: the base model misses m2 (a2 - a1). Size 1: damping ratio
 /// 0.05; sizes 2, 3: a mix of kComplianceDamping (free damping). The
@@ -463,10 +479,10 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.keep_grid_columns = true;
   m.sizes = {1, 2};
   m.columns = [&obs](double f, int dampings, Observations::Draw r) {
-    std::vector<std::vector<double>> a2;
-    for (int k = 0; k < dampings; ++k) a2.push_back(load_acceleration(obs, r.resolution, 2 * M_PI * f, kComplianceDamping[k]));
-    return obs.segment_columns(dampings, true, r, [&a2](std::size_t i, const Segment& sg, double* out) {
-      for (std::size_t k = 0; k < a2.size(); ++k) out[k] = a2[k][i] - sg.accel;
+    const auto n = static_cast<std::size_t>(dampings);
+    const auto a2 = load_accelerations(obs, r.resolution, 2 * M_PI * f, kComplianceDamping, n);
+    return obs.segment_columns(dampings, false, r, [&a2, n](std::size_t i, const Segment& sg, double* out) {
+      for (std::size_t k = 0; k < n; ++k) out[k] = a2[k][i] - sg.accel;
     });
   };
   // c = load mass m2 (summed over the dampings); free resonance

@@ -7,15 +7,14 @@
 namespace feedid::host::diag {
 
 ColumnBank::ColumnBank(Vec y, std::vector<char> id) : y_(std::move(y)), id_(std::move(id)) {
-  for (Eigen::Index i = 0; i < y_.size(); ++i)
-    if (id_[static_cast<std::size_t>(i)]) id_rows_.push_back(i);
-  y_id_ = identification_rows(y_);
+  for (Eigen::Index i = 0; i < y_.size(); ++i) (id_[static_cast<std::size_t>(i)] ? id_rows_ : other_rows_).push_back(i);
+  y_id_ = rows_of(y_, id_rows_);
   yty_ = y_id_.dot(y_id_);
 }
 
-Vec ColumnBank::identification_rows(const Vec& a) const {
-  Vec out(static_cast<Eigen::Index>(id_rows_.size()));
-  for (std::size_t k = 0; k < id_rows_.size(); ++k) out(static_cast<Eigen::Index>(k)) = a(id_rows_[k]);
+Vec ColumnBank::rows_of(const Vec& a, const std::vector<Eigen::Index>& rows) {
+  Vec out(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t k = 0; k < rows.size(); ++k) out(static_cast<Eigen::Index>(k)) = a(rows[k]);
   return out;
 }
 
@@ -26,11 +25,20 @@ Mat ColumnBank::identification_rows(const Mat& cols) const {
   return out;
 }
 
+Vec ColumnBank::column(int i) const {
+  Vec out(y_.size());
+  const Vec& id = cols_id_[static_cast<std::size_t>(i)];
+  const Vec& other = cols_other_[static_cast<std::size_t>(i)];
+  for (std::size_t k = 0; k < id_rows_.size(); ++k) out(id_rows_[k]) = id(static_cast<Eigen::Index>(k));
+  for (std::size_t k = 0; k < other_rows_.size(); ++k) out(other_rows_[k]) = other(static_cast<Eigen::Index>(k));
+  return out;
+}
+
 int ColumnBank::add(Vec column) {
-  cols_.push_back(std::move(column));
-  cols_id_.push_back(identification_rows(cols_.back()));
+  cols_id_.push_back(rows_of(column, id_rows_));
+  cols_other_.push_back(rows_of(column, other_rows_));
   xty_.push_back(cols_id_.back().dot(y_id_));
-  const std::size_t n = cols_.size();
+  const std::size_t n = cols_id_.size();
   gram_.push_back(std::make_unique<std::atomic<double>[]>(n));
   for (std::size_t j = 0; j < n; ++j) gram_.back()[j].store(std::numeric_limits<double>::quiet_NaN(), std::memory_order_relaxed);
   return static_cast<int>(n) - 1;
@@ -123,7 +131,10 @@ double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
   Mat s = gram;
   Vec r = cols_id.transpose() * y_id_;
   if (held.x_id.cols() > 0) {
-    const Mat c = held.x_id.transpose() * cols_id;
+    // Column by column: a matrix-vector product each, where a matrix
+    // product would repack the held columns for a grid point's one or two.
+    Mat c(held.x_id.cols(), cols_id.cols());
+    for (Eigen::Index k = 0; k < cols_id.cols(); ++k) c.col(k).noalias() = held.x_id.transpose() * cols_id.col(k);
     s.noalias() -= c.transpose() * held.g_inv * c;
     r.noalias() -= c.transpose() * held.fit.theta;
   }
@@ -154,7 +165,13 @@ double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
 
 Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const {
   Vec r = y_;
-  for (std::size_t i = 0; i < cols.size(); ++i) r -= theta(static_cast<Eigen::Index>(i)) * column(cols[i]);
+  for (std::size_t i = 0; i < cols.size(); ++i) {
+    const double t = theta(static_cast<Eigen::Index>(i));
+    const Vec& id = cols_id_[static_cast<std::size_t>(cols[i])];
+    const Vec& other = cols_other_[static_cast<std::size_t>(cols[i])];
+    for (std::size_t k = 0; k < id_rows_.size(); ++k) r(id_rows_[k]) -= t * id(static_cast<Eigen::Index>(k));
+    for (std::size_t k = 0; k < other_rows_.size(); ++k) r(other_rows_[k]) -= t * other(static_cast<Eigen::Index>(k));
+  }
   if (extra && extra->cols.cols() > 0) r -= extra->cols * theta.tail(extra->cols.cols());
   return r;
 }

@@ -25,7 +25,8 @@ class ColumnBank {
   /// y: the observed mean force; id: 1 for identification observations.
   ColumnBank(Vec y, std::vector<char> id);
   int add(Vec column);
-  const Vec& column(int i) const { return cols_[static_cast<std::size_t>(i)]; }
+  /// Bank column i on every observation.
+  Vec column(int i) const;
   const Vec& y() const { return y_; }
   const std::vector<char>& id() const { return id_; }
 
@@ -84,16 +85,18 @@ class ColumnBank {
   void products(const std::vector<int>& cols, Mat& g, Vec& gy) const;
   /// Bank columns `cols` side by side.
   Mat gather(const std::vector<int>& cols) const;
-  /// Column a on the identification observations only.
-  Vec identification_rows(const Vec& a) const;
+  /// Column a on the given rows only.
+  static Vec rows_of(const Vec& a, const std::vector<Eigen::Index>& rows);
   double gram(int i, int j) const;
 
   Vec y_, y_id_;
   std::vector<char> id_;
-  std::vector<Eigen::Index> id_rows_;  ///< the identification observations, ascending
+  /// The identification observations and the others, each ascending: the
+  /// columns are kept in these two parts, each once. Every product reads
+  /// the first alone.
+  std::vector<Eigen::Index> id_rows_, other_rows_;
   double yty_ = 0.0;
-  std::vector<Vec> cols_;
-  std::vector<Vec> cols_id_;  ///< cols_ on the identification observations: every product reads these
+  std::vector<Vec> cols_id_, cols_other_;
   std::vector<double> xty_;
   /// Lower triangle, NaN until used. Read and filled by concurrent
   /// candidate fits (diagnose's families in parallel); add() only between them.
