@@ -370,44 +370,53 @@ double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs
 //    identification observations, then judged on the held-out ones.
 // ---------------------------------------------------------------------------
 
-/// The grid columns of the families whose columns are costly
-/// (EffectModel::keep_grid_columns), kept from their second draw on: the
-/// grids are fixed and the columns depend on nothing else, only the model
-/// they are fitted beside changes with the selection's steps and pair
-/// trials (on the 25 s EMPS PULSES run with a given model, the ripple's
-/// 160 periods were drawn 7 times and the compliance's 50 frequencies 6).
-/// A diagnosis that searches each family once holds nothing more: kept
-/// from the first draw, a one-step diagnosis of 60 s at 2 kHz held 24 MB
-/// it never read again, 2.5x identify's peak memory instead of 1.6x. The
-/// same bits as drawing them again. Kept up to kBytes; beyond that, drawn
-/// each time, so a long log's memory stays bounded.
-class GridColumns {
+/// The columns a family's search draws (its grid, refinements and golden
+/// sections), kept as EffectModel::keep_columns says: the parameter values
+/// are fixed or follow the same path, and the columns depend on nothing
+/// else; only the model they are fitted beside changes with the
+/// selection's steps and pair trials (on the 25 s EMPS PULSES run with a
+/// given model, the ripple's 160 periods were drawn 7 times and the
+/// compliance's 50 frequencies 6). The same bits as drawing them again.
+/// Kept up to kBytes in all; beyond that, drawn each time, so that a long
+/// log's memory stays bounded: with every family's kept from the first
+/// draw, a one-step diagnosis of 60 s at 2 kHz held 14 MB it never read
+/// again (2.0x identify's peak memory, the bar; 1.65x as they are kept).
+class SearchColumns {
  public:
   /// One store per family of `catalogue`, each with its own lock: a pair
   /// search draws one family beside several partners at once.
-  explicit GridColumns(const std::vector<EffectModel>& catalogue) {
+  explicit SearchColumns(const std::vector<EffectModel>& catalogue) {
     for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
-  Mat at(const EffectModel& em, std::size_t i, int size, Observations::Draw r) {
+  /// em's columns at parameter p and size, drawn as r says.
+  Mat at(const EffectModel& em, double p, int size, Observations::Draw r) {
+    using Keep = EffectModel::Keep;
+    if (em.keep_columns == Keep::never) return em.columns(p, size, r);
     Store& store = *family_.at(&em);
-    const Key key{i, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
+    const Key key{p, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
     {
       const std::lock_guard<std::mutex> hold(store.lock);
       const auto it = store.kept.find(key);
       if (it != store.kept.end()) return it->second;
     }
-    Mat cols = em.columns(em.grid[i], size, r);
-    if (!em.keep_grid_columns) return cols;
+    Mat cols = em.columns(p, size, r);
     const std::lock_guard<std::mutex> hold(store.lock);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
-    const bool second_draw = !store.drawn.insert(key).second;
-    if (second_draw && store.kept.count(key) == 0 && claim(bytes)) store.kept.emplace(key, cols);
+    const bool again = !store.drawn.insert(key).second;
+    if (store.kept.count(key) == 0 &&
+        (again ? claim(bytes, kBytes) : em.keep_columns == Keep::from_first_draw && claim(bytes, kFirstDrawBytes)))
+      store.kept.emplace(key, cols);
     return cols;
   }
 
  private:
+  /// Kept from their first draw while all kept take less than this: a
+  /// short log's grids are kept whole (EMPS PULSES: 9 MB), where a long
+  /// log's would be memory a one-step diagnosis never reads again.
+  static constexpr std::size_t kFirstDrawBytes = std::size_t{10} << 20;
+  /// Kept from their second draw (a later step has asked again) up to this.
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
-  using Key = std::tuple<std::size_t, int, int, int>;
+  using Key = std::tuple<double, int, int, int>;
   struct Store {
     std::mutex lock;
     std::set<Key> drawn;
@@ -416,11 +425,11 @@ class GridColumns {
   std::map<const EffectModel*, std::unique_ptr<Store>> family_;
   std::atomic<std::size_t> bytes_{0};  ///< kept, over all families
 
-  /// Room for `bytes` more within kBytes, taken at once (families keep
+  /// Room for `bytes` more within `limit`, taken at once (families keep
   /// columns from several threads); false when they do not fit.
-  bool claim(std::size_t bytes) {
+  bool claim(std::size_t bytes, std::size_t limit) {
     std::size_t now = bytes_.load();
-    while (now + bytes <= kBytes)
+    while (now + bytes <= limit)
       if (bytes_.compare_exchange_weak(now, now + bytes)) return true;
     return false;
   }
@@ -429,7 +438,7 @@ class GridColumns {
 struct Stage {
   const Observations& obs;
   ColumnBank& bank;
-  GridColumns& grid_columns;
+  SearchColumns& search_columns;
   const BaseColumns& base;
   const std::vector<EffectModel>& catalogue;
   double sampling_floor_N = 0.0;  ///< point_sampling_floor
@@ -456,13 +465,12 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
   const ColumnBank::Held held = st.bank.hold(with);
   auto ssr_of = [&](const Mat& cols_id) { return st.bank.ssr_beside(held, cols_id); };
-  auto cost = [&](double p, Res r) { return ssr_of(em.columns(p, size, {r, Rows::identification})); };
+  auto cost = [&](double p, Res r) { return ssr_of(st.search_columns.at(em, p, size, {r, Rows::identification})); };
   const Res grid_res = em.fine_grid || grid.size() == 1 ? Res::fine : Res::coarse;
   double best_ssr = kInf, best_p = grid[0];
   std::size_t best_i = 0;
   for (std::size_t i = 0; i < grid.size(); ++i) {
-    const double c = em.grid.empty() ? cost(grid[i], grid_res)
-                                     : ssr_of(st.grid_columns.at(em, i, size, {grid_res, Rows::identification}));
+    const double c = cost(grid[i], grid_res);
     // Grid points whose columns agree on the identification observations
     // (two position ranges over the same blocks) tie to the last digits:
     // the first one is kept, so that rounding does not choose.
@@ -1104,25 +1112,34 @@ bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseRe
   return false;
 }
 
-}  // namespace
+/// What the diagnosis reads of the trace.
+struct Prepared {
+  Signals sig;
+  diag::Folds folds;
+  std::vector<double> run_starts;
+};
 
-DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
-  DiagnoseResult out;
-  // Residuals are read block by block: one force row of 1e12 would be all of them.
+/// The trace's part: force outliers bridged (residuals are read block by
+/// block: one force row of 1e12 would be all of them), the signals aligned,
+/// the folds laid and the base identified on the identification ones
+/// (out.base). The bridged copy of the trace ends here: on a long log it
+/// was as large as the bank of columns, at the diagnosis's peak.
+bool prepare(const Trace& logged, const DiagnoseOptions& opt, DiagnoseResult& out, Prepared& p) {
   const Trace trace = bridge_force_outliers(logged, opt.identify.units.force, out.force_outliers);
   if (trace.samples.size() < 1000) {
     out.error = trace.source + ": trace too short to diagnose: " + std::to_string(trace.samples.size()) +
                 " samples (need at least 1000, moving in both directions)";
-    return out;
+    return false;
   }
   if (opt.folds < 2) {
     out.error = "--folds must be >= 2";
-    return out;
+    return false;
   }
-  const Signals sig = aligned_signals(trace, opt, out);
+  p.sig = aligned_signals(trace, opt, out);
+  const Signals& sig = p.sig;
   if (!sig.error.empty()) {
     out.error = sig.error;
-    return out;
+    return false;
   }
   // A block closes once it spans block_s: 0 or less (or NaN) is no length
   // asked for, and infinity holds no observation.
@@ -1131,20 +1148,40 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
     std::snprintf(buf, sizeof buf, "--block %g s: must be a positive, finite length (default 0.005 s; a block is at "
                   "least one sample period, %g s at %g Hz)", opt.block_s, sig.period_s(), sig.sample_rate_hz);
     out.error = buf;
-    return out;
+    return false;
   }
-  const diag::Folds folds = diag::make_folds(sig, opt.folds, auto_config(sig, opt.identify).velocity_min_m_s);
-  out.folds = folds.count();
-  out.fold_edges = folds.edges;
+  p.folds = diag::make_folds(sig, opt.folds, auto_config(sig, opt.identify).velocity_min_m_s);
+  out.folds = p.folds.count();
+  out.fold_edges = p.folds.edges;
   if (opt.model) {
     out.model_given = true;
     out.given_model = *opt.model;
   }
-  if (!identify_base(trace, sig, folds, opt, out)) return out;
+  p.run_starts = run_starts(trace);
+  if (!identify_base(trace, sig, p.folds, opt, out)) return false;
+  // What is read of them from here on is their conventions and the base's
+  // sample count (its time stamps), not the samples: the base's copy of
+  // the identification folds' and the rival cut-offs' velocities, which
+  // only the base's standard errors took.
+  p.sig.rival_velocities = {};
+  Signals& base = out.base.signals;
+  base.rival_velocities = {};
+  base.x = base.v = base.u = {};
+  return true;
+}
+
+}  // namespace
+
+DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
+  DiagnoseResult out;
+  Prepared prepared;
+  if (!prepare(logged, opt, out, prepared)) return out;
+  const Signals& sig = prepared.sig;
+  const diag::Folds& folds = prepared.folds;
   if (opt.progress) opt.progress(0.1);
 
   Observations obs(sig, out.base.config.velocity_min_m_s, opt.block_s, folds);
-  if (!enough_observations(trace, obs, out)) return out;
+  if (!enough_observations(logged, obs, out)) return out;
   std::vector<char> id(obs.size());
   for (std::size_t i = 0; i < obs.size(); ++i) id[i] = obs.identification(i) ? 1 : 0;
   Vec force = obs.sample_column([&](std::size_t j) { return obs.interval_force(j); });
@@ -1157,14 +1194,14 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // in the model identify writes: taken off, so no effect takes it up again.
   if (!opt.model && out.base.gravity.form != GravityTerm::none) force -= load_prediction(obs, gravity_load(out.base.gravity));
   ColumnBank bank(force, id);
-  const diag::TraceExtent extent = diag::trace_extent(obs, run_starts(trace));
+  const diag::TraceExtent extent = diag::trace_extent(obs, prepared.run_starts);
   BaseColumns base_cols;
   if (!opt.model) base_cols = add_base_columns(obs, bank, out.base);
   add_run_levels(obs, bank, extent.run_starts, base_cols);
   const Model base = fit_base(bank, base_cols, out.base);
   // A given model has no fit whose reach the held-out folds could exceed.
   if (!opt.model) out.heldout_beyond_identification = set_aside_unsupported(obs, bank, base_cols, base, opt.max_leverage);
-  if (!enough_observations(trace, obs, out)) return out;
+  if (!enough_observations(logged, obs, out)) return out;
   if (opt.progress) opt.progress(0.2);
 
   const std::size_t runs = extent.run_starts.size();
@@ -1172,8 +1209,8 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(
       obs, extent, out.lag_beyond_conventions_s,
       opt.model ? given_friction(opt.model->drive, base_cols, base, runs) : measured_friction(base_cols, base, runs));
-  GridColumns grid_columns(catalogue);
-  const Stage st{obs, bank, grid_columns, base_cols, catalogue,
+  SearchColumns search_columns(catalogue);
+  const Stage st{obs, bank, search_columns, base_cols, catalogue,
                  point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
                  opt.model ? mass_kg : 0.0};
   const Model final_model = select_effects(st, base, opt, out);

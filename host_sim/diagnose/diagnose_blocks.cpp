@@ -234,26 +234,15 @@ void Observations::make_observations(const std::vector<double>& accel) {
     triangle_.push_back({a, 1.0 / (ba.tau * o.area), 1.0 / o.area, -1.0 / (bb.tau * o.area)});
   }
   identification_block_.assign(blocks_.size(), 0);
-  for (std::size_t i = 0; i < obs_.size(); ++i)
-    if (identification(i)) {
-      identification_obs_.push_back(i);
-      identification_block_[obs_[i].a] = identification_block_[obs_[i].a + 1] = 1;
-    }
-}
-
-Vec Observations::from_moments(const Moments& m, Rows rows) const {
-  auto value = [&](std::size_t i) {
-    const Triangle& w = triangle_[i];
-    return w.rise * m.m1[w.a] + w.top * m.m0[w.a + 1] + w.fall * m.m1[w.a + 1];
-  };
-  if (rows == Rows::identification) {
-    Vec c(static_cast<Eigen::Index>(identification_obs_.size()));
-    for (std::size_t k = 0; k < identification_obs_.size(); ++k) c(static_cast<Eigen::Index>(k)) = value(identification_obs_[k]);
-    return c;
+  identification_row_.assign(obs_.size(), -1);
+  observation_ending_.assign(blocks_.size(), static_cast<std::size_t>(-1));
+  for (std::size_t i = 0; i < obs_.size(); ++i) {
+    observation_ending_[obs_[i].a + 1] = i;
+    if (!identification(i)) continue;
+    identification_row_[i] = static_cast<Eigen::Index>(identification_obs_.size());
+    identification_obs_.push_back(i);
+    identification_block_[obs_[i].a] = identification_block_[obs_[i].a + 1] = 1;
   }
-  Vec c(static_cast<Eigen::Index>(obs_.size()));
-  for (std::size_t i = 0; i < triangle_.size(); ++i) c(static_cast<Eigen::Index>(i)) = value(i);
-  return c;
 }
 
 std::vector<Segment> Observations::make_segments(const std::vector<double>& accel, double v_min, double segment_s) const {
@@ -316,6 +305,7 @@ std::vector<Segment> Observations::make_segments(const std::vector<double>& acce
     if (sg.dt >= segment_s * (1.0 - 1e-9)) flush(j + 1);
   }
   flush(intervals);
+  segments.shrink_to_fit();  // they are held to the end: at 1 ms each, the largest of the observations' parts
   return segments;
 }
 

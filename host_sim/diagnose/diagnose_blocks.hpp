@@ -132,24 +132,22 @@ class Observations {
   }
   /// q columns at once from g(j, out[q]).
   template <typename G> Mat sample_columns(int q, G&& g, Rows rows = Rows::all) const {
-    std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
+    BlockSums sums(*this, q, rows);
     std::vector<double> value(static_cast<std::size_t>(q), 0.0);
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       if (!drawn(b, rows)) continue;
       for (std::size_t j = blocks_[b].j0; j < blocks_[b].j1; ++j) {
         g(j, value.data());
-        const double dt = interval_dt(j), age = interval_t(j) - blocks_[b].t0;
-        for (int c = 0; c < q; ++c)
-          if (value[static_cast<std::size_t>(c)] != 0.0) m[static_cast<std::size_t>(c)].add(b, value[static_cast<std::size_t>(c)], dt, age);
+        sums.add(b, value.data(), interval_dt(j), interval_t(j) - blocks_[b].t0);
       }
     }
-    return to_columns(m, rows);
+    return sums.columns();
   }
   /// Columns of w-weighted means of q values g(i, segment, out[q]) taken
   /// as constant over each segment. A stateful g (a filter) sees every
   /// segment in time order; otherwise only the segments of the blocks drawn.
   template <typename G> Mat segment_columns(int q, bool stateful, Draw draw, G&& g) const {
-    std::vector<Moments> m(static_cast<std::size_t>(q), Moments(blocks_.size()));
+    BlockSums sums(*this, q, draw.rows);
     std::vector<double> buffer(static_cast<std::size_t>(q), 0.0);
     double* value = buffer.data();
     const std::vector<Segment>& segs = segments(draw.resolution);
@@ -159,11 +157,9 @@ class Observations {
       if (!wanted && !stateful) continue;
       std::fill(buffer.begin(), buffer.end(), 0.0);
       g(i, sg, value);
-      if (!wanted) continue;
-      for (int c = 0; c < q; ++c)
-        if (value[c] != 0.0) m[static_cast<std::size_t>(c)].add(sg.block, value[c], sg.dt, sg.t_rel);
+      if (wanted) sums.add(sg.block, value, sg.dt, sg.t_rel);
     }
-    return to_columns(m, draw.rows);
+    return sums.columns();
   }
 
   double interval_dt(std::size_t j) const { return s_.t[j + 1] - s_.t[j]; }
@@ -176,22 +172,55 @@ class Observations {
   double lowpass_force_mean(double t0, double t1, std::size_t j) const;
 
  private:
-  /// Per block: M0 = sum g dt, M1 = sum g (t - t0) dt.
-  struct Moments {
-    explicit Moments(std::size_t n) : m0(n, 0.0), m1(n, 0.0) {}
-    void add(std::size_t b, double g, double dt, double age) {
-      m0[b] += g * dt;
-      m1[b] += g * age * dt;
+  /// The observations' columns from per-block moments M0 = sum g dt and
+  /// M1 = sum g (t - t0) dt, taken block by block as the values arrive
+  /// (blocks in time order, each block's values together): an observation
+  /// needs only its own two blocks' moments, so only the last block's are
+  /// kept, not every block's for every column.
+  class BlockSums {
+   public:
+    BlockSums(const Observations& o, int q, Rows rows)
+        : o_(o), rows_(rows), q_(static_cast<std::size_t>(q)), m0_(q_, 0.0), m1_(q_, 0.0), m1_before_(q_, 0.0),
+          out_(Mat::Zero(static_cast<Eigen::Index>(rows == Rows::all ? o.obs_.size() : o.identification_obs_.size()), q)) {}
+    void add(std::size_t b, const double* g, double dt, double age) {
+      if (b != block_) next_block(b);
+      for (std::size_t c = 0; c < q_; ++c)
+        if (g[c] != 0.0) m0_[c] += g[c] * dt, m1_[c] += g[c] * age * dt;
     }
-    std::vector<double> m0, m1;
+    Mat columns() {
+      next_block(kNone);
+      return std::move(out_);
+    }
+
+   private:
+    static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+    /// Closes the current block: the observation ending with it (its first
+    /// block the one before) gets its values.
+    void next_block(std::size_t b) {
+      if (block_ != kNone) {
+        const std::size_t i = o_.observation_ending_[block_];
+        const Eigen::Index row = i == kNone ? -1 : o_.row_of(i, rows_);
+        if (row >= 0 && before_ + 1 == block_) {
+          const Triangle& w = o_.triangle_[i];
+          for (std::size_t c = 0; c < q_; ++c)
+            out_(row, static_cast<Eigen::Index>(c)) = w.rise * m1_before_[c] + w.top * m0_[c] + w.fall * m1_[c];
+        }
+        before_ = block_;
+      }
+      block_ = b;
+      for (std::size_t c = 0; c < q_; ++c) m1_before_[c] = m1_[c], m0_[c] = m1_[c] = 0.0;
+    }
+    const Observations& o_;
+    Rows rows_;
+    std::size_t q_;
+    std::vector<double> m0_, m1_, m1_before_;
+    std::size_t block_ = kNone, before_ = kNone;
+    Mat out_;
   };
-  /// The observations' column from the moments, on `rows`.
-  Vec from_moments(const Moments& m, Rows rows) const;
-  Mat to_columns(const std::vector<Moments>& m, Rows rows) const {
-    const std::size_t n = rows == Rows::all ? obs_.size() : identification_obs_.size();
-    Mat out(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m.size()));
-    for (std::size_t c = 0; c < m.size(); ++c) out.col(static_cast<Eigen::Index>(c)) = from_moments(m[c], rows);
-    return out;
+  /// Row of observation i in a column drawn on `rows` (-1: not on them).
+  Eigen::Index row_of(std::size_t i, Rows rows) const {
+    if (rows == Rows::all) return static_cast<Eigen::Index>(i);
+    return identification_row_[i];
   }
   /// Whether block b is read by an observation on `rows`.
   bool drawn(std::size_t b, Rows rows) const { return rows == Rows::all || identification_block_[b]; }
@@ -213,7 +242,9 @@ class Observations {
   };
   std::vector<Triangle> triangle_;
   std::vector<std::size_t> identification_obs_;  ///< observations in identification folds, ascending
+  std::vector<Eigen::Index> identification_row_; ///< per observation: its index there (-1: held out)
   std::vector<char> identification_block_;       ///< per block: read by one of them
+  std::vector<std::size_t> observation_ending_;  ///< per block: the observation whose second block it is (or none)
   std::vector<Segment> fine_, coarse_;
   std::vector<double> fine_lengths_, coarse_lengths_;
   double force_integral(double t, std::size_t& j) const;

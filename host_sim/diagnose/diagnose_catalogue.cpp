@@ -23,8 +23,14 @@ namespace {
 /// diagnose on a 25 s log).
 double decay_exp(double x) { return x < -746.0 ? 0.0 : std::exp(x); }
 
-/// Mean of exp(-s/d) while s runs linearly from s0 to s1.
+/// Distance beyond which a decay is taken as over: exp(-40) = 4e-18 of
+/// its start, below any force a log resolves. Most of presliding's
+/// segments lie there, and their exps were a tenth of diagnose's time.
+constexpr double kDecayOver = 40.0;
+
+/// Mean of exp(-s/d) while s runs linearly from s0 to s1 (s >= 0).
 double mean_decay(double s0, double s1, double d) {
+  if (std::min(s0, s1) > kDecayOver * d) return 0.0;
   if (std::fabs(s1 - s0) < 1e-3 * d) return decay_exp(-0.5 * (s0 + s1) / d);
   return d * (decay_exp(-s0 / d) - decay_exp(-s1 / d)) / (s1 - s0);
 }
@@ -87,7 +93,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.continuous = true;
   m.sizes = {1, 2, 3};
   m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
-  m.keep_grid_columns = true;
+  m.keep_columns = EffectModel::Keep::from_first_draw;
   m.columns = [&obs](double p, int harmonics, Observations::Draw r) {
     const double k = 2.0 * M_PI / p;
     HarmonicMeans means(k, harmonics);
@@ -361,7 +367,7 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   EffectModel m;
   m.kind = effect_name(Effect::presliding_hysteresis);
   m.fine_grid = true;  // it builds up within a few ms of a reversal: a whole block is too coarse
-  m.keep_grid_columns = true;
+  m.keep_columns = EffectModel::Keep::from_first_draw;
   m.grid = log_grid(1e-6, std::min(2e-3, e.travel / 4), 40);
   m.sizes = {1, 2, 3};
   const std::size_t n = m.grid.size();
@@ -476,7 +482,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(3.0, f_top, 50);
   m.continuous = true;
   m.fine_grid = true;
-  m.keep_grid_columns = true;
+  m.keep_columns = EffectModel::Keep::from_first_draw;
   m.sizes = {1, 2};
   m.columns = [&obs](double f, int dampings, Observations::Draw r) {
     const auto n = static_cast<std::size_t>(dampings);

@@ -33,12 +33,16 @@ struct EffectModel {
   std::function<Mat(double, int, Observations::Draw)> columns;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
-  /// Its columns cost a transcendental or a filter step per segment (a
-  /// ripple's sincos, presliding's exp, a compliance's resonance), so the
-  /// grid's are kept across the selection's steps (GridColumns in
-  /// diagnose.cpp); a family with cheap columns draws them again instead
-  /// of holding memory.
-  bool keep_grid_columns = false;
+  /// Whether the columns its search draws are kept across the selection's
+  /// steps and pair trials (SearchColumns in diagnose.cpp), and from which
+  /// draw on. Columns that cost a transcendental or a filter step per fine
+  /// segment (a compliance's resonance, presliding's exps) are kept from
+  /// the first; a ripple's, a sincos per coarse segment, are cheaper for
+  /// their bytes and many (160 periods), so only from the second, when a
+  /// later step has asked for them again; cheap ones are drawn again
+  /// instead of holding memory.
+  enum class Keep { never, from_second_draw, from_first_draw };
+  Keep keep_columns = Keep::never;
   std::function<nlohmann::json(double, int, const Vec& coef, double mass_kg)> parameters;
   /// More values to try around the best grid value (discrete parameters).
   std::function<std::vector<double>(double)> refine = {};
