@@ -968,61 +968,78 @@ CoreLoop make_core_loop(double seconds) {
   return l;
 }
 
-/// One CLI-like run: read the CSV, then `work` on the trace; wall time, CPU
-/// time and the peak memory above the process before the read.
+/// One CLI-like run: read the CSV, then `work` on the trace; wall time and
+/// CPU time (the fastest of `repeats` runs) and the peak memory above the
+/// process before the read (the first run's).
 struct CostRun {
   double seconds = 0.0, cpu_seconds = 0.0;
   long long peak_rss_bytes = -1;
   std::string error;  ///< the read's, where it failed
 };
-template <typename F> CostRun cost_of(const std::string& csv, F&& work) {
+template <typename F> CostRun cost_of(const std::string& csv, const CsvColumns& columns, int repeats, F&& work) {
   CostRun r;
   r.seconds = timed(
       [&] {
-        const CsvResult in = read_trace_csv(csv, CsvColumns{});
+        const CsvResult in = read_trace_csv(csv, columns);
         r.error = in.error;
         if (r.error.empty()) work(in.trace);
       },
-      1, &r.peak_rss_bytes, &r.cpu_seconds);
+      repeats, &r.peak_rss_bytes, &r.cpu_seconds);
   return r;
 }
 
-RunEnd run_diagnose_cost(const BenchOptions& o) {
+/// The simulated trace --diagnose-cost measures on (a 3 N ripple), written
+/// to a temporary CSV; "" and `error` set where it cannot be.
+std::string simulated_cost_trace(const BenchOptions& o, std::string& error) {
   SimConfig c;
   c.controller.servo_rate_hz = o.cost_rate_hz;
   c.motion.duration_s = o.cost_duration_s;
   c.effects.ripple_amplitude_N = 3.0;
-  const std::string why = sim_config_error(c);  // --cost-rate, --cost-duration
-  if (!why.empty()) return RunEnd::refused(why);
+  error = sim_config_error(c);  // --cost-rate, --cost-duration
+  if (!error.empty()) return "";
   std::fprintf(stderr, "diagnose cost: simulating %.0f s at %.0f Hz ...\n", o.cost_duration_s, o.cost_rate_hz);
   const std::string csv = "/tmp/feedid_cost_" + std::to_string(getpid()) + ".csv";
+  if (!write_trace_csv(csv, simulate(c), error)) return "";
+  return csv;
+}
+
+RunEnd run_diagnose_cost(const BenchOptions& o) {
+  const bool simulated = o.cost_csv.empty();
   std::string error;
+  const std::string csv = simulated ? simulated_cost_trace(o, error) : o.cost_csv;
   RunEnd end;
-  if (!write_trace_csv(csv, simulate(c), error)) {
+  if (csv.empty()) {
     end.written(error);
     return end;
   }
+  const CsvColumns columns = simulated ? CsvColumns{} : o.cost_columns;
+  const int repeats = std::max(1, o.repeats);
   std::fprintf(stderr, "diagnose cost: reading alone ...\n");
-  const CostRun rd = cost_of(csv, [](const Trace&) {});
-  if (!rd.error.empty()) {  // the file just written does not read back
-    std::remove(csv.c_str());
+  const CostRun rd = cost_of(csv, columns, repeats, [](const Trace&) {});
+  if (!rd.error.empty()) {
+    if (simulated) std::remove(csv.c_str());
     return RunEnd::refused(rd.error);
   }
   std::fprintf(stderr, "diagnose cost: identify ...\n");
-  double core_passes = 0.0;
-  const CostRun id = cost_of(csv, [&](const Trace& t) { core_passes = identify(t, IdentifyOptions{}).core_passes; });
+  double core_passes = 0.0, duration_s = 0.0, rate_hz = 0.0;
+  const CostRun id = cost_of(csv, columns, repeats, [&](const Trace& t) {
+    const IdentifyResult r = identify(t, IdentifyOptions{});
+    core_passes = r.core_passes;
+    rate_hz = r.signals.sample_rate_hz;
+    duration_s = r.signals.t.empty() ? 0.0 : r.signals.t.back() - r.signals.t.front();
+  });
   std::fprintf(stderr, "diagnose cost: diagnose ...\n");
-  const CostRun dg = cost_of(csv, [](const Trace& t) { diagnose(t, DiagnoseOptions{}); });
-  std::remove(csv.c_str());
+  const CostRun dg = cost_of(csv, columns, repeats, [](const Trace& t) { diagnose(t, DiagnoseOptions{}); });
+  if (simulated) std::remove(csv.c_str());
   const double t_ratio = dg.seconds / id.seconds;
   const double m_ratio = id.peak_rss_bytes > 0 && dg.peak_rss_bytes >= 0
                              ? static_cast<double>(dg.peak_rss_bytes) / static_cast<double>(id.peak_rss_bytes) : NAN;
-  std::printf("diagnose against identify, one %.0f s trace at %.0f Hz (CSV read included), one run each:\n",
-              o.cost_duration_s, o.cost_rate_hz);
+  std::printf("diagnose against identify, %s: %.0f s at %.0f Hz (CSV read included), fastest of %d runs each:\n",
+              simulated ? "one simulated trace" : o.cost_csv.c_str(), duration_s, rate_hz, repeats);
   std::printf("  %-9s %9s %9s %11s\n", "command", "wall s", "cpu s", "peak mem");
-  std::printf("  %-9s %9.2f %9.2f %11s\n", "read", rd.seconds, rd.cpu_seconds, human_bytes(static_cast<double>(rd.peak_rss_bytes)).c_str());
-  std::printf("  %-9s %9.2f %9.2f %11s\n", "identify", id.seconds, id.cpu_seconds, human_bytes(static_cast<double>(id.peak_rss_bytes)).c_str());
-  std::printf("  %-9s %9.2f %9.2f %11s\n", "diagnose", dg.seconds, dg.cpu_seconds, human_bytes(static_cast<double>(dg.peak_rss_bytes)).c_str());
+  std::printf("  %-9s %9.3f %9.3f %11s\n", "read", rd.seconds, rd.cpu_seconds, human_bytes(static_cast<double>(rd.peak_rss_bytes)).c_str());
+  std::printf("  %-9s %9.3f %9.3f %11s\n", "identify", id.seconds, id.cpu_seconds, human_bytes(static_cast<double>(id.peak_rss_bytes)).c_str());
+  std::printf("  %-9s %9.3f %9.3f %11s\n", "diagnose", dg.seconds, dg.cpu_seconds, human_bytes(static_cast<double>(dg.peak_rss_bytes)).c_str());
   const double cpu_ratio = dg.cpu_seconds / id.cpu_seconds;
   // diagnose searches its families on the machine's threads, as the CLI
   // does; identify runs on one: the wall ratio is the user's, the CPU one
@@ -1034,8 +1051,8 @@ RunEnd run_diagnose_cost(const BenchOptions& o) {
   // core's passes over the trace (IdentifyResult::core_passes).
   std::printf("  identify / read alone: %.2fx wall; %.3g core passes over the trace\n", id.seconds / rd.seconds, core_passes);
   if (!o.json_path.empty()) {
-    const json j = {{"mode", "diagnose_cost"}, {"machine", machine_json()}, {"rate_hz", o.cost_rate_hz},
-                    {"duration_s", o.cost_duration_s},
+    const json j = {{"mode", "diagnose_cost"}, {"machine", machine_json()}, {"trace", simulated ? "simulated" : o.cost_csv},
+                    {"rate_hz", rate_hz}, {"duration_s", duration_s}, {"repeats", repeats},
                     {"identify", {{"seconds", id.seconds}, {"cpu_seconds", id.cpu_seconds}, {"peak_rss_bytes", id.peak_rss_bytes}}},
                     {"diagnose", {{"seconds", dg.seconds}, {"cpu_seconds", dg.cpu_seconds}, {"peak_rss_bytes", dg.peak_rss_bytes}}},
                     {"read", {{"seconds", rd.seconds}, {"cpu_seconds", rd.cpu_seconds}, {"peak_rss_bytes", rd.peak_rss_bytes}}},

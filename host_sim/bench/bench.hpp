@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "io/csv_trace.hpp"
 #include "io/outcome.hpp"
 
 #include "feedid/feedid.hpp"
@@ -46,6 +47,10 @@ struct BenchOptions {
   bool diagnose_cost = false;
   double cost_rate_hz = 8000.0;
   double cost_duration_s = 600.0;
+  /// A recorded trace (CSV, SI units) to measure on instead of the
+  /// simulated one, and its columns.
+  std::string cost_csv;
+  CsvColumns cost_columns;
 
   /// Comma-separated subset of streaming,batch_lm,ga,rls (empty: all).
   std::string methods;

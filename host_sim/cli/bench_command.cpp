@@ -28,6 +28,12 @@ struct BenchCommand : Command {
     c->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios, and of identify against reading the trace alone");
     c->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
     c->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
+    c->add_option("--cost-in", bo.cost_csv, "diagnose-cost: a recorded trace (CSV, SI units) instead of a simulated one")
+        ->check(CLI::ExistingFile);
+    c->add_option("--time", bo.cost_columns.time, "diagnose-cost --cost-in: time column (s)")->capture_default_str();
+    c->add_option("--position", bo.cost_columns.position, "diagnose-cost --cost-in: position column (m)")->capture_default_str();
+    c->add_option("--velocity", bo.cost_columns.velocity, "diagnose-cost --cost-in: velocity column (m/s)")->capture_default_str();
+    c->add_option("--force", bo.cost_columns.force, "diagnose-cost --cost-in: force column (N)")->capture_default_str();
     c->add_flag("--scaling", bo.scaling, "time and memory against trace length instead of the default set");
     c->add_option("--max-samples", bo.max_samples, "scaling: longest trace (samples)")->capture_default_str();
     c->add_option("--ga-max-samples", bo.ga_max_samples, "scaling: longest trace the GA runs on")->capture_default_str();
