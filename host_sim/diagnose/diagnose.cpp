@@ -389,34 +389,62 @@ class SearchColumns {
     for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
   /// em's columns at parameter p and size, drawn as r says.
-  Mat at(const EffectModel& em, double p, int size, Observations::Draw r) {
-    using Keep = EffectModel::Keep;
-    if (em.keep_columns == Keep::never) return em.columns(p, size, r);
-    Store& store = *family_.at(&em);
-    const Key key{p, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
-    {
-      const std::lock_guard<std::mutex> hold(store.lock);
-      const auto it = store.kept.find(key);
-      if (it != store.kept.end()) return it->second;
+  Mat at(const EffectModel& em, double p, int size, Observations::Draw r) { return at_many(em, {p}, size, r).front(); }
+  /// The same at each of ps: those not kept drawn together where the
+  /// family can (EffectModel::columns_at_many).
+  std::vector<Mat> at_many(const EffectModel& em, const std::vector<double>& ps, int size, Observations::Draw r) {
+    std::vector<Mat> out(ps.size());
+    std::vector<std::size_t> missing;
+    for (std::size_t i = 0; i < ps.size(); ++i)
+      if (!kept(em, ps[i], size, r, out[i])) missing.push_back(i);
+    if (missing.empty()) return out;
+    std::vector<double> drawn_at;
+    for (const std::size_t i : missing) drawn_at.push_back(ps[i]);
+    std::vector<Mat> drawn;
+    if (em.columns_at_many) drawn = em.columns_at_many(drawn_at, size, r);
+    else
+      for (const double p : drawn_at) drawn.push_back(em.columns(p, size, r));
+    for (std::size_t j = 0; j < missing.size(); ++j) {
+      offer(em, drawn_at[j], size, r, drawn[j]);
+      out[missing[j]] = std::move(drawn[j]);
     }
-    Mat cols = em.columns(p, size, r);
+    return out;
+  }
+
+ private:
+  using Key = std::tuple<double, int, int, int>;
+  static Key key_of(double p, int size, Observations::Draw r) {
+    return Key{p, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
+  }
+  /// The kept columns into `cols`, if they are.
+  bool kept(const EffectModel& em, double p, int size, Observations::Draw r, Mat& cols) {
+    if (em.keep_columns == EffectModel::Keep::never) return false;
+    Store& store = *family_.at(&em);
     const std::lock_guard<std::mutex> hold(store.lock);
+    const auto it = store.kept.find(key_of(p, size, r));
+    if (it == store.kept.end()) return false;
+    cols = it->second;
+    return true;
+  }
+  /// Columns just drawn, kept as em.keep_columns says and the budgets allow.
+  void offer(const EffectModel& em, double p, int size, Observations::Draw r, const Mat& cols) {
+    using Keep = EffectModel::Keep;
+    if (em.keep_columns == Keep::never) return;
+    Store& store = *family_.at(&em);
+    const Key key = key_of(p, size, r);
     const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
+    const std::lock_guard<std::mutex> hold(store.lock);
     const bool again = !store.drawn.insert(key).second;
     if (store.kept.count(key) == 0 &&
         (again ? claim(bytes, kBytes) : em.keep_columns == Keep::from_first_draw && claim(bytes, kFirstDrawBytes)))
       store.kept.emplace(key, cols);
-    return cols;
   }
-
- private:
   /// Kept from their first draw while all kept take less than this: a
   /// short log's grids are kept whole (EMPS PULSES: 9 MB), where a long
   /// log's would be memory a one-step diagnosis never reads again.
   static constexpr std::size_t kFirstDrawBytes = std::size_t{10} << 20;
   /// Kept from their second draw (a later step has asked again) up to this.
   static constexpr std::size_t kBytes = std::size_t{24} << 20;
-  using Key = std::tuple<double, int, int, int>;
   struct Store {
     std::mutex lock;
     std::set<Key> drawn;
@@ -469,13 +497,21 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   const Res grid_res = em.fine_grid || grid.size() == 1 ? Res::fine : Res::coarse;
   double best_ssr = kInf, best_p = grid[0];
   std::size_t best_i = 0;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    const double c = cost(grid[i], grid_res);
-    // Grid points whose columns agree on the identification observations
-    // (two position ranges over the same blocks) tie to the last digits:
-    // the first one is kept, so that rounding does not choose.
-    const double margin = std::isfinite(best_ssr) ? kGridTieRelative * std::fabs(best_ssr) : 0.0;
-    if (c < best_ssr - margin) best_ssr = c, best_p = grid[i], best_i = i;
+  // A few grid points drawn at once, where the family draws them cheaper
+  // together (EffectModel::columns_at_many).
+  constexpr std::size_t kBatch = 8;
+  for (std::size_t i0 = 0; i0 < grid.size(); i0 += kBatch) {
+    const std::vector<double> ps(grid.begin() + static_cast<std::ptrdiff_t>(i0),
+                                 grid.begin() + static_cast<std::ptrdiff_t>(std::min(grid.size(), i0 + kBatch)));
+    const std::vector<Mat> cols = st.search_columns.at_many(em, ps, size, {grid_res, Rows::identification});
+    for (std::size_t j = 0; j < ps.size(); ++j) {
+      const double c = ssr_of(cols[j]);
+      // Grid points whose columns agree on the identification observations
+      // (two position ranges over the same blocks) tie to the last digits:
+      // the first one is kept, so that rounding does not choose.
+      const double margin = std::isfinite(best_ssr) ? kGridTieRelative * std::fabs(best_ssr) : 0.0;
+      if (c < best_ssr - margin) best_ssr = c, best_p = ps[j], best_i = i0 + j;
+    }
   }
   if (grid.size() == 1) return best_p;
   if (grid_res != Res::fine) best_ssr = cost(best_p, Res::fine);
@@ -514,14 +550,33 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
 /// ln(n)/n of it), where n counts independent held-out observations (each
 /// block serves two observations: half of them) and k the effect's
 /// columns. The held-out test then judges the chosen size.
-int choose_size(const Stage& st, const std::vector<int>& with, const EffectModel& em, double p) {
+/// em's columns at parameter p for each of its sizes, on every observation:
+/// the largest size drawn once where the smaller ones are its first columns
+/// (EffectModel::columns_per_size).
+class SizedColumns {
+ public:
+  SizedColumns(const EffectModel& em, double p) : em_(em), p_(p) {
+    if (em.columns_per_size > 0) largest_ = em.columns(p, em.sizes.back(), {});
+  }
+  Mat at(int size) const {
+    if (em_.columns_per_size == 0) return em_.columns(p_, size, {});
+    return largest_.leftCols(static_cast<Eigen::Index>(size) * em_.columns_per_size);
+  }
+
+ private:
+  const EffectModel& em_;
+  double p_;
+  Mat largest_;
+};
+
+int choose_size(const Stage& st, const std::vector<int>& with, const EffectModel& em, const SizedColumns& columns) {
   if (em.sizes.size() == 1) return em.sizes.front();
   double n = 0.0;
   for (const Observation& o : st.obs.obs()) n += o.heldout ? 0.5 : 0.0;
   double best_cost = kInf;
   int best = em.sizes.front();
   for (int size : em.sizes) {
-    const ColumnBank::Extra ex = st.bank.extra(em.columns(p, size, {}), with);
+    const ColumnBank::Extra ex = st.bank.extra(columns.at(size), with);
     const LinearFit f = st.bank.fit(with, &ex);
     if (!f.ok) continue;
     const double ssr = 2.0 * n * std::pow(heldout_rms(st.bank.residual(with, &ex, f.theta), st.obs), 2);
@@ -548,12 +603,14 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   e.c.kind = em.kind;
   const std::vector<int> with = model_columns(st.base, current);
   e.p = search_parameter(st, with, em, em.sizes.front());
-  e.size = choose_size(st, with, em, e.p);
+  const SizedColumns sized(em, e.p);
+  e.size = choose_size(st, with, em, sized);
   // A larger size can move the parameter (a compliance's frequency with
   // its damping): searched again at the size chosen.
+  const double p_searched = e.p;
   if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size) e.p = search_parameter(st, with, em, e.size);
-  const ColumnBank::Extra ex =
-      st.bank.extra(em.columns(e.p, e.size, {}), all_columns(st.base, current));
+  const ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
+                                             all_columns(st.base, current));
   e.model = current;
   const LinearFit f = fit_vs_free(st.bank, st.base, e.model, &ex);
   if (!f.ok) {

@@ -234,14 +234,16 @@ void Observations::make_observations(const std::vector<double>& accel) {
     triangle_.push_back({a, 1.0 / (ba.tau * o.area), 1.0 / o.area, -1.0 / (bb.tau * o.area)});
   }
   identification_block_.assign(blocks_.size(), 0);
-  identification_row_.assign(obs_.size(), -1);
   observation_ending_.assign(blocks_.size(), static_cast<std::size_t>(-1));
+  for (auto& rows : ending_row_) rows.assign(blocks_.size(), -1);
   for (std::size_t i = 0; i < obs_.size(); ++i) {
-    observation_ending_[obs_[i].a + 1] = i;
+    const std::size_t b = obs_[i].a + 1;
+    observation_ending_[b] = i;
+    ending_row_[0][b] = static_cast<Eigen::Index>(i);
     if (!identification(i)) continue;
-    identification_row_[i] = static_cast<Eigen::Index>(identification_obs_.size());
+    ending_row_[1][b] = static_cast<Eigen::Index>(identification_obs_.size());
     identification_obs_.push_back(i);
-    identification_block_[obs_[i].a] = identification_block_[obs_[i].a + 1] = 1;
+    identification_block_[obs_[i].a] = identification_block_[b] = 1;
   }
 }
 

@@ -180,12 +180,14 @@ class Observations {
   class BlockSums {
    public:
     BlockSums(const Observations& o, int q, Rows rows)
-        : o_(o), rows_(rows), q_(static_cast<std::size_t>(q)), m0_(q_, 0.0), m1_(q_, 0.0), m1_before_(q_, 0.0),
+        : o_(o), ending_row_(o.ending_row_[rows == Rows::all ? 0 : 1]), q_(static_cast<std::size_t>(q)), m_(3 * q_, 0.0),
           out_(Mat::Zero(static_cast<Eigen::Index>(rows == Rows::all ? o.obs_.size() : o.identification_obs_.size()), q)) {}
     void add(std::size_t b, const double* g, double dt, double age) {
       if (b != block_) next_block(b);
+      double* m0 = m_.data();
+      double* m1 = m0 + q_;
       for (std::size_t c = 0; c < q_; ++c)
-        if (g[c] != 0.0) m0_[c] += g[c] * dt, m1_[c] += g[c] * age * dt;
+        if (g[c] != 0.0) m0[c] += g[c] * dt, m1[c] += g[c] * age * dt;
     }
     Mat columns() {
       next_block(kNone);
@@ -197,31 +199,30 @@ class Observations {
     /// Closes the current block: the observation ending with it (its first
     /// block the one before) gets its values.
     void next_block(std::size_t b) {
+      double* m0 = m_.data();
+      double* m1 = m0 + q_;
+      double* m1_before = m1 + q_;
       if (block_ != kNone) {
-        const std::size_t i = o_.observation_ending_[block_];
-        const Eigen::Index row = i == kNone ? -1 : o_.row_of(i, rows_);
+        const Eigen::Index row = ending_row_[block_];
         if (row >= 0 && before_ + 1 == block_) {
-          const Triangle& w = o_.triangle_[i];
+          const Triangle& w = o_.triangle_[o_.observation_ending_[block_]];
+          double* out = out_.data() + row;
+          const Eigen::Index stride = out_.rows();
           for (std::size_t c = 0; c < q_; ++c)
-            out_(row, static_cast<Eigen::Index>(c)) = w.rise * m1_before_[c] + w.top * m0_[c] + w.fall * m1_[c];
+            out[static_cast<Eigen::Index>(c) * stride] = w.rise * m1_before[c] + w.top * m0[c] + w.fall * m1[c];
         }
         before_ = block_;
       }
       block_ = b;
-      for (std::size_t c = 0; c < q_; ++c) m1_before_[c] = m1_[c], m0_[c] = m1_[c] = 0.0;
+      for (std::size_t c = 0; c < q_; ++c) m1_before[c] = m1[c], m0[c] = m1[c] = 0.0;
     }
     const Observations& o_;
-    Rows rows_;
+    const std::vector<Eigen::Index>& ending_row_;
     std::size_t q_;
-    std::vector<double> m0_, m1_, m1_before_;
+    std::vector<double> m_;  ///< the current block's M0 and M1, and the block before's M1, q each
     std::size_t block_ = kNone, before_ = kNone;
     Mat out_;
   };
-  /// Row of observation i in a column drawn on `rows` (-1: not on them).
-  Eigen::Index row_of(std::size_t i, Rows rows) const {
-    if (rows == Rows::all) return static_cast<Eigen::Index>(i);
-    return identification_row_[i];
-  }
   /// Whether block b is read by an observation on `rows`.
   bool drawn(std::size_t b, Rows rows) const { return rows == Rows::all || identification_block_[b]; }
   void make_blocks(double v_min, double block_s, const Folds& folds);
@@ -242,9 +243,11 @@ class Observations {
   };
   std::vector<Triangle> triangle_;
   std::vector<std::size_t> identification_obs_;  ///< observations in identification folds, ascending
-  std::vector<Eigen::Index> identification_row_; ///< per observation: its index there (-1: held out)
   std::vector<char> identification_block_;       ///< per block: read by one of them
   std::vector<std::size_t> observation_ending_;  ///< per block: the observation whose second block it is (or none)
+  /// Per block, that observation's row in a column on all observations [0]
+  /// and on the identification ones [1] (-1: none, or not on them).
+  std::vector<Eigen::Index> ending_row_[2];
   std::vector<Segment> fine_, coarse_;
   std::vector<double> fine_lengths_, coarse_lengths_;
   double force_integral(double t, std::size_t& j) const;

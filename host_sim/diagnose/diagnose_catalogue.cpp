@@ -92,6 +92,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
   m.continuous = true;
   m.sizes = {1, 2, 3};
+  m.columns_per_size = 2;  // HarmonicMeans: harmonic h's pair the same for any count
   m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
   m.keep_columns = EffectModel::Keep::from_first_draw;
   m.columns = [&obs](double p, int harmonics, Observations::Draw r) {
@@ -370,6 +371,7 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   m.keep_columns = EffectModel::Keep::from_first_draw;
   m.grid = log_grid(1e-6, std::min(2e-3, e.travel / 4), 40);
   m.sizes = {1, 2, 3};
+  m.columns_per_size = 1;  // each element's decay its own
   const std::size_t n = m.grid.size();
   for (std::size_t i = 0; i < n; ++i) m.grid.push_back(-m.grid[i]);
   m.columns = [&obs](double p, int elements, Observations::Draw r) {
@@ -410,9 +412,6 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   return m;
 }
 
-/// Most damping ratios a compliance column set mixes (kComplianceDamping).
-constexpr std::size_t kMaxDampings = 2;
-
 /// Load acceleration a2 behind a spring and a damper to the motor,
 /// m2 x2'' = k (x1 - x2) + c (x1' - x2'), so H(s) = (2 z w s + w^2)/(s^2 +
 /// 2 z w s + w^2) of the motor's: discretised exactly for an acceleration
@@ -420,46 +419,56 @@ constexpr std::size_t kMaxDampings = 2;
 /// at a segment's start the damper passes straight on as a step of the
 /// load's jerk, 2 z w times it. Without that zero (a damper to ground) a
 /// compliance at the family's own damping 0.05 left 3.2 times the noise
-/// floor unexplained after its fit. One column per damping ratio of `z`,
-/// the filters stepped side by side: independent recurrences the
-/// processor overlaps, where one after the other each waited on its own
-/// latency.
-std::array<std::vector<double>, kMaxDampings> load_accelerations(const Observations& obs, Observations::Resolution r,
-                                                                 double w, const double* z, std::size_t dampings) {
-  const std::vector<Segment>& segs = obs.segments(r);
-  // Phi once per distinct segment length (Observations::segment_lengths),
-  // not an exp and a sincos per segment.
+/// floor unexplained after its fit. Several resonances are stepped side by
+/// side: independent recurrences the processor overlaps, where one after
+/// the other each waited on its own latency.
+class LoadFilters {
+ public:
+  struct Resonance {
+    double w, z;  ///< rad/s, damping ratio
+  };
+  LoadFilters(const Observations& obs, Observations::Resolution r, const std::vector<Resonance>& res)
+      : phi_(res.size()), y_(res.size(), 0.0), yd_(res.size(), 0.0), jerk_gain_(res.size()) {
+    for (std::size_t k = 0; k < res.size(); ++k) {
+      const double w = res[k].w, z = res[k].z;
+      jerk_gain_[k] = 2.0 * z * w;
+      const double wd = w * std::sqrt(1.0 - z * z);
+      // Phi once per distinct segment length (Observations::segment_lengths),
+      // not an exp and a sincos per segment.
+      phi_[k].reserve(obs.segment_lengths(r).size());
+      for (const double h : obs.segment_lengths(r)) {
+        const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
+        phi_[k].push_back({decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)});
+      }
+    }
+  }
+  /// out[k]: filter k's mean load acceleration over the next segment less
+  /// the motor's. Every segment of the resolution, in time order
+  /// (Observations::segment_columns, stateful).
+  void next(const Segment& sg, double* out) {
+    const double a = sg.accel, step = started_ ? a - accel_before_ : 0.0;
+    for (std::size_t k = 0; k < phi_.size(); ++k) {
+      if (started_) yd_[k] += jerk_gain_[k] * step;
+      else y_[k] = a;
+      const Phi& p = phi_[k][sg.length];
+      const double e = y_[k] - a, y0 = y_[k];
+      y_[k] = a + p.p11 * e + p.p12 * yd_[k];
+      yd_[k] = p.p21 * e + p.p22 * yd_[k];
+      out[k] = 0.5 * (y0 + y_[k]) - a;
+    }
+    started_ = true;
+    accel_before_ = a;
+  }
+
+ private:
   struct Phi {
     double p11, p12, p21, p22;
   };
-  std::array<std::vector<double>, kMaxDampings> out;
-  std::array<std::vector<Phi>, kMaxDampings> phi;
-  std::array<double, kMaxDampings> y{}, yd{}, jerk_gain{};
-  for (std::size_t k = 0; k < dampings; ++k) {
-    out[k].resize(segs.size());
-    y[k] = segs.empty() ? 0.0 : segs[0].accel;
-    jerk_gain[k] = 2.0 * z[k] * w;
-    const double wd = w * std::sqrt(1.0 - z[k] * z[k]);
-    phi[k].reserve(obs.segment_lengths(r).size());
-    for (const double h : obs.segment_lengths(r)) {
-      const double decay = std::exp(-z[k] * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
-      phi[k].push_back({decay * (c + z[k] * w / wd * s), decay * s / wd, -decay * w * w / wd * s,
-                        decay * (c - z[k] * w / wd * s)});
-    }
-  }
-  for (std::size_t i = 0; i < segs.size(); ++i) {
-    const double a = segs[i].accel, step = i > 0 ? a - segs[i - 1].accel : 0.0;
-    for (std::size_t k = 0; k < dampings; ++k) {
-      const Phi& p = phi[k][segs[i].length];
-      if (i > 0) yd[k] += jerk_gain[k] * step;
-      const double e = y[k] - a, y0 = y[k];
-      y[k] = a + p.p11 * e + p.p12 * yd[k];
-      yd[k] = p.p21 * e + p.p22 * yd[k];
-      out[k][i] = 0.5 * (y0 + y[k]);
-    }
-  }
-  return out;
-}
+  std::vector<std::vector<Phi>> phi_;
+  std::vector<double> y_, yd_, jerk_gain_;
+  double accel_before_ = 0.0;
+  bool started_ = false;
+};
 
 /// Damping ratios of the compliance's columns (size: how many). A mix of
 /// responses at one frequency with a lighter and a heavier damping draws
@@ -470,7 +479,7 @@ std::array<std::vector<double>, kMaxDampings> load_accelerations(const Observati
 /// with a plausible load mass (m2 = m d w / (2 zeta)); with a column at
 /// zeta 0.5 a 2.5-period force delay was named as delay plus a 368 Hz
 /// "compliance" that took half the delay.
-constexpr double kComplianceDamping[kMaxDampings] = {0.05, 0.015};
+constexpr double kComplianceDamping[2] = {0.05, 0.015};
 
 /// Compliance: the base model misses m2 (a2 - a1). Size 1: damping ratio
 /// 0.05; sizes 2, 3: a mix of kComplianceDamping (free damping). The
@@ -484,13 +493,22 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.fine_grid = true;
   m.keep_columns = EffectModel::Keep::from_first_draw;
   m.sizes = {1, 2};
-  m.columns = [&obs](double f, int dampings, Observations::Draw r) {
-    const auto n = static_cast<std::size_t>(dampings);
-    const auto a2 = load_accelerations(obs, r.resolution, 2 * M_PI * f, kComplianceDamping, n);
-    return obs.segment_columns(dampings, false, r, [&a2, n](std::size_t i, const Segment& sg, double* out) {
-      for (std::size_t k = 0; k < n; ++k) out[k] = a2[k][i] - sg.accel;
-    });
+  m.columns_per_size = 1;  // each damping's filter its own (LoadFilters)
+  // Each frequency's dampings, frequency by frequency: the columns of
+  // several frequencies filtered in one pass.
+  auto columns_at = [&obs](const std::vector<double>& fs, int dampings, Observations::Draw r) {
+    std::vector<LoadFilters::Resonance> res;
+    for (const double f : fs)
+      for (int k = 0; k < dampings; ++k) res.push_back({2 * M_PI * f, kComplianceDamping[k]});
+    LoadFilters filters(obs, r.resolution, res);
+    const Mat all = obs.segment_columns(static_cast<int>(res.size()), true, r,
+                                        [&filters](std::size_t, const Segment& sg, double* out) { filters.next(sg, out); });
+    std::vector<Mat> out;
+    for (std::size_t j = 0; j < fs.size(); ++j) out.push_back(all.middleCols(static_cast<Eigen::Index>(j) * dampings, dampings));
+    return out;
   };
+  m.columns = [columns_at](double f, int dampings, Observations::Draw r) { return columns_at({f}, dampings, r).front(); };
+  m.columns_at_many = columns_at;
   // c = load mass m2 (summed over the dampings); free resonance
   // sqrt(k (m1 + m2) / (m1 m2)) with k = m2 w^2; the damping the mix
   // draws, as its coefficient-weighted ratio.

@@ -27,10 +27,20 @@ struct EffectModel {
   /// compliance's frequency moves with its damping), unless a larger size
   /// aliases it (a ripple's harmonics fit a multiple of its period alike).
   bool search_again_at_size = true;
+  /// Columns per unit of size where each size's columns are the first ones
+  /// of any larger size's, to the bit (a ripple's harmonics: 2, presliding's
+  /// elements and a compliance's dampings: 1), so that the largest size is
+  /// drawn once for all; 0 where they are not (thermal drift's split by
+  /// direction, position friction's spans).
+  int columns_per_size = 0;
   /// Columns for a parameter value and size, drawn as asked: coarse
   /// segments serve the grid search, and a search draws the identification
   /// observations alone.
   std::function<Mat(double, int, Observations::Draw)> columns;
+  /// The same at several parameter values, where drawing them together is
+  /// cheaper than one by one (a compliance's filters step side by side);
+  /// empty: one by one. The same bits as `columns`.
+  std::function<std::vector<Mat>(const std::vector<double>&, int, Observations::Draw)> columns_at_many;
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
   /// Whether the columns its search draws are kept across the selection's
