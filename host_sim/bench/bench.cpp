@@ -1022,15 +1022,21 @@ RunEnd run_diagnose_cost(const BenchOptions& o) {
   }
   std::fprintf(stderr, "diagnose cost: identify ...\n");
   double core_passes = 0.0, duration_s = 0.0, rate_hz = 0.0;
+  std::string refused;  // a trace either command refuses: its early return is no measure of its cost
   const CostRun id = cost_of(csv, columns, repeats, [&](const Trace& t) {
     const IdentifyResult r = identify(t, IdentifyOptions{});
+    if (!r.error.empty()) refused = "identify: " + r.error;
     core_passes = r.core_passes;
     rate_hz = r.signals.sample_rate_hz;
     duration_s = r.signals.t.empty() ? 0.0 : r.signals.t.back() - r.signals.t.front();
   });
   std::fprintf(stderr, "diagnose cost: diagnose ...\n");
-  const CostRun dg = cost_of(csv, columns, repeats, [](const Trace& t) { diagnose(t, DiagnoseOptions{}); });
+  const CostRun dg = cost_of(csv, columns, repeats, [&](const Trace& t) {
+    const DiagnoseResult r = diagnose(t, DiagnoseOptions{});
+    if (!r.error.empty() && refused.empty()) refused = "diagnose: " + r.error;
+  });
   if (simulated) std::remove(csv.c_str());
+  if (!refused.empty()) return RunEnd::refused("--diagnose-cost: " + refused);
   const double t_ratio = dg.seconds / id.seconds;
   const double m_ratio = id.peak_rss_bytes > 0 && dg.peak_rss_bytes >= 0
                              ? static_cast<double>(dg.peak_rss_bytes) / static_cast<double>(id.peak_rss_bytes) : NAN;

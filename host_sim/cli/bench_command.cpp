@@ -28,7 +28,7 @@ struct BenchCommand : Command {
     c->add_flag("--diagnose-cost", bo.diagnose_cost, "time and peak memory of diagnose against identify on one trace, as ratios, and of identify against reading the trace alone");
     c->add_option("--cost-rate", bo.cost_rate_hz, "diagnose-cost: sample rate (Hz)")->capture_default_str();
     c->add_option("--cost-duration", bo.cost_duration_s, "diagnose-cost: trace length (s)")->capture_default_str();
-    c->add_option("--cost-in", bo.cost_csv, "diagnose-cost: a recorded trace (CSV, SI units) instead of a simulated one")
+    c->add_option("--cost-in", bo.cost_csv, "diagnose-cost: a recorded trace (CSV, SI units) instead of a simulated one (--cost-rate and --cost-duration then do not apply)")
         ->check(CLI::ExistingFile);
     c->add_option("--time", bo.cost_columns.time, "diagnose-cost --cost-in: time column (s)")->capture_default_str();
     c->add_option("--position", bo.cost_columns.position, "diagnose-cost --cost-in: position column (m)")->capture_default_str();

@@ -45,12 +45,11 @@ struct EffectModel {
   bool fine_grid = false;
   /// Whether the columns its search draws are kept across the selection's
   /// steps and pair trials (SearchColumns in diagnose.cpp), and from which
-  /// draw on. Columns that cost a transcendental or a filter step per fine
-  /// segment (a compliance's resonance, presliding's exps) are kept from
-  /// the first; a ripple's, a sincos per coarse segment, are cheaper for
-  /// their bytes and many (160 periods), so only from the second, when a
-  /// later step has asked for them again; cheap ones are drawn again
-  /// instead of holding memory.
+  /// draw on: those that cost a transcendental or a filter step per
+  /// segment (a ripple's sincos, presliding's exps, a compliance's
+  /// resonance) from the first, within SearchColumns' budgets; cheap ones
+  /// are drawn again instead of holding memory. From the second: kept
+  /// only once a later step has asked for them again.
   enum class Keep { never, from_second_draw, from_first_draw };
   Keep keep_columns = Keep::never;
   std::function<nlohmann::json(double, int, const Vec& coef, double mass_kg)> parameters;

@@ -37,7 +37,10 @@ Vec ColumnBank::column(int i) const {
 int ColumnBank::add(Vec column) {
   cols_id_.push_back(rows_of(column, id_rows_));
   cols_other_.push_back(rows_of(column, other_rows_));
-  xty_.push_back(cols_id_.back().dot(y_id_));
+  // A fit reads only the identification rows, but a NaN or an infinity
+  // in the others would reach the held-out residual: such a column fails
+  // every fit it is in, as it did when the products ran over all rows.
+  xty_.push_back(column.allFinite() ? cols_id_.back().dot(y_id_) : std::numeric_limits<double>::quiet_NaN());
   const std::size_t n = cols_id_.size();
   gram_.push_back(std::make_unique<std::atomic<double>[]>(n));
   for (std::size_t j = 0; j < n; ++j) gram_.back()[j].store(std::numeric_limits<double>::quiet_NaN(), std::memory_order_relaxed);
@@ -73,6 +76,8 @@ ColumnBank::Extra ColumnBank::extra(Mat cols, const std::vector<int>& with) cons
       e.cross(static_cast<Eigen::Index>(w), c) = cols_id.col(c).dot(cols_id_[static_cast<std::size_t>(with[w])]);
   e.gram = cols_id.transpose() * cols_id;
   e.xty = cols_id.transpose() * y_id_;
+  for (Eigen::Index c = 0; c < cols.cols(); ++c)  // as add(): a non-finite value anywhere fails the fit
+    if (!cols.col(c).allFinite()) e.xty(c) = std::numeric_limits<double>::quiet_NaN();
   e.cols = std::move(cols);
   return e;
 }
@@ -138,7 +143,9 @@ double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
     s.noalias() -= c.transpose() * held.g_inv * c;
     r.noalias() -= c.transpose() * held.fit.theta;
   }
-  // A column with a NaN or an infinity fails, as the joint fit does.
+  // A column with a NaN or an infinity fails, as the joint fit does (the
+  // search sees the identification rows only; the candidate's final fit,
+  // extra(), sees them all).
   if (!(s.allFinite() && r.allFinite())) return kInf;
   const Eigen::Index q = s.rows();
   if (q == 0) return held.fit.ssr_id;

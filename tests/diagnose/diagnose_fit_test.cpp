@@ -74,8 +74,8 @@ TEST(DiagnoseFit, AHeldFitScoresExtraColumnsAsTheJointFit) {
 }
 
 // A candidate column with a NaN fails as the joint fit does (it scored
-// the held SSR, a finite number), and with nothing held the score is the
-// candidate's own fit.
+// the held SSR, a finite number), also where the NaN is on a held-out row,
+// and with nothing held the score is the candidate's own fit.
 TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
   Bank b = make_bank(false);
   const ColumnBank::Held held = b.bank.hold(b.with);
@@ -85,6 +85,18 @@ TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
   const ColumnBank::Extra with_nan = b.bank.extra(bad, b.with);
   EXPECT_FALSE(b.bank.fit(b.with, &with_nan).ok);
   EXPECT_EQ(b.bank.ssr_beside(held, b.bank.identification_rows(bad)), INFINITY);
+
+  // The same on a held-out row, which no product reads: the fit fails all
+  // the same, where its residual would carry the NaN into the held-out error.
+  Mat bad_heldout = bad;
+  bad_heldout(7, 0) = b.bank.column(b.with[0])(7);
+  bad_heldout(6, 0) = NAN;  // row 6: held out (every third)
+  const ColumnBank::Extra with_nan_heldout = b.bank.extra(bad_heldout, b.with);
+  EXPECT_FALSE(b.bank.fit(b.with, &with_nan_heldout).ok);
+  Bank in_bank = make_bank(false);
+  std::vector<int> cols = in_bank.with;
+  cols.push_back(in_bank.bank.add(bad_heldout.col(0)));
+  EXPECT_FALSE(in_bank.bank.fit(cols).ok);
 
   const ColumnBank::Held none = b.bank.hold({});
   Mat own(b.bank.y().size(), 2);
