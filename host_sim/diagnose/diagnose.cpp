@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
+#include <future>
 #include <thread>
 #include <tuple>
 
@@ -1270,6 +1271,13 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const Stage st{obs, bank, search_columns, base_cols, catalogue,
                  point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
                  opt.model ? mass_kg : 0.0};
+  // Where the base's gap lies depends on the base alone: found beside the
+  // selection, on a thread of its own where threads are allowed (3 of
+  // PULSES' 90 ms, otherwise after the selection's last step).
+  const bool beside = opt.threads != 1 && std::thread::hardware_concurrency() > 1;
+  std::future<std::vector<WhereEntry>> where = std::async(beside ? std::launch::async : std::launch::deferred, [&] {
+    return where_gap_lies(obs, base.residual, out.base, opt.block_s);
+  });
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);
@@ -1281,7 +1289,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // them is the file's, and an offset is a candidate like any other.
   if (!opt.model) report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
   report_run_levels(base_cols, out.effects.empty() ? base : final_model, opt, out);
-  out.where = where_gap_lies(obs, base.residual, out.base, opt.block_s);
+  out.where = where.get();
   if (out.gap_remains && !out.effects.empty()) out.where_left = where_gap_lies(obs, final_model.residual, out.base, opt.block_s);
   keep_series(obs, base.residual, out.effects.empty() ? base.residual : final_model.residual, out);
   if (opt.progress) opt.progress(1.0);
