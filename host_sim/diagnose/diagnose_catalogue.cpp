@@ -37,6 +37,14 @@ double mean_decay(double s0, double s1, double d) {
 
 double sign_of(const Segment& sg) { return sg.v > 0 ? 1.0 : -1.0; }
 
+/// Columns of n parameter values drawn in one pass, q each, split back
+/// into one matrix per value (EffectModel::columns_at_many).
+std::vector<Mat> split_columns(const Mat& all, std::size_t n, Eigen::Index q) {
+  std::vector<Mat> out;
+  for (std::size_t j = 0; j < n; ++j) out.push_back(all.middleCols(static_cast<Eigen::Index>(j) * q, q));
+  return out;
+}
+
 EffectModel offset_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::offset);
@@ -95,12 +103,19 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.columns_per_size = 2;  // HarmonicMeans: harmonic h's pair the same for any count
   m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
   m.keep_columns = EffectModel::Keep::from_first_draw;
-  m.columns = [&obs](double p, int harmonics, Observations::Draw r) {
-    const double k = 2.0 * M_PI / p;
-    HarmonicMeans means(k, harmonics);
-    return obs.segment_columns(2 * harmonics, false, r,
-                               [&means](std::size_t, const Segment& sg, double* out) { means(sg, out); });
+  // Several periods in one pass over the segments (the grid's), each its
+  // own phasors.
+  auto columns_at = [&obs](const std::vector<double>& ps, int harmonics, Observations::Draw r) {
+    std::vector<HarmonicMeans> means;
+    for (const double p : ps) means.emplace_back(2.0 * M_PI / p, harmonics);
+    const int q = 2 * harmonics;
+    const Mat all = obs.segment_columns(q * static_cast<int>(ps.size()), false, r, [&means, q](std::size_t, const Segment& sg, double* out) {
+      for (std::size_t j = 0; j < means.size(); ++j) means[j](sg, out + static_cast<std::ptrdiff_t>(j) * q);
+    });
+    return split_columns(all, ps.size(), q);
   };
+  m.columns = [columns_at](double p, int harmonics, Observations::Draw r) { return columns_at({p}, harmonics, r).front(); };
+  m.columns_at_many = columns_at;
   m.parameters = [](double p, int harmonics, const Vec& c, double) {
     nlohmann::json j{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
     if (harmonics > 1) {
@@ -191,20 +206,36 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
     const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
     return std::pair<double, double>{e.x_lo + e.travel * a / cells, e.x_lo + e.travel * b / cells};
   };
-  m.columns = [&obs, range, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Draw r) {
+  // Size 0: the share of each segment inside a range, signed as the motion.
+  auto ranges = [&obs, range](const std::vector<double>& codes, Observations::Draw r) {
+    std::vector<std::pair<double, double>> at;
+    for (const double code : codes) at.push_back(range(code));
+    const Mat all = obs.segment_columns(static_cast<int>(at.size()), false, r, [&at](std::size_t, const Segment& sg, double* out) {
+      const double lo = std::min(sg.x0, sg.x1), hi = std::max(sg.x0, sg.x1);
+      for (std::size_t j = 0; j < at.size(); ++j) {
+        const auto [xa, xb] = at[j];
+        const double inside = hi - lo < 1e-12 ? (lo >= xa && lo < xb ? 1.0 : 0.0)
+                                              : std::max(0.0, std::min(hi, xb) - std::max(lo, xa)) / (hi - lo);
+        out[j] = inside * sign_of(sg);
+      }
+    });
+    return split_columns(all, codes.size(), 1);
+  };
+  m.columns = [&obs, ranges, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Draw r) {
     if (spans > 0)
       return obs.segment_columns(2 * (spans + 3), false, r, [=](std::size_t, const Segment& sg, double* out) {
         const SplineBasis b(0.5 * (sg.x0 + sg.x1), x_lo, travel, spans);
         const int at = (sg.v > 0 ? 0 : spans + 3) + b.first;
         for (int k = 0; k < 4; ++k) out[at + k] = b.w[k] * sign_of(sg);
       });
-    const auto [xa, xb] = range(code);
-    return obs.segment_columns(1, false, r, [xa = xa, xb = xb](std::size_t, const Segment& sg, double* out) {
-      const double lo = std::min(sg.x0, sg.x1), hi = std::max(sg.x0, sg.x1);
-      const double inside = hi - lo < 1e-12 ? (lo >= xa && lo < xb ? 1.0 : 0.0)
-                                            : std::max(0.0, std::min(hi, xb) - std::max(lo, xa)) / (hi - lo);
-      out[0] = inside * sign_of(sg);
-    });
+    return ranges(std::vector<double>{code}, r).front();
+  };
+  // The grid's ranges, several in one pass over the segments.
+  m.columns_at_many = [ranges, columns = m.columns](const std::vector<double>& codes, int spans, Observations::Draw r) {
+    if (spans == 0) return ranges(codes, r);
+    std::vector<Mat> out;
+    for (const double code : codes) out.push_back(columns(code, spans, r));
+    return out;
   };
   m.parameters = [range, x_lo = e.x_lo, travel = e.travel](double code, int spans, const Vec& c, double) {
     if (spans > 0) return friction_profile(c, spans, x_lo, travel);
@@ -503,9 +534,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
     LoadFilters filters(obs, r.resolution, res);
     const Mat all = obs.segment_columns(static_cast<int>(res.size()), true, r,
                                         [&filters](std::size_t, const Segment& sg, double* out) { filters.next(sg, out); });
-    std::vector<Mat> out;
-    for (std::size_t j = 0; j < fs.size(); ++j) out.push_back(all.middleCols(static_cast<Eigen::Index>(j) * dampings, dampings));
-    return out;
+    return split_columns(all, fs.size(), dampings);
   };
   m.columns = [columns_at](double f, int dampings, Observations::Draw r) { return columns_at({f}, dampings, r).front(); };
   m.columns_at_many = columns_at;
