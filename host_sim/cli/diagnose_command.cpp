@@ -31,7 +31,8 @@ struct DiagnoseCommand : Command {
     app->add_option("--folds", opt.folds, "time folds; odd ones are held out")->capture_default_str();
     app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
     app->add_option("--threads", opt.threads, "effect families searched at once (0: the machine's hardware "
-                                              "threads); the result is the same on any number")
+                                              "threads; unless 1, one more finds where the gap lies beside them); "
+                                              "the result is the same on any number")
         ->capture_default_str()
         ->check(CLI::Range(0, 256));
     app->add_option("--model", model_path, "diagnose this model as given (identify --json, or hand-written: m, pos, neg, "

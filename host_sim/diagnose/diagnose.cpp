@@ -545,12 +545,6 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   return best_p;
 }
 
-/// The family size at parameter p: each size fitted on the identification
-/// observations, scored on the held-out ones by n ln(SSR) + k ln(n)
-/// (Schwarz's penalty: a column must lower the held-out error by more than
-/// ln(n)/n of it), where n counts independent held-out observations (each
-/// block serves two observations: half of them) and k the effect's
-/// columns. The held-out test then judges the chosen size.
 /// em's columns at parameter p for each of its sizes, on every observation:
 /// the largest size drawn once where the smaller ones are its first columns
 /// (EffectModel::columns_per_size).
@@ -570,6 +564,12 @@ class SizedColumns {
   Mat largest_;
 };
 
+/// The family size at parameter p: each size fitted on the identification
+/// observations, scored on the held-out ones by n ln(SSR) + k ln(n)
+/// (Schwarz's penalty: a column must lower the held-out error by more than
+/// ln(n)/n of it), where n counts independent held-out observations (each
+/// block serves two observations: half of them) and k the effect's
+/// columns. The held-out test then judges the chosen size.
 int choose_size(const Stage& st, const std::vector<int>& with, const EffectModel& em, const SizedColumns& columns) {
   if (em.sizes.size() == 1) return em.sizes.front();
   double n = 0.0;
@@ -1273,11 +1273,16 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
                  opt.model ? mass_kg : 0.0};
   // Where the base's gap lies depends on the base alone: found beside the
   // selection, on a thread of its own where threads are allowed (3 of
-  // PULSES' 90 ms, otherwise after the selection's last step).
-  const bool beside = opt.threads != 1 && std::thread::hardware_concurrency() > 1;
-  std::future<std::vector<WhereEntry>> where = std::async(beside ? std::launch::async : std::launch::deferred, [&] {
-    return where_gap_lies(obs, base.residual, out.base, opt.block_s);
-  });
+  // PULSES' 90 ms, otherwise after the selection's last step), or after
+  // it where no thread can be had.
+  auto where_base = [&] { return where_gap_lies(obs, base.residual, out.base, opt.block_s); };
+  std::future<std::vector<WhereEntry>> where;
+  try {
+    const bool beside = opt.threads != 1 && std::thread::hardware_concurrency() > 1;
+    where = std::async(beside ? std::launch::async : std::launch::deferred, where_base);
+  } catch (const std::system_error&) {
+    where = std::async(std::launch::deferred, where_base);
+  }
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);

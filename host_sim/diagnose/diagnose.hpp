@@ -39,7 +39,8 @@ struct DiagnoseOptions {
   double max_leverage = 0.5;
   /// Families evaluated at once at each selection step (0: the machine's
   /// hardware threads): the result is the same on any number; more threads
-  /// only shorten the wall time.
+  /// only shorten the wall time. Unless 1, where the base's gap lies is
+  /// found on one thread more, beside them.
   int threads = 0;
   std::function<void(double)> progress;  ///< called from the caller's thread only
   /// A model to diagnose as given (`diagnose --model`): its mass, friction
