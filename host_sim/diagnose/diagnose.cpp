@@ -380,8 +380,9 @@ double improvement_z(const Vec& r_cur, const Vec& r_new, const Observations& obs
 /// compliance's 50 frequencies 6). The same bits as drawing them again.
 /// Kept up to kBytes in all; beyond that, drawn each time, so that a long
 /// log's memory stays bounded: with every family's kept from the first
-/// draw, a one-step diagnosis of 60 s at 2 kHz held 14 MB it never read
-/// again (2.0x identify's peak memory, the bar; 1.65x as they are kept).
+/// draw without a budget of its own, a one-step diagnosis of 60 s at 2 kHz
+/// held 14 MB it never read again (2.0x identify's peak memory, the bar;
+/// 1.86x within kFirstDrawBytes).
 class SearchColumns {
  public:
   /// One store per family of `catalogue`, each with its own lock: a pair
