@@ -20,8 +20,7 @@ Vec ColumnBank::rows_of(const Vec& a, const std::vector<Eigen::Index>& rows) {
 
 Mat ColumnBank::identification_rows(const Mat& cols) const {
   Mat out(static_cast<Eigen::Index>(id_rows_.size()), cols.cols());
-  for (Eigen::Index c = 0; c < cols.cols(); ++c)
-    for (std::size_t k = 0; k < id_rows_.size(); ++k) out(static_cast<Eigen::Index>(k), c) = cols(id_rows_[k], c);
+  for (Eigen::Index c = 0; c < cols.cols(); ++c) out.col(c) = rows_of(cols.col(c), id_rows_);
   return out;
 }
 
