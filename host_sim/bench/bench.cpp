@@ -412,8 +412,8 @@ json machine_json() {
 }
 
 /// Writes `text` to path (and says so), or records why not.
-void write_text(const std::string& path, const std::string& text, RunEnd& end) {
-  const std::string err = write_whole_file(path, text);
+void write_text(const std::string& path, const std::string& text, RunEnd& end, const std::vector<std::string>& inputs = {}) {
+  const std::string err = write_whole_file(path, text, inputs);
   end.written(err);
   if (err.empty()) std::printf("wrote %s\n", path.c_str());
 }
@@ -1065,7 +1065,7 @@ RunEnd run_diagnose_cost(const BenchOptions& o) {
                     {"identify_over_read", id.seconds / rd.seconds}, {"identify_core_passes", core_passes},
                     {"time_ratio", t_ratio}, {"cpu_time_ratio", cpu_ratio}, {"diagnose_threads", threads},
                     {"memory_ratio", std::isfinite(m_ratio) ? json(m_ratio) : json(nullptr)}};
-    write_text(o.json_path, j.dump(2) + "\n", end);
+    write_text(o.json_path, j.dump(2) + "\n", end, simulated ? std::vector<std::string>{} : std::vector<std::string>{o.cost_csv});
   }
   return end;
 }
