@@ -52,7 +52,10 @@ struct ReplayCommand : Command {
     app->add_option("--json", json_path, "write the result as JSON");
     app->add_option("--plot", plot_path, "write measured against simulated force over time as SVG");
     app->add_option("--report", report_dir, "write report.html with every signal's overlay and residual into this folder");
-    app->add_option("--substeps", opt.substeps, "plant integration steps per sample")->capture_default_str();
+    app->add_option("--substeps", opt.substeps, "plant integration steps per sample (0: the fewest that resolve the "
+                                                "plant's shortest time scale " +
+                                                    std::to_string(static_cast<int>(kStepsPerTimeScale)) + " times)")
+        ->capture_default_str();
     app->add_option("--filter", opt.filter_hz, "zero-phase Butterworth cut-off on the measured position (Hz)")->capture_default_str();
     app->add_option("--drop-first", opt.drop_first, "samples left out at the start")->capture_default_str();
     app->add_flag("--fit-gains", fit_gains_always, "identify the gains from the logged command even when the file gives them (a check)");

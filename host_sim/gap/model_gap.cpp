@@ -62,6 +62,7 @@ void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const 
   ReplayOptions with = ropt;
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
+  with.extra_scales = pe.extra_scales;
   g.after = replay(base, c, run, with);
   g.error = g.after.error;
   if (!g.error.empty()) return;

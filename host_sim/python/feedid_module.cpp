@@ -161,7 +161,7 @@ bool monitor_option(const std::string& key, const py::handle& value, MonitorOpti
 
 /// replay's own options (`feedid replay --substeps --filter --drop-first --fit-gains`).
 bool replay_option(const std::string& key, const py::handle& value, CallOptions& o) {
-  if (key == "substeps") o.replay.substeps = whole_in(value, key, 1);
+  if (key == "substeps") o.replay.substeps = whole_in(value, key, 0);
   else if (key == "filter") o.replay.filter_hz = number(value, key);
   else if (key == "drop_first") o.replay.drop_first = whole_in(value, key, 0);
   else if (key == "fit_gains") o.fit_gains = cast_option<bool>(value, key, "True or False");

@@ -177,35 +177,54 @@ Outcome<ReplayOptions> with_model_effects(const ModelFile& model, const ReplayOp
   ReplayOptions with = opt;
   with.effects = pe.effects;
   with.extra_force = pe.extra_force;
+  with.extra_scales = pe.extra_scales;
   return {with, ""};
 }
 
-/// The model in the loop over the run: x, v, a and force at every sample
-/// into r (r.gains, r.dt_s and r.substeps set); r.error where the
-/// simulation left the finite numbers.
-void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& opt,
+/// The fastest the logged axis moves (m/s): its largest position step over the step's time.
+double top_speed(const LoggedRun& run) {
+  double top = 0.0;
+  for (std::size_t k = 1; k < run.x.size(); ++k) top = std::max(top, std::fabs(run.x[k] - run.x[k - 1]) / (run.t[k] - run.t[k - 1]));
+  return top;
+}
+
+/// Plant steps per sample: opt's, or the fewest that resolve the plant's
+/// shortest time scale at the run's top speed (a note where they cannot).
+int plant_substeps(const ModelFile& model, const LoggedRun& run, const ReplayOptions& opt, double dt,
+                   std::vector<std::string>& notes) {
+  if (opt.substeps > 0) return opt.substeps;
+  const double tau = shortest_time_scale_s(model.drive, with_load(model.load, opt.effects), opt.extra_scales, top_speed(run));
+  const double steps = std::ceil(kStepsPerTimeScale * dt / tau);
+  if (!(steps <= kMaxAutomaticSubsteps)) {
+    notes.push_back("the plant's shortest time scale, " + at_time(tau) + ", is not resolved: " +
+                    std::to_string(kMaxAutomaticSubsteps) + " steps per sample at most (a model far off?)");
+    return kMaxAutomaticSubsteps;
+  }
+  return std::max(1, static_cast<int>(steps));
+}
+
+/// The model in the loop over the run, with the plant's effects `with`:
+/// x, v, a and force at every sample into r (r.gains, r.dt_s and
+/// r.substeps set); r.error where the simulation left the finite numbers.
+void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedRun& run, const ReplayOptions& with,
                       ReplayResult& r) {
   const std::size_t n = run.t.size();
   r.x_sim.resize(n);
   r.v_sim.resize(n);
   r.a_sim.resize(n);
   r.u_sim.resize(n);
-  const Outcome<ReplayOptions> with = with_model_effects(model, opt, r.notes);
-  if (!with.ok()) {
-    r.error = with.error;
-    return;
-  }
-  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, with.value);
+  LoopReplay loop(model, c, r.gains, r.dt_s, r.substeps, with);
   loop.start_at(run.x.front());
-  for (std::size_t k = 0; k < n; ++k)
+  for (std::size_t k = 0; k < n; ++k) {
     loop.sample(k, static_cast<double>(k) * r.dt_s, run.reference[k], run.extra.empty() ? 0.0 : run.extra[k], r);
-  for (std::size_t k = 0; k < n; ++k)
+    // Stops at the first non-finite sample: the rest would be NaN as well.
     if (!std::isfinite(r.x_sim[k]) || !std::isfinite(r.v_sim[k]) || !std::isfinite(r.a_sim[k]) ||
         !std::isfinite(r.u_sim[k])) {
       r.error = run.source + ": the simulated axis left the finite numbers at t = " + at_time(run.t[k]) +
                 " (a model or controller value far off?)";
       return;
     }
+  }
 }
 
 /// The three rows of figures, and the compared series (after drop_first) for plots.
@@ -248,7 +267,7 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
   for (const std::string* e : {&model.error, &c.error, &run.error})
     if (!e->empty()) return *e;
   const std::size_t n = run.t.size();
-  if (opt.substeps < 1 || opt.substeps > 10000) return "--substeps must be 1 to 10000";
+  if (opt.substeps < 0 || opt.substeps > 10000) return "--substeps must be 0 (automatic) to 10000";
   if (opt.drop_first < 0) return "--drop-first must be >= 0";
   if (!(opt.filter_hz > 0.0)) return "--filter must be > 0 Hz";
   if (n < static_cast<std::size_t>(opt.drop_first) + 20)
@@ -300,7 +319,6 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   if (!r.error.empty()) return r;
   const std::size_t n = run.t.size();
   r.dt_s = dt.value;
-  r.substeps = opt.substeps;
   r.samples = n;
   r.notes = run.notes;
   r.units = opt.units;
@@ -309,7 +327,11 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   r.gains = gains.value;
   r.error = gains.error;
   if (!r.error.empty()) return r;
-  simulate_in_loop(model, c, run, opt, r);
+  const Outcome<ReplayOptions> with = with_model_effects(model, opt, r.notes);
+  r.error = with.error;
+  if (!r.error.empty()) return r;
+  r.substeps = plant_substeps(model, run, with.value, r.dt_s, r.notes);
+  simulate_in_loop(model, c, run, with.value, r);
   if (!r.error.empty()) return r;
   compare_with_run(run, opt, r);
   r.samples_compared = r.t.size();

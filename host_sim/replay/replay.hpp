@@ -49,7 +49,10 @@ struct LoggedRun {
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
 
 struct ReplayOptions {
-  int substeps = 10;       ///< plant integration steps per sample (the reference package: ode45, max step dt/10)
+  /// Plant integration steps per sample; 0: the fewest that resolve the
+  /// plant's shortest time scale kStepsPerTimeScale times (plant.hpp,
+  /// shortest_time_scale_s), at most kMaxAutomaticSubsteps.
+  int substeps = 0;
   double filter_hz = 100;  ///< cut-off of the zero-phase Butterworth on the measured position (Hz)
   int drop_first = 49;     ///< samples left out at the start (the filter's edge), as in the protocol
   Units units;             ///< labels only (units.hpp)
@@ -61,7 +64,18 @@ struct ReplayOptions {
   /// A further force against the motion, f(t, x, v) (N), for an effect the
   /// plant's fixed shapes do not draw (a drift per direction); none when empty.
   ExtraForce extra_force;
+  ExtraForceScales extra_scales;  ///< how fast extra_force changes (the automatic substeps resolve it)
 };
+
+/// Plant steps per shortest time scale when the substeps are automatic:
+/// RK4 at h = tau / 5 (omega h = 0.2 on a resonance) errs by about
+/// (omega h)^5 / 120 = 3e-6 of the state per step, far below what moves a
+/// figure by 1 % when the step is halved (tests/replay/replay_test.cpp).
+constexpr double kStepsPerTimeScale = 5.0;
+/// The automatic substeps' ceiling (ten times the fixed 10 of earlier
+/// versions): a time scale below dt / 20, a resonance above 3 kHz at 1 kHz
+/// (a model far off), is not resolved; the replay says so in a note.
+constexpr int kMaxAutomaticSubsteps = 100;
 
 /// Relative errors (%), 100 ||y - y_sim|| / ||y||, of the four signals.
 struct ReplayFigures {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,6 +42,15 @@ struct SensorParams {
 /// compliant); it opposes motion when positive for positive velocity, like
 /// friction, and acts at rest too. Empty: none.
 using ExtraForce = std::function<double(double t_s, double x_m, double v_m_s)>;
+
+/// How fast an ExtraForce, opaque to the plant, changes: its steepest slope
+/// in velocity, and the shortest distance and time over which it changes
+/// (the replay resolves them in its plant steps, sim/plant.hpp).
+struct ExtraForceScales {
+  double viscous_Ns_m = 0.0;
+  double length_m = std::numeric_limits<double>::infinity();
+  double time_s = std::numeric_limits<double>::infinity();
+};
 
 /// Sim-to-real effects (NOTES.md table), each switched off by a zero first
 /// field; several may be on at once. SI units throughout. With every effect off

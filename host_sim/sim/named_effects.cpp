@@ -71,9 +71,10 @@ struct Parameters {
 };
 
 /// A position-friction profile per direction (shape "spline"): its
-/// profile plus each direction's level, against the motion. Empty (with
-/// the reason in `in`) where the profile cannot be interpolated.
-Drag profile_drag(Parameters& in) {
+/// profile plus each direction's level, against the motion; its knots'
+/// shortest spacing into `scales`. Empty (with the reason in `in`) where
+/// the profile cannot be interpolated.
+Drag profile_drag(Parameters& in, ExtraForceScales& scales) {
   const nlohmann::json none = nlohmann::json::object();
   const nlohmann::json& prof = in.p.contains("profile") ? in.p.at("profile") : none;
   const std::vector<double> x = in.numbers_in(prof, "profile.", "x_m"), pos = in.numbers_in(prof, "profile.", "positive_N"),
@@ -86,6 +87,7 @@ Drag profile_drag(Parameters& in) {
   for (std::size_t i = 1; i < x.size(); ++i)
     if (!(x[i] > x[i - 1])) in.fail("'profile.x_m' must increase");
   if (!in.error.empty()) return {};
+  for (std::size_t i = 1; i < x.size(); ++i) scales.length_m = std::min(scales.length_m, x[i] - x[i - 1]);
   return [x, pos, neg, lp, ln](double, double q, double v) {
     if (v > 0) return interpolate(x, pos, q) + lp;
     if (v < 0) return -(interpolate(x, neg, q) + ln);
@@ -94,8 +96,9 @@ Drag profile_drag(Parameters& in) {
 }
 
 /// A thermal drift per direction: (sigma change v + Fc change s) exp(-t / tc),
-/// t from the run's start (the replay's clock starts there).
-Drag drift_drag(Parameters& in) {
+/// t from the run's start (the replay's clock starts there); its slope in
+/// velocity and time constant into `scales`.
+Drag drift_drag(Parameters& in, ExtraForceScales& scales) {
   const double tc = in.positive("time_constant_s", 0.0);
   const auto side = [&](const char* d, const char* key) {
     return in.p.contains(d) ? in.number_in(in.p.at(d), std::string(d) + ".", key, 0.0) : in.number(key, 0.0);
@@ -103,15 +106,24 @@ Drag drift_drag(Parameters& in) {
   const double vp = side("positive", "viscous_change_Ns_m"), cp = side("positive", "coulomb_change_N");
   const double vn = side("negative", "viscous_change_Ns_m"), cn = side("negative", "coulomb_change_N");
   if (!in.error.empty()) return {};
+  scales.viscous_Ns_m += std::max(std::fabs(vp), std::fabs(vn));
+  scales.time_s = std::min(scales.time_s, tc);
   return [=](double t, double, double v) {
     const double decay = std::exp(-t / tc);
     return v > 0 ? (vp * v + cp) * decay : (v < 0 ? (vn * v - cn) * decay : 0.0);
   };
 }
 
+/// The plant's effects and the extra force's drags, with their scales.
+struct Into {
+  Effects& fx;
+  std::vector<Drag>& drags;
+  ExtraForceScales& scales;
+};
+
 /// One named effect into the plant: true when it entered (note says how), false with the reason.
-bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Effects& fx, std::vector<Drag>& drags,
-                std::string& note) {
+bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into out, std::string& note) {
+  Effects& fx = out.fx;
   if (kind == effect_name(Effect::offset)) {
     fx.load.offset_N += in.number("force_N", 0.0);
     note = "a constant load force";
@@ -125,7 +137,7 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Effects
     note = in.number("harmonics", 1.0) > 1.0 ? "its fundamental only (the plant's ripple is one sine)" : "a load force sine in position";
   } else if (kind == effect_name(Effect::position_friction)) {
     if (in.text("shape") == "spline" && in.p.contains("level_N")) {
-      if (Drag d = profile_drag(in)) drags.push_back(std::move(d));
+      if (Drag d = profile_drag(in, out.scales)) out.drags.push_back(std::move(d));
       note = "its profile per direction, interpolated in position";
     } else {
       fx.position_friction_N = in.number("delta_N", 0.0);
@@ -134,7 +146,7 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Effects
       note = "friction changed on its range of positions";
     }
   } else if (kind == effect_name(Effect::thermal_drift)) {
-    if (Drag d = drift_drag(in)) drags.push_back(std::move(d));
+    if (Drag d = drift_drag(in, out.scales)) out.drags.push_back(std::move(d));
     note = "friction decaying from the run's start, per direction";
   } else if (kind == effect_name(Effect::presliding_hysteresis)) {
     if (in.p.contains("elements") || in.text("resets") != "at reversals") {
@@ -176,7 +188,7 @@ PlantEffects plant_effects(const nlohmann::json& named, double mass_kg) {
     const nlohmann::json parameters = e.contains("parameters") ? e.at("parameters") : nlohmann::json::object();
     Parameters in{parameters, ""};
     if (!parameters.is_object()) in.fail("its parameters must be an object");
-    p.simulated = in.error.empty() && into_plant(p.kind, in, mass_kg, out.effects, drags, p.note);
+    p.simulated = in.error.empty() && into_plant(p.kind, in, mass_kg, {out.effects, drags, out.extra_scales}, p.note);
     if (!in.error.empty() && out.error.empty()) out.error = "effect \"" + p.kind + "\": " + in.error;
     out.list.push_back(p);
   }

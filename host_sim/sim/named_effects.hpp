@@ -25,6 +25,7 @@ struct PlantEffect {
 struct PlantEffects {
   Effects effects;
   ExtraForce extra_force;
+  ExtraForceScales extra_scales;  ///< how fast extra_force changes
   std::vector<PlantEffect> list;
   std::string error;  ///< the first effect whose parameters the plant cannot take, and why
 };

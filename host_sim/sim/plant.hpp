@@ -302,4 +302,37 @@ class DrivePlant {
   double x_pass0_ = 0.0;   ///< motor position at the start of the current pass (m)
 };
 
+/// The plant's shortest time scale (s) while the axis moves at up to
+/// speed_m_s: the fastest of the velocity's decay under viscous friction
+/// (with drift, c2 v|v| and the extra force's slope), the Stribeck dip's
+/// steepest slope, a drift's time constant, a presliding bristle's and an
+/// arm's weight's oscillation, a compliance's resonance (or its damping,
+/// when that is faster), and the time the axis takes at top speed to cross
+/// a ripple's period / 2 pi or the extra force's length. Infinite when
+/// nothing sets one. The replay steps its plant finely enough to resolve it.
+inline double shortest_time_scale_s(const DriveParams& d, const Effects& e, const ExtraForceScales& extra,
+                                    double speed_m_s) {
+  const bool two_mass = e.compliance_frequency_hz > 0.0;
+  const double m1 = two_mass ? d.mass_kg * (1.0 - e.compliance_mass_fraction) : d.mass_kg;
+  double rate = 0.0;  // 1/s, the fastest so far
+  const auto faster = [&rate](double r) {
+    if (std::isfinite(r)) rate = std::max(rate, std::fabs(r));
+  };
+  const double drift = 1.0 + std::fabs(e.drift_fraction);
+  for (const DirectionFriction& f : {d.pos, d.neg}) {
+    faster((std::fabs(f.viscous_Ns_m) * drift + extra.viscous_Ns_m + 2.0 * std::fabs(e.quadratic_c2_Ns2_m2) * speed_m_s) / m1);
+    // The dip Fs exp(-(v/vs)^2) falls by at most 0.86 Fs / vs per m/s.
+    if (f.breakaway_N != 0.0 && f.stribeck_velocity_m_s > 0.0) faster(f.breakaway_N / (f.stribeck_velocity_m_s * m1));
+  }
+  if (e.drift_fraction != 0.0) faster(1.0 / e.drift_time_constant_s);
+  faster(1.0 / extra.time_s);
+  faster(speed_m_s / extra.length_m);
+  if (e.ripple_amplitude_N != 0.0) faster(2.0 * kPi * speed_m_s / e.ripple_period_m);
+  // A bristle is a spring of 2 Fp / d near a reversal; an arm's weight one of G per rad.
+  if (e.presliding_force_N > 0.0) faster(std::sqrt(2.0 * e.presliding_force_N / (e.presliding_distance_m * m1)));
+  if (e.load.gravity_N != 0.0) faster(std::max(speed_m_s, std::sqrt(std::fabs(e.load.gravity_N) / m1)));
+  if (two_mass) faster(2.0 * kPi * e.compliance_frequency_hz * std::max(1.0, 2.0 * e.compliance_damping_ratio));
+  return rate > 0.0 ? 1.0 / rate : std::numeric_limits<double>::infinity();
+}
+
 }  // namespace feedid::host
