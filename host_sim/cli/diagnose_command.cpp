@@ -31,7 +31,8 @@ struct DiagnoseCommand : Command {
     app->add_option("--folds", opt.folds, "time folds; odd ones are held out")->capture_default_str();
     app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
     app->add_option("--threads", opt.threads, "effect families searched at once (0: the machine's hardware "
-                                              "threads; unless 1, one more finds where the gap lies beside them); "
+                                              "threads; unless 1, one more finds where the gap lies beside them, "
+                                              "and with --controller another replays the model before the causes); "
                                               "the result is the same on any number")
         ->capture_default_str()
         ->check(CLI::Range(0, 256));
@@ -66,7 +67,7 @@ struct DiagnoseCommand : Command {
       controller = read_controller_file(controller_path);
       if (!controller->error.empty()) return bad_input(controller->error);
       warn(controller->warnings);
-      run = read_logged_run(in_path.front(), cols, *controller);
+      run = read_logged_run(in_path.front(), cols, *controller, csv);
       if (!run->error.empty()) return bad_input(run->error);
       for (const auto& n : run->notes) std::fprintf(stderr, "note: %s\n", n.c_str());
     }

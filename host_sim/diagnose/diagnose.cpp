@@ -22,6 +22,7 @@
 #include "diagnose_catalogue.hpp"
 #include "diagnose_fit.hpp"
 #include "identify/gravity.hpp"
+#include "io/beside.hpp"
 
 namespace feedid::host {
 namespace {
@@ -1277,13 +1278,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // PULSES' 90 ms, otherwise after the selection's last step), or after
   // it where no thread can be had.
   auto where_base = [&] { return where_gap_lies(obs, base.residual, out.base, opt.block_s); };
-  std::future<std::vector<WhereEntry>> where;
-  try {
-    const bool beside = opt.threads != 1 && std::thread::hardware_concurrency() > 1;
-    where = std::async(beside ? std::launch::async : std::launch::deferred, where_base);
-  } catch (const std::system_error&) {
-    where = std::async(std::launch::deferred, where_base);
-  }
+  std::future<std::vector<WhereEntry>> where = run_beside(opt.threads != 1, where_base);
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);

@@ -3,6 +3,7 @@
 
 #include "diagnose/diagnose_fit.hpp"
 #include "identify/gravity.hpp"
+#include "io/beside.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -48,13 +49,18 @@ void judge_comparison(const ReplayResult& r, const std::vector<char>& keep, doub
   g.comparison_named = g.comparison_z[0] >= significance_z || g.comparison_z[1] >= significance_z;
 }
 
-void replay_before_after(const DiagnoseOptions& opt, const Controller& c, const LoggedRun& run, const ReplayOptions& ropt,
-                         ModelGap& g) {
-  // The base is the model's mass, friction and load, as the diagnosis's
-  // is: effects a model file carries (an earlier diagnosis's) are named anew.
-  ModelFile base = *opt.model;
+/// The base of the replays: the model's mass, friction and load, as the
+/// diagnosis's is; effects a model file carries (an earlier diagnosis's)
+/// are named anew.
+ModelFile replay_base(const ModelFile& model) {
+  ModelFile base = model;
   base.effects = nlohmann::json::array();
-  g.before = replay(base, c, run, ropt);
+  return base;
+}
+
+/// g.before, the base's replay, set: the replay after the named causes and the held-out figures of both.
+void replay_after(const ModelFile& base, const DiagnoseOptions& opt, const Controller& c, const LoggedRun& run,
+                  const ReplayOptions& ropt, ModelGap& g) {
   g.error = g.before.error;
   if (!g.error.empty()) return;  // the same loop would fail again with the effects
   PlantEffects pe = plant_effects(named_effects_json(g.diagnosis.effects), base.drive.mass_kg);
@@ -124,10 +130,16 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
     if (e && g.error.empty()) g.error = *e;
   if (!opt.model) g.error = "model_gap: no model given";
   if (!g.error.empty()) return g;
+  // The replay before the causes depends on the model and the run alone:
+  // it runs beside the diagnosis where threads are allowed.
+  const ModelFile base = replay_base(*opt.model);
+  std::future<ReplayResult> before;
+  if (c && run) before = run_beside(opt.threads != 1, [&] { return replay(base, *c, *run, ropt); });
   g.diagnosis = diagnose(trace, opt);
   g.error = g.diagnosis.error;
   if (!g.error.empty() || !c || !run) return g;
-  replay_before_after(opt, *c, *run, ropt, g);
+  g.before = before.get();
+  replay_after(base, opt, *c, *run, ropt, g);
   return g;
 }
 

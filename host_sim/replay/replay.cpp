@@ -49,6 +49,31 @@ Outcome<std::vector<double>> read_column(const std::string& path, const CsvColum
   return y;
 }
 
+/// The reference and the extra command in one pass over the file: the
+/// reference through the position slot (scaled like the position), the
+/// extra command through the force slot (as logged). False, with run
+/// untouched, where that read fails or keeps other rows than the trace:
+/// the columns are then read one by one, and those reads say why.
+bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
+  if (c.extra_command.empty()) return false;
+  CsvColumns both = cols;
+  both.position = c.reference;
+  both.velocity = cols.time;  // as read_column: the reader needs no velocity
+  both.force = c.extra_command;
+  both.force_scale = 1.0;
+  const CsvResult r = read_trace_file(path, both);
+  if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size()) return false;
+  for (std::size_t k = 0; k < run.t.size(); ++k)
+    if (r.trace.samples[k].t_s != run.t[k]) return false;
+  run.reference.reserve(run.t.size());
+  run.extra.reserve(run.t.size());
+  for (const TraceSample& s : r.trace.samples) {
+    run.reference.push_back(s.x_m);
+    run.extra.push_back(s.u_N);
+  }
+  return true;
+}
+
 /// Sums of squares for one relative error, 100 ||y - y_sim|| / ||y||.
 struct RelativeError {
   double error = 0.0, norm = 0.0;
@@ -280,9 +305,12 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
 }  // namespace
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
+  return read_logged_run(path, cols, c, read_trace_file(path, cols));
+}
+
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main) {
   LoggedRun run;
   run.source = path;
-  const CsvResult main = read_trace_file(path, cols);
   if (!main.ok) {
     run.error = main.error;
     return run;
@@ -297,6 +325,7 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
     run.x.push_back(s.x_m);
     run.u.push_back(s.u_N);
   }
+  if (read_reference_and_extra(path, cols, c, run)) return run;
   Outcome<std::vector<double>> reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
   run.reference = std::move(reference.value);
   run.error = reference.error;

@@ -47,6 +47,9 @@ struct LoggedRun {
 /// `error` names a missing reference column, or says where the rows the
 /// reads keep differ.
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
+/// The same, with `main`, the file as read_trace_file(path, cols) reads it
+/// (a caller that has read it already need not read it again).
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main);
 
 struct ReplayOptions {
   /// Plant integration steps per sample; 0: the fewest that resolve the

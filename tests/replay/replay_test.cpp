@@ -129,6 +129,45 @@ ModelFile model_of(const DriveParams& d) {
   return m;
 }
 
+// GIVEN a log in mm with its reference and extra command, read in one pass
+// THEN the reference is scaled like the position and the extra command is
+// as logged; a bad extra value on one row, or no extra column, reads as
+// the columns read one by one did: the row named, or none added with a note.
+TEST(ReplayRun, ReferenceAndExtraCommandAreReadWithTheTrace) {
+  const std::string path = ::testing::TempDir() + "replay_run_columns.csv";
+  const auto write = [&path](const std::string& bad_extra, bool with_extra) {
+    std::ofstream f(path);
+    f << "t,x,u,r" << (with_extra ? ",e" : "") << "\n";
+    for (int k = 0; k < 50; ++k) {
+      f << k * 1e-3 << "," << 2.0 * k << ",1.5," << 3.0 * k;
+      if (with_extra) f << "," << (k == 20 ? bad_extra : std::to_string(0.25 * k));
+      f << "\n";
+    }
+  };
+  CsvColumns cols;
+  cols.position_scale = 1e-3;
+  json j = minimal_controller();
+  j["extra_command"] = "e";
+  const Controller c = controller_from_json(j, "c");
+  write("5", true);
+  const LoggedRun run = read_logged_run(path, cols, c);
+  ASSERT_EQ(run.error, "");
+  ASSERT_EQ(run.reference.size(), 50u);
+  ASSERT_EQ(run.extra.size(), 50u);
+  for (int k = 0; k < 50; ++k) {
+    EXPECT_EQ(run.reference[static_cast<std::size_t>(k)], 3.0 * k * 1e-3) << k;
+    EXPECT_EQ(run.extra[static_cast<std::size_t>(k)], k == 20 ? 5.0 : 0.25 * k) << k;
+  }
+  write("nan", true);
+  EXPECT_NE(read_logged_run(path, cols, c).error.find("extra command column 'e'"), std::string::npos);
+  write("", false);
+  const LoggedRun bare = read_logged_run(path, cols, c);
+  EXPECT_EQ(bare.error, "");
+  EXPECT_TRUE(bare.extra.empty());
+  ASSERT_EQ(bare.notes.size(), 1u);
+  EXPECT_NE(bare.notes[0].find("no extra command column 'e'"), std::string::npos);
+}
+
 TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   // GIVEN a run logged from the simulator's loop, pulses included
   const LoggedRun run = simulated_run(true_drive(), 7.0);
