@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 #include "io/number_format.hpp"
 #include "replay/replay.hpp"
@@ -16,6 +17,16 @@ namespace {
 
 void print_figures(const char* label, const ReplayFigures& f) {
   std::printf("  %-44s %10.4g %10.4g %12.4g %8.4g\n", label, f.position, f.velocity, f.acceleration, f.force);
+}
+
+/// How the substeps were chosen, for the header line: " (automatic: the
+/// plant's shortest time scale 0.47 s)", or nothing when given.
+std::string time_scale_said(const ReplayResult& r, const ReplayOptions& opt) {
+  if (opt.substeps > 0) return "";
+  if (!std::isfinite(r.shortest_time_scale_s)) return " (automatic: the plant sets no time scale)";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, " (automatic: the plant's shortest time scale %.3g s)", r.shortest_time_scale_s);
+  return buf;
 }
 
 void print_gain_fit(const GainFit& f, ControlLaw law) {
@@ -74,8 +85,9 @@ struct ReplayCommand : Command {
     const LoggedRun run = read_logged_run(in_path, cols, controller);
     const ReplayResult r = replay(model, controller, run, opt, fit_gains_always);
     if (!r.error.empty()) return bad_input(r.error);
-    std::printf("replay of %s in the loop of %s: %zu samples at %.6g s, %d plant substeps; %zu compared (first %d left out)\n",
-                in_path.c_str(), controller_path.c_str(), r.samples, r.dt_s, r.substeps, r.samples_compared, opt.drop_first);
+    std::printf("replay of %s in the loop of %s: %zu samples at %.6g s, %d plant substeps%s; %zu compared (first %d left out)\n",
+                in_path.c_str(), controller_path.c_str(), r.samples, r.dt_s, r.substeps,
+                time_scale_said(r, opt).c_str(), r.samples_compared, opt.drop_first);
     for (const auto& n : r.notes) std::printf("  note: %s\n", n.c_str());
     print_gain_fit(r.gain_fit, controller.law);
     std::printf("  relative error (%%)                           %10s %10s %12s %8s\n", "position", "velocity", "acceleration",

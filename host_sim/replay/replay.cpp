@@ -213,12 +213,15 @@ double top_speed(const LoggedRun& run) {
   return top;
 }
 
+/// The plant's shortest time scale (s) at the run's top speed.
+double plant_time_scale(const ModelFile& model, const LoggedRun& run, const ReplayOptions& opt) {
+  return shortest_time_scale_s(model.drive, with_load(model.load, opt.effects), opt.extra_scales, top_speed(run));
+}
+
 /// Plant steps per sample: opt's, or the fewest that resolve the plant's
-/// shortest time scale at the run's top speed (a note where they cannot).
-int plant_substeps(const ModelFile& model, const LoggedRun& run, const ReplayOptions& opt, double dt,
-                   std::vector<std::string>& notes) {
+/// shortest time scale tau (a note where they cannot).
+int plant_substeps(const ReplayOptions& opt, double tau, double dt, std::vector<std::string>& notes) {
   if (opt.substeps > 0) return opt.substeps;
-  const double tau = shortest_time_scale_s(model.drive, with_load(model.load, opt.effects), opt.extra_scales, top_speed(run));
   const double steps = std::ceil(kStepsPerTimeScale * dt / tau);
   if (!(steps <= kMaxAutomaticSubsteps)) {
     notes.push_back("the plant's shortest time scale, " + at_time(tau) + ", is not resolved: " +
@@ -359,7 +362,8 @@ ReplayResult replay(const ModelFile& model, const Controller& c, const LoggedRun
   const Outcome<ReplayOptions> with = with_model_effects(model, opt, r.notes);
   r.error = with.error;
   if (!r.error.empty()) return r;
-  r.substeps = plant_substeps(model, run, with.value, r.dt_s, r.notes);
+  r.shortest_time_scale_s = plant_time_scale(model, run, with.value);
+  r.substeps = plant_substeps(with.value, r.shortest_time_scale_s, r.dt_s, r.notes);
   simulate_in_loop(model, c, run, with.value, r);
   if (!r.error.empty()) return r;
   compare_with_run(run, opt, r);
@@ -446,7 +450,10 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
   j["model"] = m;
   j["notes"] = r.notes;
   j["units"] = units_json(r.units);
-  j["simulation"] = {{"sample_period_s", r.dt_s}, {"substeps", r.substeps}, {"samples", r.samples},
+  const double tau = r.shortest_time_scale_s;
+  j["simulation"] = {{"sample_period_s", r.dt_s}, {"substeps", r.substeps}, {"substeps_automatic", opt.substeps == 0},
+                     {"shortest_time_scale_s", std::isfinite(tau) ? nlohmann::json(tau) : nlohmann::json()},
+                     {"samples", r.samples},
                      {"samples_compared", r.samples_compared}, {"saturated_samples", r.saturated_samples},
                      {"stuck_samples", r.stuck_samples},
                      {"plant", "rigid body, direction-dependent Stribeck friction, Karnopp stick/slip, RK4 with the force held"}};

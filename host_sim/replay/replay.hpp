@@ -14,6 +14,7 @@
 // The plant is the simulator's (sim/plant.hpp): RK4 substeps with the
 // command held, Karnopp stick/slip at rest. Host only.
 #pragma once
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -101,7 +102,10 @@ struct ReplayResult {
   Gains gains;       ///< the gains replayed
   GainFit gain_fit;  ///< done when the file lacked a gain, or always when asked
   double dt_s = 0.0; ///< sample period of the log (median step)
-  int substeps = 0;
+  int substeps = 0;  ///< plant steps per sample, as given or chosen (ReplayOptions::substeps)
+  /// The plant's shortest time scale at the run's top speed (s; infinite
+  /// when nothing sets one): what the automatic substeps resolve.
+  double shortest_time_scale_s = std::numeric_limits<double>::infinity();
   std::size_t samples = 0, samples_compared = 0;
   std::size_t saturated_samples = 0;  ///< simulated commands at the limit
   std::size_t stuck_samples = 0;      ///< samples at which the simulated axis was at rest

@@ -324,6 +324,15 @@ TEST(Replay, AutomaticStepsMeetTheHalvingRuleOnFastEffects) {
     opt.effects = fx;
     EXPECT_LE(halving_change(model_of(model), c, run, opt), 0.01) << name;
   }
+  // The time scales the steps resolve: the Stribeck dip's (m vs / Fs, below
+  // m / sigma), and a resonance's 1 / (2 pi f).
+  const LoggedRun plain = simulated_run(true_drive(), 2.0);
+  EXPECT_NEAR(replay(model_of(model), c, plain, ReplayOptions{}).shortest_time_scale_s, 92.0 * 2e-3 / 6.0, 1e-12);
+  ReplayOptions resonant;
+  resonant.effects = plants[0].second;
+  const ReplayResult r = replay(model_of(model), c, plain, resonant);
+  EXPECT_NEAR(r.shortest_time_scale_s, 1.0 / (2.0 * kPi * 150.0), 1e-15);
+  EXPECT_EQ(r.substeps, static_cast<int>(std::ceil(5.0 * 1e-3 * 2.0 * kPi * 150.0)));
   // A narrow dip, and a drift per direction from a model file (the plant's extra force)
   DriveParams narrow = true_drive();
   narrow.pos = {200.0, 20.0, 30.0, 2e-4};
