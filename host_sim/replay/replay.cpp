@@ -49,31 +49,6 @@ Outcome<std::vector<double>> read_column(const std::string& path, const CsvColum
   return y;
 }
 
-/// The reference and the extra command in one pass over the file: the
-/// reference through the position slot (scaled like the position), the
-/// extra command through the force slot (as logged). False, with run
-/// untouched, where that read fails or keeps other rows than the trace:
-/// the columns are then read one by one, and those reads say why.
-bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
-  if (c.extra_command.empty()) return false;
-  CsvColumns both = cols;
-  both.position = c.reference;
-  both.velocity = cols.time;  // as read_column: the reader needs no velocity
-  both.force = c.extra_command;
-  both.force_scale = 1.0;
-  const CsvResult r = read_trace_file(path, both);
-  if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size()) return false;
-  for (std::size_t k = 0; k < run.t.size(); ++k)
-    if (r.trace.samples[k].t_s != run.t[k]) return false;
-  run.reference.reserve(run.t.size());
-  run.extra.reserve(run.t.size());
-  for (const TraceSample& s : r.trace.samples) {
-    run.reference.push_back(s.x_m);
-    run.extra.push_back(s.u_N);
-  }
-  return true;
-}
-
 /// Sums of squares for one relative error, 100 ||y - y_sim|| / ||y||.
 struct RelativeError {
   double error = 0.0, norm = 0.0;
@@ -148,7 +123,7 @@ class LoopReplay {
  public:
   LoopReplay(const ModelFile& m, const Controller& c, const Gains& g, double dt, int substeps, const ReplayOptions& opt)
       : c_(c), g_(g), dt_(dt), substeps_(substeps), fx_(with_load(m.load, opt.effects)), extra_(opt.extra_force),
-        plant_(m.drive, fx_, extra_, no_change_), vel_(c.position_fir, dt),
+        plant_(m.drive, fx_, extra_, no_change_, true), vel_(c.position_fir, dt),
         commands_(static_cast<std::size_t>(c.delay_samples) + 1, 0.0) {}
   void start_at(double x) { plant_.start_at(x); }
 
@@ -206,10 +181,15 @@ Outcome<ReplayOptions> with_model_effects(const ModelFile& model, const ReplayOp
   return {with, ""};
 }
 
-/// The fastest the logged axis moves (m/s): its largest position step over the step's time.
+/// The fastest the logged axis moves (m/s): its largest speed over one
+/// step, each the median of three in a row, so that one glitch or a
+/// rotary encoder's wrap (two steps, or one) does not set it.
 double top_speed(const LoggedRun& run) {
+  std::vector<double> speed;
+  for (std::size_t k = 1; k < run.x.size(); ++k) speed.push_back(std::fabs(run.x[k] - run.x[k - 1]) / (run.t[k] - run.t[k - 1]));
   double top = 0.0;
-  for (std::size_t k = 1; k < run.x.size(); ++k) top = std::max(top, std::fabs(run.x[k] - run.x[k - 1]) / (run.t[k] - run.t[k - 1]));
+  for (std::size_t k = 1; k + 1 < speed.size(); ++k)
+    top = std::max(top, std::max(std::min(speed[k - 1], speed[k]), std::min(std::max(speed[k - 1], speed[k]), speed[k + 1])));
   return top;
 }
 
@@ -306,6 +286,26 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
 }
 
 }  // namespace
+
+bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
+  if (c.extra_command.empty()) return false;
+  CsvColumns both = cols;
+  both.position = c.reference;
+  both.velocity = cols.time;  // as read_column: the reader needs no velocity
+  both.force = c.extra_command;
+  both.force_scale = 1.0;
+  const CsvResult r = read_trace_file(path, both);
+  if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size()) return false;
+  for (std::size_t k = 0; k < run.t.size(); ++k)
+    if (r.trace.samples[k].t_s != run.t[k]) return false;
+  run.reference.reserve(run.t.size());
+  run.extra.reserve(run.t.size());
+  for (const TraceSample& s : r.trace.samples) {
+    run.reference.push_back(s.x_m);
+    run.extra.push_back(s.u_N);
+  }
+  return true;
+}
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
   return read_logged_run(path, cols, c, read_trace_file(path, cols));

@@ -48,6 +48,14 @@ struct LoggedRun {
 /// `error` names a missing reference column, or says where the rows the
 /// reads keep differ.
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
+/// The reference and the extra command into `run` (whose t the file's
+/// trace gave) in one pass over the file: the reference through the
+/// position slot (scaled like the position), the extra command through the
+/// force slot (as logged). False, with run untouched, where the controller
+/// names no extra command, or that read fails or keeps other rows than the
+/// trace: read_logged_run then reads the columns one by one, and those
+/// reads say why.
+bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run);
 /// The same, with `main`, the file as read_trace_file(path, cols) reads it
 /// (a caller that has read it already need not read it again).
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main);

@@ -31,8 +31,16 @@ struct PlantState {
 
 class DrivePlant {
  public:
-  DrivePlant(const DriveParams& d, const Effects& e, const ExtraForce& extra, const ServiceChange& change)
+  /// locate_edges: a pass also ends where x crosses an edge of the
+  /// position-friction range (found as a velocity zero crossing is), so
+  /// that the friction's step in x is integrated exactly whatever the step
+  /// (the replay's automatic steps, one per sample on EMPS). The simulator
+  /// keeps it off: its traces, and every figure measured on them, stay as
+  /// they were.
+  DrivePlant(const DriveParams& d, const Effects& e, const ExtraForce& extra, const ServiceChange& change,
+             bool locate_edges = false)
       : d_(d), e_(e), extra_(extra), change_(change) {
+    locate_edges_ = locate_edges && e.position_friction_N != 0.0;
     plain_friction_ = e.drift_fraction == 0.0 && e.position_friction_N == 0.0 && e.quadratic_c2_Ns2_m2 == 0.0 &&
                       e.presliding_force_N == 0.0;
     loads_ = e.load.any() || e.ripple_amplitude_N != 0.0 || e.disturbance_amplitude_N != 0.0 ||
@@ -67,7 +75,7 @@ class DrivePlant {
     } else {
       dir_ = s_.v > 0.0 ? 1.0 : -1.0;
     }
-    x_pass0_ = s_.x;  // step() sets both again before it integrates
+    begin_pass();  // step() sets both again before it integrates
     return deriv(t, s_, f_in).v;
   }
 
@@ -106,20 +114,31 @@ class DrivePlant {
         dir_ = s_.v > 0.0 ? 1.0 : -1.0;
       }
       last_dir_ = dir_;
-      x_pass0_ = s_.x;
+      begin_pass();
 
-      const PlantState s1 = rk4(t, remaining, f_in, s_);
-      if (dir_ * s1.v > 0.0) {
-        end_pass(s1);
-        return;
+      PlantState s1 = rk4(t, remaining, f_in, s_);
+      const bool stops = !(dir_ * s1.v > 0.0);
+      double tau = remaining;
+      if (stops) {
+        // Velocity reached 0 within the step: locate the crossing time by
+        // bracketed secant (Illinois) search on v(tau), then clamp v = 0.
+        tau = find_zero_crossing(t, remaining, f_in, s1.v);
+        s1 = tau > 0.0 ? rk4(t, tau, f_in, s_) : s_;
+        s1.v = 0.0;
       }
-      // Velocity reached 0 within the step: locate the crossing time by
-      // bracketed secant (Illinois) search on v(tau), then clamp v = 0.
-      const double tau = find_zero_crossing(t, remaining, f_in, s1.v);
-      PlantState sc = s_;
-      if (tau > 0.0) sc = rk4(t, tau, f_in, s_);
-      sc.v = 0.0;
-      end_pass(sc);
+      if (locate_edges_) {
+        const double edge = edge_crossed(s_.x, s1.x);
+        if (!std::isnan(edge)) {
+          // The pass ends just past the edge; the next one slides on its far side.
+          tau = find_edge_crossing(t, tau, f_in, edge);
+          end_pass(rk4(t, tau, f_in, s_));
+          t += tau;
+          remaining -= tau;
+          continue;
+        }
+      }
+      end_pass(s1);
+      if (!stops) return;
       t += tau;
       remaining -= tau;
     }
@@ -132,11 +151,28 @@ class DrivePlant {
   // applied force excluding friction within the static band of the
   // direction it pushes, s (the break-away direction when it does not).
   bool holds_at_rest(double t, double f_in, double& s) const {
-    double f_net = f_in - extra(t, s_.x, 0.0);
+    const double at_rest = extra(t, s_.x, 0.0);
+    double f_net = f_in - at_rest;
     if (loads_) f_net -= load(t, s_.x);
     if (two_mass_) f_net -= spring(s_);
     s = f_net >= 0.0 ? 1.0 : -1.0;
-    return std::fabs(f_net) <= static_band(t, s_.x, s);
+    // An extra force that is friction (a drift's or a profile's Coulomb
+    // part: 0 at rest, its level the moment the axis slides) holds the axis
+    // as the plant's own Coulomb force does: its step at v -> 0 in the
+    // pushed direction moves the band (the sliding friction at v -> 0).
+    // Without it the axis crept. 0 for a force continuous in v.
+    const double step = extra_ ? s * (extra(t, s_.x, s * std::numeric_limits<double>::denorm_min()) - at_rest) : 0.0;
+    return std::fabs(f_net) <= std::max(0.0, static_band(t, s_.x, s) + step);
+  }
+
+  // A pass slides in direction dir_ from the present state: where it
+  // starts, and, where the range's edges are located (no pass crosses
+  // one), the range's friction for the whole pass. Taken per RK stage, a
+  // stage past the edge at the pass's last instant put the step of
+  // friction into the pass (4e-7 m/s of velocity at 100 N on 92 kg).
+  void begin_pass() {
+    x_pass0_ = s_.x;
+    pass_position_friction_ = position_friction(s_.x, dir_);
   }
 
   void end_pass(const PlantState& s) {
@@ -155,10 +191,22 @@ class DrivePlant {
     return e_.drift_fraction != 0.0 ? e_.drift_fraction * std::exp(-t / e_.drift_time_constant_s) : 0.0;
   }
 
-  double position_friction(double x) const {
-    return (e_.position_friction_N != 0.0 && x >= e_.position_friction_x_min_m && x <= e_.position_friction_x_max_m)
-               ? e_.position_friction_N
-               : 0.0;
+  // The range's friction for motion (or a push) in direction s: at an
+  // edge, that of the side the motion enters.
+  double position_friction(double x, double s) const {
+    const double lo = e_.position_friction_x_min_m, hi = e_.position_friction_x_max_m;
+    const bool inside = s > 0.0 ? x >= lo && x < hi : x > lo && x <= hi;
+    return e_.position_friction_N != 0.0 && inside ? e_.position_friction_N : 0.0;
+  }
+
+  // The edge of the position-friction range strictly between x0 and x1
+  // (the nearer to x0), or NaN.
+  double edge_crossed(double x0, double x1) const {
+    double edge = std::numeric_limits<double>::quiet_NaN();
+    for (const double e : {e_.position_friction_x_max_m, e_.position_friction_x_min_m})
+      if ((x0 < e && e < x1) || (x1 < e && e < x0))
+        if (std::isnan(edge) || std::fabs(e - x0) < std::fabs(edge - x0)) edge = e;
+    return edge;
   }
 
   // exp(-r/d) of the presliding term for distance r since the reversal.
@@ -174,7 +222,7 @@ class DrivePlant {
     double F = dir_ * (f.coulomb_N * (1.0 + 0.3 * ed) + f.breakaway_N * std::exp(-r * r)) +
                f.viscous_Ns_m * (1.0 + ed) * v;
     F += e_.quadratic_c2_Ns2_m2 * v * std::fabs(v);
-    F += dir_ * position_friction(x);
+    F += dir_ * (locate_edges_ ? pass_position_friction_ : position_friction(x, dir_));
     if (e_.presliding_force_N > 0.0)
       F -= 2.0 * e_.presliding_force_N * dir_ * presliding_decay(since_reversal_ + dir_ * (x - x_pass0_));
     return F;
@@ -185,7 +233,7 @@ class DrivePlant {
   double static_band(double t, double x, double s) const {
     const DirectionFriction f = side(s, t);
     if (plain_friction_) return f.coulomb_N + f.breakaway_N;
-    double band = f.coulomb_N * (1.0 + 0.3 * drift(t)) + f.breakaway_N + position_friction(x);
+    double band = f.coulomb_N * (1.0 + 0.3 * drift(t)) + f.breakaway_N + position_friction(x, s);
     if (e_.presliding_force_N > 0.0) {
       const double r = (last_dir_ != 0.0 && s != last_dir_) ? 0.0 : since_reversal_;
       band -= 2.0 * e_.presliding_force_N * presliding_decay(r);
@@ -258,6 +306,32 @@ class DrivePlant {
     return s1;
   }
 
+  // Time tau in (0, h] at which the motion in direction dir_ reaches x =
+  // edge, given it is short of it at 0 and past it at h; the end where it
+  // has (just) passed it.
+  double find_edge_crossing(double t, double h, double f_in, double edge) const {
+    double a = 0.0, fa = dir_ * (s_.x - edge);          // < 0
+    double b = h, fb = dir_ * (rk4(t, h, f_in, s_).x - edge);  // > 0
+    int side = 0;
+    for (int it = 0; it < 60 && b - a > 1e-12 * h; ++it) {
+      double c = (a * fb - b * fa) / (fb - fa);
+      if (!(c > a && c < b)) c = 0.5 * (a + b);
+      const double fc = dir_ * (rk4(t, c, f_in, s_).x - edge);
+      if (fc > 0.0) {
+        b = c;
+        fb = fc;
+        if (side == -1) fa *= 0.5;
+        side = -1;
+      } else {
+        a = c;
+        fa = fc;
+        if (side == 1) fb *= 0.5;
+        side = 1;
+      }
+    }
+    return b;
+  }
+
   // Time tau in (0, h] at which dir_ * v(tau) reaches 0, given dir_*v(h) <= 0.
   double find_zero_crossing(double t, double h, double f_in, double v_h) const {
     double a = 0.0, fa = dir_ * s_.v;  // >= 0
@@ -288,6 +362,7 @@ class DrivePlant {
   const Effects& e_;
   const ExtraForce& extra_;
   bool plain_friction_ = true;  ///< no friction effect: F_fric is the Stribeck model
+  bool locate_edges_ = false;   ///< passes end at the position-friction range's edges
   bool loads_ = false;          ///< some F_load term is on
   bool two_mass_ = false;       ///< compliant plant
   bool locked_ = false;         ///< motor held at rest while the load moves (inside rk4 only)
@@ -300,6 +375,7 @@ class DrivePlant {
   double last_dir_ = 0.0;  ///< direction of the last sliding (0: never moved)
   double since_reversal_ = std::numeric_limits<double>::infinity();  ///< distance slid since the last reversal (m)
   double x_pass0_ = 0.0;   ///< motor position at the start of the current pass (m)
+  double pass_position_friction_ = 0.0;  ///< the range's friction over the current pass (locate_edges_ only)
 };
 
 /// The plant's shortest time scale (s) while the axis moves at up to
@@ -308,8 +384,10 @@ class DrivePlant {
 /// steepest slope, a drift's time constant, a presliding bristle's and an
 /// arm's weight's oscillation, a compliance's resonance (or its damping,
 /// when that is faster), and the time the axis takes at top speed to cross
-/// a ripple's period / 2 pi or the extra force's length. Infinite when
-/// nothing sets one. The replay steps its plant finely enough to resolve it.
+/// a ripple's period / 2 pi or the extra force's length, and a ripple's
+/// own stiffness. Infinite when nothing sets one. The replay steps its
+/// plant finely enough to resolve it; a position-friction range's step in
+/// x has no time scale, and the replay's plant locates its edges instead.
 inline double shortest_time_scale_s(const DriveParams& d, const Effects& e, const ExtraForceScales& extra,
                                     double speed_m_s) {
   const bool two_mass = e.compliance_frequency_hz > 0.0;
@@ -327,8 +405,13 @@ inline double shortest_time_scale_s(const DriveParams& d, const Effects& e, cons
   if (e.drift_fraction != 0.0) faster(1.0 / e.drift_time_constant_s);
   faster(1.0 / extra.time_s);
   faster(speed_m_s / extra.length_m);
-  if (e.ripple_amplitude_N != 0.0) faster(2.0 * kPi * speed_m_s / e.ripple_period_m);
-  // A bristle is a spring of 2 Fp / d near a reversal; an arm's weight one of G per rad.
+  // A ripple is crossed at top speed, and is a spring of 2 pi A / P where
+  // the axis dwells in its wells; a bristle is a spring of 2 Fp / d near a
+  // reversal; an arm's weight one of G per rad.
+  if (e.ripple_amplitude_N != 0.0) {
+    faster(2.0 * kPi * speed_m_s / e.ripple_period_m);
+    faster(std::sqrt(2.0 * kPi * std::fabs(e.ripple_amplitude_N) / (e.ripple_period_m * m1)));
+  }
   if (e.presliding_force_N > 0.0) faster(std::sqrt(2.0 * e.presliding_force_N / (e.presliding_distance_m * m1)));
   if (e.load.gravity_N != 0.0) faster(std::max(speed_m_s, std::sqrt(std::fabs(e.load.gravity_N) / m1)));
   if (two_mass) faster(2.0 * kPi * e.compliance_frequency_hz * std::max(1.0, 2.0 * e.compliance_damping_ratio));

@@ -149,17 +149,27 @@ TEST(ReplayRun, ReferenceAndExtraCommandAreReadWithTheTrace) {
   json j = minimal_controller();
   j["extra_command"] = "e";
   const Controller c = controller_from_json(j, "c");
-  write("5", true);
+  write("7.5", true);
   const LoggedRun run = read_logged_run(path, cols, c);
   ASSERT_EQ(run.error, "");
   ASSERT_EQ(run.reference.size(), 50u);
   ASSERT_EQ(run.extra.size(), 50u);
   for (int k = 0; k < 50; ++k) {
     EXPECT_EQ(run.reference[static_cast<std::size_t>(k)], 3.0 * k * 1e-3) << k;
-    EXPECT_EQ(run.extra[static_cast<std::size_t>(k)], k == 20 ? 5.0 : 0.25 * k) << k;
+    EXPECT_EQ(run.extra[static_cast<std::size_t>(k)], k == 20 ? 7.5 : 0.25 * k) << k;
   }
+  // The one pass is what read them
+  LoggedRun one_pass;
+  one_pass.t = run.t;
+  ASSERT_TRUE(read_reference_and_extra(path, cols, c, one_pass));
+  EXPECT_EQ(one_pass.reference, run.reference);
+  EXPECT_EQ(one_pass.extra, run.extra);
   write("nan", true);
   EXPECT_NE(read_logged_run(path, cols, c).error.find("extra command column 'e'"), std::string::npos);
+  LoggedRun skipped_row;
+  skipped_row.t = run.t;
+  EXPECT_FALSE(read_reference_and_extra(path, cols, c, skipped_row));
+  EXPECT_TRUE(skipped_row.reference.empty());
   write("", false);
   const LoggedRun bare = read_logged_run(path, cols, c);
   EXPECT_EQ(bare.error, "");
@@ -293,25 +303,105 @@ TEST(Replay, HalvingTheStepChangesNoFigureByMoreThanOnePercent) {
   EXPECT_LE(halving_change(model_of(model), c, run, ReplayOptions{}), 0.01);
 }
 
-// GIVEN plants whose effects are faster than the rigid body (a resonance
-// near the sampling rate, a bristle, a short ripple crossed fast, a narrow
-// Stribeck dip, a drift the plant takes as an extra force), each in the
-// run's plant and the model's, the model somewhat off
-// THEN the automatic plant steps halved move no figure by more than 1 %
+/// The halving change with opt's substeps forced to `substeps`.
+double halving_change_at(int substeps, const ModelFile& model, const Controller& c, const LoggedRun& run, ReplayOptions opt) {
+  opt.substeps = substeps;
+  return halving_change(model, c, run, opt);
+}
+
+/// A light axis (1 kg) in cogging wells: a slow run logged at 100 Hz whose
+/// plant has a 3 N ripple of 1 mm, a spring of 2 pi A / P = 19 kN/m that
+/// rings at 22 Hz, faster than the top speed crosses the period.
+struct LightSlowAxis {
+  DriveParams d;
+  Effects ripple;
+  LoggedRun run;
+  Controller c;
+  LightSlowAxis() {
+    d.mass_kg = 1.0;
+    d.pos = {2.0, 0.2, 0.06, 2e-3};
+    d.neg = {2.3, 0.22, 0.05, 2e-3};
+    ripple.ripple_amplitude_N = 3.0;
+    ripple.ripple_period_m = 1e-3;
+    SimConfig cfg;
+    cfg.drive = d;
+    cfg.effects = ripple;
+    cfg.controller.servo_rate_hz = 100.0;
+    cfg.controller.velocity_integral_hz = 0.0;
+    cfg.controller.velocity_bandwidth_hz = 8.0;
+    cfg.controller.position_gain_1_s = 12.0;
+    cfg.controller.acceleration_feedforward = false;
+    cfg.sensors.encoder_resolution_m = 0.0;
+    cfg.plant_substeps = 200;
+    ServoAxis axis(cfg);
+    run.source = "light axis";
+    for (int k = 0; k * 1e-2 <= 4.0; ++k) {
+      const double t = k * 1e-2, pulse = std::fmod(t, 1.0) > 0.5 && std::fmod(t, 1.0) < 0.55 ? 0.5 : 0.0;
+      const TraceSample s =
+          axis.step(t, PathPoint{0.05 * reference_at(t), 0.0, 0.0}, PathPoint{0.05 * reference_at(t + 1e-2), 0.0, 0.0}, pulse);
+      run.t.push_back(t);
+      run.x.push_back(s.x_m);
+      run.u.push_back(s.u_N);
+      run.reference.push_back(0.05 * reference_at(t));
+      run.extra.push_back(pulse);
+    }
+    json j = minimal_controller();
+    j["kp"] = 12.0;
+    j["kv"] = 2.0 * kPi * 8.0 * d.mass_kg;
+    c = controller_from_json(j, "c");
+  }
+};
+
+// GIVEN plants whose effects are faster than the rigid body, each in the
+// run's plant and the model's, the model somewhat off: a resonance near
+// the sampling rate, a narrow Stribeck dip, a ripple's own stiffness on a
+// light slow axis, each of which one step per sample integrates too
+// coarsely (halved, a figure moves by more than 1 %)
+// THEN the automatic plant steps halved move no figure by more than 1 %;
+// AND so on a position-friction range, whose step in x no step size
+// resolves (its edges are located), and on effects one step already
+// resolves (a bristle, a damped resonance, a drift in the plant and one
+// per direction as the plant's extra force), which keep the rule too.
 TEST(Replay, AutomaticStepsMeetTheHalvingRuleOnFastEffects) {
   const Controller c = controller_from_json(minimal_controller(), "c");
   DriveParams model = true_drive();
   model.mass_kg = 92.0;
+  Effects resonance;
+  resonance.compliance_frequency_hz = 150.0;
+  resonance.compliance_damping_ratio = 0.03;
+  ReplayOptions resonant;
+  resonant.effects = resonance;
+  const LoggedRun ringing = simulated_run(true_drive(), 4.0, 0.0, resonance);
+  EXPECT_GT(halving_change_at(1, model_of(model), c, ringing, resonant), 0.01);
+  EXPECT_LE(halving_change(model_of(model), c, ringing, resonant), 0.01);
+
+  DriveParams narrow = true_drive();
+  narrow.pos = {200.0, 20.0, 40.0, 1e-4};
+  narrow.neg = {230.0, 22.0, 40.0, 1e-4};
+  const LoggedRun dipping = simulated_run(narrow, 4.0);
+  narrow.mass_kg = 92.0;
+  EXPECT_GT(halving_change_at(1, model_of(narrow), c, dipping, {}), 0.01);
+  EXPECT_LE(halving_change(model_of(narrow), c, dipping, {}), 0.01);
+
+  const LightSlowAxis light;
+  DriveParams light_model = light.d;
+  light_model.mass_kg = 0.92;
+  ReplayOptions rippled;
+  rippled.effects = light.ripple;
+  EXPECT_GT(halving_change_at(2, model_of(light_model), light.c, light.run, rippled), 0.01);
+  EXPECT_LE(halving_change(model_of(light_model), light.c, light.run, rippled), 0.01);
+
   std::vector<std::pair<std::string, Effects>> plants(5);
-  plants[0].first = "compliance 150 Hz";
-  plants[0].second.compliance_frequency_hz = 150.0;
-  plants[0].second.compliance_damping_ratio = 0.03;
+  plants[0].first = "position friction 150 N on [10, 30] mm";
+  plants[0].second.position_friction_N = 150.0;
+  plants[0].second.position_friction_x_min_m = 0.01;
+  plants[0].second.position_friction_x_max_m = 0.03;
   plants[1].first = "compliance 40 Hz, damped";
   plants[1].second.compliance_frequency_hz = 40.0;
   plants[1].second.compliance_damping_ratio = 0.7;
   plants[2].first = "presliding";
-  plants[2].second.presliding_force_N = 8.0;
-  plants[2].second.presliding_distance_m = 5e-6;
+  plants[2].second.presliding_force_N = 15.0;
+  plants[2].second.presliding_distance_m = 3e-7;
   plants[3].first = "ripple of 2 mm";
   plants[3].second.ripple_amplitude_N = 20.0;
   plants[3].second.ripple_period_m = 2e-3;
@@ -324,25 +414,44 @@ TEST(Replay, AutomaticStepsMeetTheHalvingRuleOnFastEffects) {
     opt.effects = fx;
     EXPECT_LE(halving_change(model_of(model), c, run, opt), 0.01) << name;
   }
-  // The time scales the steps resolve: the Stribeck dip's (m vs / Fs, below
-  // m / sigma), and a resonance's 1 / (2 pi f).
-  const LoggedRun plain = simulated_run(true_drive(), 2.0);
-  EXPECT_NEAR(replay(model_of(model), c, plain, ReplayOptions{}).shortest_time_scale_s, 92.0 * 2e-3 / 6.0, 1e-12);
-  ReplayOptions resonant;
-  resonant.effects = plants[0].second;
-  const ReplayResult r = replay(model_of(model), c, plain, resonant);
-  EXPECT_NEAR(r.shortest_time_scale_s, 1.0 / (2.0 * kPi * 150.0), 1e-15);
-  EXPECT_EQ(r.substeps, static_cast<int>(std::ceil(5.0 * 1e-3 * 2.0 * kPi * 150.0)));
-  // A narrow dip, and a drift per direction from a model file (the plant's extra force)
-  DriveParams narrow = true_drive();
-  narrow.pos = {200.0, 20.0, 30.0, 2e-4};
-  const LoggedRun run = simulated_run(narrow, 4.0);
-  narrow.mass_kg = 92.0;
-  EXPECT_LE(halving_change(model_of(narrow), c, run, ReplayOptions{}), 0.01) << "narrow dip";
   ModelFile drifting = model_of(model);
   drifting.effects = json::array({{{"kind", "thermal_drift"},
                                    {"parameters", {{"time_constant_s", 0.5}, {"viscous_change_Ns_m", 400.0}, {"coulomb_change_N", 10.0}}}}});
-  EXPECT_LE(halving_change(drifting, c, run, ReplayOptions{}), 0.01) << "drift per direction";
+  EXPECT_LE(halving_change(drifting, c, dipping, {}), 0.01) << "drift per direction";
+
+  // The time scales the steps resolve: the Stribeck dip's (m vs / Fs, below
+  // m / sigma), a resonance's 1 / (2 pi f), and 5 steps within it.
+  EXPECT_NEAR(replay(model_of(model), c, ringing, ReplayOptions{}).shortest_time_scale_s, 92.0 * 2e-3 / 6.0, 1e-12);
+  const ReplayResult r = replay(model_of(model), c, ringing, resonant);
+  EXPECT_NEAR(r.shortest_time_scale_s, 1.0 / (2.0 * kPi * 150.0), 1e-15);
+  EXPECT_EQ(r.substeps, static_cast<int>(std::ceil(5.0 * 1e-3 * 2.0 * kPi * 150.0)));
+}
+
+// GIVEN a model whose friction drifts per direction (the plant's extra
+// force: 0 at rest, +10 N of Coulomb force the moment it slides) and a
+// loop pushing 28 N against its 26 N of static friction plus that 10 N
+// THEN the axis holds, as it does when the same 10 N is in the model's
+// own Coulomb force (it crept before the drift's step entered the band)
+TEST(Replay, FrictionInTheExtraForceHoldsTheAxisAtRest) {
+  LoggedRun run;
+  run.source = "standstill";
+  for (int k = 0; k < 2000; ++k) {
+    run.t.push_back(k * 1e-3);
+    run.x.push_back(0.0);
+    run.u.push_back(28.0);
+    run.reference.push_back(28.0 / (60.0 * 25000.0));
+  }
+  json j = minimal_controller();
+  j["kp"] = 60.0;
+  j["kv"] = 25000.0;
+  j.erase("extra_command");
+  const Controller c = controller_from_json(j, "c");
+  ModelFile m = model_of(true_drive());
+  m.effects = json::array({{{"kind", "thermal_drift"}, {"parameters", {{"time_constant_s", 100.0}, {"coulomb_change_N", 10.0}}}}});
+  const ReplayResult r = replay(m, c, run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.stuck_samples, r.samples);
+  for (std::size_t k = 0; k < r.v_sim.size(); ++k) ASSERT_EQ(r.v_sim[k], 0.0) << k;
 }
 
 TEST(Replay, StandingAxisDoesNotChatter) {
