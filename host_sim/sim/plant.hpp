@@ -182,6 +182,13 @@ class DrivePlant {
 
   double extra(double t, double x, double v) const { return extra_ ? extra_(t, x, v) : 0.0; }
 
+  // The velocity the extra force sees within a pass: v while it is on the
+  // pass's side of 0, else 0 approached from that side. It continues
+  // through v = 0 in the direction dir_, as the friction does for the RK
+  // stages: a drift's Coulomb part read at v = 0 as 0 made a break-away
+  // the static band allowed turn straight back.
+  double sliding(double v) const { return v * dir_ > 0.0 ? v : dir_ * std::numeric_limits<double>::denorm_min(); }
+
   double load(double t, double x) const { return load_force(e_, t, x) + held_load_; }
 
   // Spring force on the load, = minus the force on the motor (N).
@@ -264,7 +271,7 @@ class DrivePlant {
   PlantState deriv(double t, const PlantState& s, double f_in) const {
     PlantState d;
     if (!locked_) {
-      double f = f_in - friction(t, s.x, s.v) - extra(t, s.x, s.v);
+      double f = f_in - friction(t, s.x, s.v) - extra(t, s.x, sliding(s.v));
       if (loads_) f -= load(t, s.x);
       if (two_mass_) f -= spring(s);
       d.x = s.v;

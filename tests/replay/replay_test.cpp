@@ -454,6 +454,36 @@ TEST(Replay, FrictionInTheExtraForceHoldsTheAxisAtRest) {
   for (std::size_t k = 0; k < r.v_sim.size(); ++k) ASSERT_EQ(r.v_sim[k], 0.0) << k;
 }
 
+// GIVEN a model whose drift lowers its Coulomb force by 10 N (the plant's
+// extra force), so that it slides at 16 N instead of 26, and a loop
+// pushing 20 N from rest
+// THEN the axis breaks away and moves toward the reference (a break-away
+// the band allowed used to turn straight back: the drift read at v = 0
+// was none, and the axis stayed put while its sampled acceleration said it
+// moved)
+TEST(Replay, FrictionTheExtraForceLowersLetsTheAxisBreakAway) {
+  LoggedRun run;
+  run.source = "break-away";
+  for (int k = 0; k < 2000; ++k) {
+    run.t.push_back(k * 1e-3);
+    run.x.push_back(0.0);
+    run.u.push_back(20.0);
+    run.reference.push_back(20.0 / (60.0 * 25000.0));
+  }
+  json j = minimal_controller();
+  j["kp"] = 60.0;
+  j["kv"] = 25000.0;
+  j.erase("extra_command");
+  const Controller c = controller_from_json(j, "c");
+  ModelFile m = model_of(true_drive());
+  m.effects = json::array({{{"kind", "thermal_drift"}, {"parameters", {{"time_constant_s", 100.0}, {"coulomb_change_N", -10.0}}}}});
+  const ReplayResult r = replay(m, c, run, ReplayOptions{});
+  ASSERT_EQ(r.error, "");
+  EXPECT_GT(r.x_sim.back(), 1e-7);
+  for (std::size_t k = 0; k + 1 < r.v_sim.size(); ++k)
+    if (r.v_sim[k] == 0.0 && r.a_sim[k] != 0.0) ASSERT_NE(r.v_sim[k + 1], 0.0) << k;
+}
+
 TEST(Replay, StandingAxisDoesNotChatter) {
   // GIVEN a reference held 10 um from where the axis rests and a model
   // whose friction holds against the loop's push (kv kp 10 um = 15 N < 20 N)
