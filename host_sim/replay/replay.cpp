@@ -2,6 +2,7 @@
 #include "replay.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 
@@ -182,14 +183,20 @@ Outcome<ReplayOptions> with_model_effects(const ModelFile& model, const ReplayOp
 }
 
 /// The fastest the logged axis moves (m/s): its largest speed over one
-/// step, each the median of three in a row, so that one glitch or a
-/// rotary encoder's wrap (two steps, or one) does not set it.
+/// step, each the median of five in a row, so that one bad sample (two
+/// steps off) or a rotary encoder's wrap (one) does not set it. A run too
+/// short for five: the largest step speed.
 double top_speed(const LoggedRun& run) {
   std::vector<double> speed;
   for (std::size_t k = 1; k < run.x.size(); ++k) speed.push_back(std::fabs(run.x[k] - run.x[k - 1]) / (run.t[k] - run.t[k - 1]));
+  if (speed.size() < 5) return speed.empty() ? 0.0 : *std::max_element(speed.begin(), speed.end());
   double top = 0.0;
-  for (std::size_t k = 1; k + 1 < speed.size(); ++k)
-    top = std::max(top, std::max(std::min(speed[k - 1], speed[k]), std::min(std::max(speed[k - 1], speed[k]), speed[k + 1])));
+  for (std::size_t k = 0; k + 5 <= speed.size(); ++k) {
+    std::array<double, 5> five;
+    std::copy_n(speed.begin() + static_cast<std::ptrdiff_t>(k), 5, five.begin());
+    std::nth_element(five.begin(), five.begin() + 2, five.end());
+    top = std::max(top, five[2]);
+  }
   return top;
 }
 

@@ -143,6 +143,8 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
       fx.position_friction_N = in.number("delta_N", 0.0);
       fx.position_friction_x_min_m = in.number("x_min_m", 0.0);
       fx.position_friction_x_max_m = in.number("x_max_m", 0.0);
+      if (!(fx.position_friction_x_max_m > fx.position_friction_x_min_m))
+        in.fail("'x_max_m' must be above 'x_min_m' (a range of positions)");
       note = "friction changed on its range of positions";
     }
   } else if (kind == effect_name(Effect::thermal_drift)) {

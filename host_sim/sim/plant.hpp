@@ -128,12 +128,12 @@ class DrivePlant {
       }
       if (locate_edges_) {
         const double edge = edge_crossed(s_.x, s1.x);
-        if (!std::isnan(edge)) {
+        const double at_edge = std::isnan(edge) ? tau : find_edge_crossing(t, tau, f_in, edge);
+        if (at_edge < tau) {
           // The pass ends just past the edge; the next one slides on its far side.
-          tau = find_edge_crossing(t, tau, f_in, edge);
-          end_pass(rk4(t, tau, f_in, s_));
-          t += tau;
-          remaining -= tau;
+          end_pass(rk4(t, at_edge, f_in, s_));
+          t += at_edge;
+          remaining -= at_edge;
           continue;
         }
       }
@@ -162,7 +162,7 @@ class DrivePlant {
     // pushed direction moves the band (the sliding friction at v -> 0).
     // Without it the axis crept. 0 for a force continuous in v.
     const double step = extra_ ? s * (extra(t, s_.x, s * std::numeric_limits<double>::denorm_min()) - at_rest) : 0.0;
-    return std::fabs(f_net) <= std::max(0.0, static_band(t, s_.x, s) + step);
+    return std::fabs(f_net) <= std::max(0.0, static_band(t, s_.x, s) + step);  // floored once, after the step
   }
 
   // A pass slides in direction dir_ from the present state: where it
@@ -198,11 +198,13 @@ class DrivePlant {
     return e_.drift_fraction != 0.0 ? e_.drift_fraction * std::exp(-t / e_.drift_time_constant_s) : 0.0;
   }
 
-  // The range's friction for motion (or a push) in direction s: at an
-  // edge, that of the side the motion enters.
+  // The range's friction for motion (or a push) in direction s. Where the
+  // edges are located, at an edge that of the side the motion enters (a
+  // pass ends just past an edge); the simulator's closed range otherwise,
+  // so that its traces stay as they were.
   double position_friction(double x, double s) const {
     const double lo = e_.position_friction_x_min_m, hi = e_.position_friction_x_max_m;
-    const bool inside = s > 0.0 ? x >= lo && x < hi : x > lo && x <= hi;
+    const bool inside = !locate_edges_ ? x >= lo && x <= hi : s > 0.0 ? x >= lo && x < hi : x > lo && x <= hi;
     return e_.position_friction_N != 0.0 && inside ? e_.position_friction_N : 0.0;
   }
 
@@ -235,8 +237,11 @@ class DrivePlant {
     return F;
   }
 
-  // Largest net force (N) the motor side withstands at rest when pushed in
-  // direction s: the sliding friction at v -> 0 in that direction.
+  // The sliding friction (N) at v -> 0 in direction s, the plant's own
+  // terms: the largest net force the motor side withstands at rest when
+  // pushed that way, once the extra force's step is added and the sum
+  // floored at 0 (holds_at_rest; floored before the step, a bristle's
+  // dip below 0 held the axis where the sliding equation moved it).
   double static_band(double t, double x, double s) const {
     const DirectionFriction f = side(s, t);
     if (plain_friction_) return f.coulomb_N + f.breakaway_N;
@@ -245,7 +250,7 @@ class DrivePlant {
       const double r = (last_dir_ != 0.0 && s != last_dir_) ? 0.0 : since_reversal_;
       band -= 2.0 * e_.presliding_force_N * presliding_decay(r);
     }
-    return std::max(0.0, band);
+    return band;
   }
 
   // Friction of direction s at time t, with the change in service from its time on.

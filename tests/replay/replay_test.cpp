@@ -258,6 +258,8 @@ TEST(Replay, AnEffectThePlantCannotTakeIsRefusedByName) {
                         {"profile", {{"x_m", {0.1, 0.0}}, {"positive_N", {1.0, 2.0}}, {"negative_N", {1.0, 2.0}}}}}}},
        "'profile.x_m' must increase"},
       {{{"kind", "thermal_drift"}, {"parameters", json::object()}}, "'time_constant_s' must be > 0"},
+      {{{"kind", "position_friction"}, {"parameters", {{"delta_N", 5.0}, {"x_min_m", 0.03}, {"x_max_m", 0.01}}}},
+       "'x_max_m' must be above 'x_min_m'"},
       {{{"kind", "quadratic_viscous"}, {"parameters", {{"c2", "x"}}}}, "'c2' must be a finite number"},
       {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.0}}}}, "'period_m' must be > 0"},
       {{{"kind", "presliding_hysteresis"}, {"parameters", {{"force_N", 5.0}, {"distance_m", 0.0}, {"resets", "at reversals"}}}},
@@ -452,6 +454,26 @@ TEST(Replay, FrictionInTheExtraForceHoldsTheAxisAtRest) {
   ASSERT_EQ(r.error, "");
   EXPECT_EQ(r.stuck_samples, r.samples);
   for (std::size_t k = 0; k < r.v_sim.size(); ++k) ASSERT_EQ(r.v_sim[k], 0.0) << k;
+}
+
+// GIVEN a run with one bad position sample (1 mm off for one row) and a
+// ripple, whose time scale follows the run's top speed
+// THEN the automatic steps are those of the run without it
+TEST(Replay, OneBadSampleDoesNotSetTheTopSpeed) {
+  Effects ripple;
+  ripple.ripple_amplitude_N = 20.0;
+  ripple.ripple_period_m = 2e-3;
+  const LoggedRun clean = simulated_run(true_drive(), 2.0, 0.0, ripple);
+  LoggedRun glitch = clean;
+  glitch.x[1000] += 1e-3;
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  ReplayOptions opt;
+  opt.effects = ripple;
+  const ReplayResult a = replay(model_of(true_drive()), c, clean, opt), b = replay(model_of(true_drive()), c, glitch, opt);
+  ASSERT_EQ(a.error, "");
+  ASSERT_EQ(b.error, "");
+  EXPECT_EQ(b.shortest_time_scale_s, a.shortest_time_scale_s);
+  EXPECT_EQ(b.substeps, a.substeps);
 }
 
 // GIVEN a model whose drift lowers its Coulomb force by 10 N (the plant's
