@@ -429,25 +429,37 @@ TEST(Replay, AutomaticStepsMeetTheHalvingRuleOnFastEffects) {
   EXPECT_EQ(r.substeps, static_cast<int>(std::ceil(5.0 * 1e-3 * 2.0 * kPi * 150.0)));
 }
 
+/// A logged run 2 s long at 1 kHz in which the axis rests at 0 while the
+/// loop (kp 60 1/s, kv 25 000 N s/m, no delay) pushes `push_N`: its
+/// reference is push / (kp kv) ahead.
+struct PushFromRest {
+  LoggedRun run;
+  Controller c;
+  explicit PushFromRest(double push_N) {
+    run.source = "pushed from rest";
+    for (int k = 0; k < 2000; ++k) {
+      run.t.push_back(k * 1e-3);
+      run.x.push_back(0.0);
+      run.u.push_back(push_N);
+      run.reference.push_back(push_N / (60.0 * 25000.0));
+    }
+    json j = minimal_controller();
+    j["kp"] = 60.0;
+    j["kv"] = 25000.0;
+    j.erase("extra_command");
+    c = controller_from_json(j, "c");
+  }
+};
+
 // GIVEN a model whose friction drifts per direction (the plant's extra
 // force: 0 at rest, +10 N of Coulomb force the moment it slides) and a
 // loop pushing 28 N against its 26 N of static friction plus that 10 N
 // THEN the axis holds, as it does when the same 10 N is in the model's
 // own Coulomb force (it crept before the drift's step entered the band)
 TEST(Replay, FrictionInTheExtraForceHoldsTheAxisAtRest) {
-  LoggedRun run;
-  run.source = "standstill";
-  for (int k = 0; k < 2000; ++k) {
-    run.t.push_back(k * 1e-3);
-    run.x.push_back(0.0);
-    run.u.push_back(28.0);
-    run.reference.push_back(28.0 / (60.0 * 25000.0));
-  }
-  json j = minimal_controller();
-  j["kp"] = 60.0;
-  j["kv"] = 25000.0;
-  j.erase("extra_command");
-  const Controller c = controller_from_json(j, "c");
+  const PushFromRest loop(28.0);
+  const LoggedRun& run = loop.run;
+  const Controller& c = loop.c;
   ModelFile m = model_of(true_drive());
   m.effects = json::array({{{"kind", "thermal_drift"}, {"parameters", {{"time_constant_s", 100.0}, {"coulomb_change_N", 10.0}}}}});
   const ReplayResult r = replay(m, c, run, ReplayOptions{});
@@ -484,19 +496,9 @@ TEST(Replay, OneBadSampleDoesNotSetTheTopSpeed) {
 // was none, and the axis stayed put while its sampled acceleration said it
 // moved)
 TEST(Replay, FrictionTheExtraForceLowersLetsTheAxisBreakAway) {
-  LoggedRun run;
-  run.source = "break-away";
-  for (int k = 0; k < 2000; ++k) {
-    run.t.push_back(k * 1e-3);
-    run.x.push_back(0.0);
-    run.u.push_back(20.0);
-    run.reference.push_back(20.0 / (60.0 * 25000.0));
-  }
-  json j = minimal_controller();
-  j["kp"] = 60.0;
-  j["kv"] = 25000.0;
-  j.erase("extra_command");
-  const Controller c = controller_from_json(j, "c");
+  const PushFromRest loop(20.0);
+  const LoggedRun& run = loop.run;
+  const Controller& c = loop.c;
   ModelFile m = model_of(true_drive());
   m.effects = json::array({{{"kind", "thermal_drift"}, {"parameters", {{"time_constant_s", 100.0}, {"coulomb_change_N", -10.0}}}}});
   const ReplayResult r = replay(m, c, run, ReplayOptions{});
@@ -509,19 +511,9 @@ TEST(Replay, FrictionTheExtraForceLowersLetsTheAxisBreakAway) {
 TEST(Replay, StandingAxisDoesNotChatter) {
   // GIVEN a reference held 10 um from where the axis rests and a model
   // whose friction holds against the loop's push (kv kp 10 um = 15 N < 20 N)
-  LoggedRun run;
-  run.source = "standstill";
-  for (int k = 0; k < 2000; ++k) {
-    run.t.push_back(k * 1e-3);
-    run.x.push_back(0.0);
-    run.u.push_back(15.0);
-    run.reference.push_back(10e-6);
-  }
-  json j = minimal_controller();
-  j["kp"] = 60.0;
-  j["kv"] = 25000.0;
-  j.erase("extra_command");
-  const Controller c = controller_from_json(j, "c");
+  const PushFromRest loop(15.0);
+  const LoggedRun& run = loop.run;
+  const Controller& c = loop.c;
   const ReplayResult r = replay(model_of(true_drive()), c, run, ReplayOptions{});
   ASSERT_EQ(r.error, "");
   // THEN the simulated axis never moves and its force is the steady push
