@@ -65,11 +65,7 @@ void replay_after(const ModelFile& base, const DiagnoseOptions& opt, const Contr
   if (!g.error.empty()) return;  // the same loop would fail again with the effects
   PlantEffects pe = plant_effects(named_effects_json(g.diagnosis.effects), base.drive.mass_kg);
   g.plant = pe.list;
-  ReplayOptions with = ropt;
-  with.effects = pe.effects;
-  with.extra_force = pe.extra_force;
-  with.extra_scales = pe.extra_scales;
-  g.after = replay(base, c, run, with);
+  g.after = replay(base, c, run, with_plant_effects(ropt, pe));
   g.error = g.after.error;
   if (!g.error.empty()) return;
   const std::vector<char> keep = heldout_samples(g.before.t, g.diagnosis.fold_edges);

@@ -175,11 +175,7 @@ Outcome<ReplayOptions> with_model_effects(const ModelFile& model, const ReplayOp
   if (!pe.error.empty())
     return refused<ReplayOptions>(model.source + ": " + pe.error + " (the model's effects, as the replay's plant takes them)");
   for (const PlantEffect& e : pe.list) notes.push_back("the model's effect " + e.kind + ": " + e.note);
-  ReplayOptions with = opt;
-  with.effects = pe.effects;
-  with.extra_force = pe.extra_force;
-  with.extra_scales = pe.extra_scales;
-  return {with, ""};
+  return {with_plant_effects(opt, pe), ""};
 }
 
 /// The fastest the logged axis moves (m/s): its largest speed over one
@@ -312,6 +308,13 @@ bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, c
     run.extra.push_back(s.u_N);
   }
   return true;
+}
+
+ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe) {
+  opt.effects = pe.effects;
+  opt.extra_force = pe.extra_force;
+  opt.extra_scales = pe.extra_scales;
+  return opt;
 }
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {

@@ -79,6 +79,10 @@ struct ReplayOptions {
   ExtraForceScales extra_scales;  ///< how fast extra_force changes (the automatic substeps resolve it)
 };
 
+/// opt with the plant's effects, extra force and its scales from `pe`
+/// (the named effects as the plant takes them), in place of opt's.
+ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe);
+
 /// Plant steps per shortest time scale when the substeps are automatic:
 /// RK4 at h = tau / 5 (omega h = 0.2 on a resonance) errs by about
 /// (omega h)^5 / 120 = 3e-6 of the state per step, far below what moves a
