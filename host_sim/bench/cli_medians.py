@@ -25,7 +25,7 @@ def main():
     ap.add_argument("--runs", type=int, default=21)
     a = ap.parse_args()
     if a.runs < 1:
-        sys.exit("error: --runs must be >= 1")
+        ap.error("--runs must be >= 1")
     cols = ["--time", "t_s", "--position", "qm_m", "--force", "force_N"]
     with tempfile.TemporaryDirectory() as tmp:
         model = os.path.join(tmp, "emps_id.json")
