@@ -19,34 +19,47 @@ std::string at_time(double t) {
   return buf;
 }
 
+/// The trace's columns with `column` read through the position slot,
+/// scaled by `scale`. The reader needs position or velocity: the time
+/// column stands in for velocity, so that a missing column reads as
+/// has_position false.
+CsvColumns through_position(const CsvColumns& cols, const std::string& column, double scale) {
+  CsvColumns c = cols;
+  c.position = column;
+  c.velocity = cols.time;
+  c.position_scale = scale;
+  return c;
+}
+
+/// The first row (from 0) at which `read` keeps another time than `t`
+/// (a row beyond t's end counts); read's size where every row agrees.
+std::size_t first_other_row(const Trace& read, const std::vector<double>& t) {
+  for (std::size_t k = 0; k < read.samples.size(); ++k)
+    if (k >= t.size() || read.samples[k].t_s != t[k]) return k;
+  return read.samples.size();
+}
+
 /// One column of the file as the trace reader reads it (same rows, same
 /// rules), through its position slot; `scale` as position_scale. Empty
 /// when the file has no such column and it is `optional`.
 Outcome<std::vector<double>> read_column(const std::string& path, const CsvColumns& cols, const std::string& column,
                                 const std::string& role, double scale, const std::vector<double>& t, bool optional) {
-  CsvColumns c = cols;
-  c.position = column;
-  // The reader needs position or velocity: the time column stands in for
-  // velocity, so that a missing column reads as has_position false.
-  c.velocity = cols.time;
-  c.position_scale = scale;
-  const CsvResult r = read_trace_file(path, c);
+  const CsvResult r = read_trace_file(path, through_position(cols, column, scale));
   using Column = std::vector<double>;
   if (r.ok && !r.trace.has_position && optional) return {};
   if (!r.ok || !r.trace.has_position)
     return refused<Column>(path + ": the " + role + " column '" + column + "' (from the controller file) cannot be read" +
                            (r.ok ? ": no such column" : ": " + r.error));
-  Outcome<Column> y;
-  y.value.reserve(r.trace.samples.size());
-  for (std::size_t k = 0; k < r.trace.samples.size(); ++k) {
-    if (k >= t.size() || r.trace.samples[k].t_s != t[k])
-      return refused<Column>(path + ": reading the " + role + " column '" + column +
-                             "' kept other rows than the trace (a bad value in one column only?): first differs at row " +
-                             std::to_string(k + 1));
-    y.value.push_back(r.trace.samples[k].x_m);
-  }
-  if (y.value.size() != t.size())
+  const std::size_t other = first_other_row(r.trace, t);
+  if (other < r.trace.samples.size())
+    return refused<Column>(path + ": reading the " + role + " column '" + column +
+                           "' kept other rows than the trace (a bad value in one column only?): first differs at row " +
+                           std::to_string(other + 1));
+  if (r.trace.samples.size() != t.size())
     return refused<Column>(path + ": the " + role + " column '" + column + "' has fewer usable rows than the trace");
+  Outcome<Column> y;
+  y.value.reserve(t.size());
+  for (const TraceSample& s : r.trace.samples) y.value.push_back(s.x_m);
   return y;
 }
 
@@ -292,15 +305,13 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
 
 bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
   if (c.extra_command.empty()) return false;
-  CsvColumns both = cols;
-  both.position = c.reference;
-  both.velocity = cols.time;  // as read_column: the reader needs no velocity
+  CsvColumns both = through_position(cols, c.reference, cols.position_scale);
   both.force = c.extra_command;
   both.force_scale = 1.0;
   const CsvResult r = read_trace_file(path, both);
-  if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size()) return false;
-  for (std::size_t k = 0; k < run.t.size(); ++k)
-    if (r.trace.samples[k].t_s != run.t[k]) return false;
+  if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size() ||
+      first_other_row(r.trace, run.t) != run.t.size())
+    return false;
   run.reference.reserve(run.t.size());
   run.extra.reserve(run.t.size());
   for (const TraceSample& s : r.trace.samples) {
