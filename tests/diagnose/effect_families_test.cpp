@@ -6,6 +6,7 @@
 // reports the damping it found.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "diagnose/diagnose.hpp"
@@ -88,6 +89,61 @@ TEST(DiagnoseFamilies, DriftFeltInOneDirectionIsNamedWithItsDirection) {
   EXPECT_NEAR(pos, 6.0, 1.5) << p.dump();
   EXPECT_LT(std::fabs(neg), 1.5) << p.dump();
   EXPECT_NEAR(p.value("time_constant_s", 0.0), 12.0, 3.0) << p.dump();
+}
+
+}  // namespace
+}  // namespace feedid::test
+
+namespace feedid::test {
+namespace {
+
+/// Positions a trace covers, end to end (m).
+double travel_of(const host::Trace& trace) {
+  double lo = trace.samples.front().x_m, hi = lo;
+  for (const auto& s : trace.samples) lo = std::min(lo, s.x_m), hi = std::max(hi, s.x_m);
+  return hi - lo;
+}
+
+host::SimConfig ripple_of_period(double period_m) {
+  SimSpec spec;
+  spec.seed = 5;
+  spec.duration_s = 40.0;
+  host::SimConfig cfg = logged_config(spec, host::ForceLog::held, host::VelocityLog::backward_difference);
+  cfg.effects.ripple_amplitude_N = 4.0;
+  cfg.effects.ripple_period_m = period_m;
+  return cfg;
+}
+
+// A ripple seen over only one or two of its periods (a screw's pitch error
+// over a short stroke, a cable's pull): the period is found from the data
+// beyond a third of the travel. The grid stopped there; half the travel
+// was `unexplained` at 9 times the noise floor, 0.7 of it named as
+// compliance and position friction.
+TEST(DiagnoseFamilies, RippleOfALongPeriodIsNamedWithItsPeriod) {
+  const double travel = travel_of(host::simulate(ripple_of_period(0.005)));
+  for (const double share : {0.45, 0.7}) {
+    const double period = share * travel;
+    const host::DiagnoseResult r = host::diagnose(host::simulate(ripple_of_period(period)), host::DiagnoseOptions{});
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    ASSERT_EQ(r.effect, "position_ripple") << "period " << share << " of the travel\n" << host::summary(r);
+    const nlohmann::json& p = r.effect_parameters;
+    EXPECT_NEAR(p.value("period_m", 0.0) / period, 1.0, 0.02) << p.dump();
+    EXPECT_NEAR(p.value("amplitude_N", 0.0), 4.0, 0.2) << p.dump();
+    EXPECT_FALSE(p.contains("period_note")) << p.dump();
+    EXPECT_FALSE(r.gap_remains) << host::summary(r);
+  }
+}
+
+// Beyond the travel no period can be told apart: the ripple is named at the
+// search's end, and says that its period is where the search stopped.
+TEST(DiagnoseFamilies, RippleLongerThanTheTravelSaysItsPeriodIsTheSearchsEnd) {
+  const double travel = travel_of(host::simulate(ripple_of_period(0.005)));
+  const host::DiagnoseResult r = host::diagnose(host::simulate(ripple_of_period(1.6 * travel)), host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
+  const nlohmann::json& p = r.effect_parameters;
+  EXPECT_TRUE(p.contains("period_note")) << p.dump();
+  EXPECT_NEAR(p.value("period_m", 0.0) / travel, 1.0, 0.03) << p.dump();
 }
 
 }  // namespace
