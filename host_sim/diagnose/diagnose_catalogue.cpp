@@ -99,7 +99,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.kind = effect_name(Effect::position_ripple);
   // Fine up to a third of the travel, where three periods or more are seen
   // and a period's basin is narrow; coarser from there to three travels,
-  // where it is as wide as a grid step (9.6 %). A grid that stopped at a
+  // where it is wider than a grid step (14.7 %). A grid that stopped at a
   // third left a ripple of half the travel `unexplained` at a gap of 9
   // times the noise floor, and one of 0.7 of it named as compliance and
   // position friction. Beyond the travel a period is seen in part, and a
@@ -107,7 +107,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   // counterweight) is drawn by it too: a spring's 60 N/m was `unexplained`,
   // and is closed to the noise at three travels.
   m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
-  const std::vector<double> long_periods = log_grid(e.travel / 3.0, 3.0 * e.travel, 25);
+  const std::vector<double> long_periods = log_grid(e.travel / 3.0, 3.0 * e.travel, 17);
   m.grid.insert(m.grid.end(), long_periods.begin() + 1, long_periods.end());
   m.continuous = true;
   m.sizes = {1, 2, 3};
