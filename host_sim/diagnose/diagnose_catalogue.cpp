@@ -130,10 +130,14 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.parameters = [travel = e.travel, longest = m.grid.back()](double p, int harmonics, const Vec& c, double) {
     nlohmann::json j{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
     if (harmonics > 1) {
-      nlohmann::json amp = nlohmann::json::array();
-      for (int h = 0; h < harmonics; ++h) amp.push_back(std::hypot(c(2 * h), c(2 * h + 1)));
+      nlohmann::json amp = nlohmann::json::array(), phase = nlohmann::json::array();
+      for (int h = 0; h < harmonics; ++h) {
+        amp.push_back(std::hypot(c(2 * h), c(2 * h + 1)));
+        phase.push_back(std::atan2(c(2 * h + 1), c(2 * h)));  // A_h sin(2 pi h x / P + phase_h): the replay draws them
+      }
       j["harmonics"] = harmonics;
       j["harmonic_amplitudes_N"] = amp;
+      j["harmonic_phases_rad"] = phase;
     }
     // Seen over less than one period, the period is less certain, and a
     // load that changes smoothly with position fits as such a ripple: the

@@ -44,10 +44,12 @@ struct SensorParams {
 using ExtraForce = std::function<double(double t_s, double x_m, double v_m_s)>;
 
 /// How fast an ExtraForce, opaque to the plant, changes: its steepest slope
-/// in velocity, and the shortest distance and time over which it changes
+/// in velocity and in position (a stiffness, where the axis dwells in a
+/// well of it), and the shortest distance and time over which it changes
 /// (the replay resolves them in its plant steps, sim/plant.hpp).
 struct ExtraForceScales {
   double viscous_Ns_m = 0.0;
+  double stiffness_N_m = 0.0;
   double length_m = std::numeric_limits<double>::infinity();
   double time_s = std::numeric_limits<double>::infinity();
 };

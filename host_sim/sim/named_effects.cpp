@@ -5,6 +5,8 @@
 #include <cmath>
 #include <utility>
 
+#include "model/constants.hpp"
+
 namespace feedid::host {
 namespace {
 
@@ -114,6 +116,31 @@ Drag drift_drag(Parameters& in, ExtraForceScales& scales) {
   };
 }
 
+/// A ripple's harmonics above the fundamental (the plant's own ripple is
+/// one sine): the load sum over h >= 2 of A_h sin(2 pi h x / P + phase_h),
+/// from harmonic_amplitudes_N and harmonic_phases_rad; each harmonic's
+/// period / 2 pi and stiffness 2 pi h A_h / P into `scales`. Empty where
+/// the file gives no phases (written before they were reported).
+Drag ripple_harmonics_drag(Parameters& in, double period_m, ExtraForceScales& scales) {
+  if (!in.p.contains("harmonic_phases_rad")) return {};
+  const std::vector<double> amp = in.numbers_in(in.p, "", "harmonic_amplitudes_N"),
+                            phase = in.numbers_in(in.p, "", "harmonic_phases_rad");
+  if (amp.size() != phase.size() || amp.empty())
+    in.fail("'harmonic_amplitudes_N' and 'harmonic_phases_rad' must be lists of one length");
+  if (!in.error.empty()) return {};
+  const double k = 2.0 * kPi / period_m;
+  for (std::size_t h = 1; h < amp.size(); ++h) {
+    const double kh = k * static_cast<double>(h + 1);
+    scales.length_m = std::min(scales.length_m, 1.0 / kh);
+    scales.stiffness_N_m += kh * std::fabs(amp[h]);
+  }
+  return [amp, phase, k](double, double x, double) {
+    double f = 0.0;
+    for (std::size_t h = 1; h < amp.size(); ++h) f += amp[h] * std::sin(k * static_cast<double>(h + 1) * x + phase[h]);
+    return f;
+  };
+}
+
 /// The plant's effects and the extra force's drags, with their scales.
 struct Into {
   Effects& fx;
@@ -134,7 +161,13 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
     fx.ripple_amplitude_N = in.number("amplitude_N", 0.0);
     fx.ripple_period_m = in.positive("period_m", 1.0);
     fx.ripple_phase_rad = in.number("phase_rad", 0.0);
-    note = in.number("harmonics", 1.0) > 1.0 ? "its fundamental only (the plant's ripple is one sine)" : "a load force sine in position";
+    note = "a load force sine in position";
+    if (in.number("harmonics", 1.0) > 1.0) {
+      Drag harmonics = ripple_harmonics_drag(in, fx.ripple_period_m, out.scales);
+      note = harmonics ? "a load force sine in position, with its harmonics"
+                       : "its fundamental only (the file gives no harmonic_phases_rad)";
+      if (harmonics) out.drags.push_back(std::move(harmonics));
+    }
   } else if (kind == effect_name(Effect::position_friction)) {
     if (in.text("shape") == "spline" && in.p.contains("level_N")) {
       if (Drag d = profile_drag(in, out.scales)) out.drags.push_back(std::move(d));

@@ -397,7 +397,7 @@ class DrivePlant {
 /// arm's weight's oscillation, a compliance's resonance (or its damping,
 /// when that is faster), and the time the axis takes at top speed to cross
 /// a ripple's period / 2 pi or the extra force's length, and a ripple's
-/// own stiffness. Infinite when nothing sets one. The replay steps its
+/// or the extra force's own stiffness. Infinite when nothing sets one. The replay steps its
 /// plant finely enough to resolve it; a position-friction range's step in
 /// x has no time scale, and the replay's plant locates its edges instead.
 inline double shortest_time_scale_s(const DriveParams& d, const Effects& e, const ExtraForceScales& extra,
@@ -417,6 +417,7 @@ inline double shortest_time_scale_s(const DriveParams& d, const Effects& e, cons
   if (e.drift_fraction != 0.0) faster(1.0 / e.drift_time_constant_s);
   faster(1.0 / extra.time_s);
   faster(speed_m_s / extra.length_m);
+  faster(std::sqrt(extra.stiffness_N_m / m1));
   // A ripple is crossed at top speed, and is a spring of 2 pi A / P where
   // the axis dwells in its wells; a bristle is a spring of 2 Fp / d near a
   // reversal; an arm's weight one of G per rad.

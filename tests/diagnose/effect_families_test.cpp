@@ -164,6 +164,11 @@ TEST(DiagnoseFamilies, ASpringsPullIsDrawnByARippleBeyondTheTravel) {
   const nlohmann::json& p = r.effect_parameters;
   EXPECT_GT(p.value("period_m", 0.0), travel) << p.dump();
   EXPECT_FALSE(p.value("period_note", std::string()).empty()) << p.dump();
+  // Each harmonic with its phase, so that the replay draws the load's shape.
+  if (p.value("harmonics", 1) > 1) {
+    ASSERT_TRUE(p.contains("harmonic_phases_rad")) << p.dump();
+    EXPECT_EQ(p["harmonic_phases_rad"].size(), p["harmonic_amplitudes_N"].size()) << p.dump();
+  }
   EXPECT_GT(r.closed_fraction, 0.9) << host::summary(r);
 }
 

@@ -99,10 +99,12 @@ DriveParams true_drive() {
 /// dx) with dx the backward difference (FIR [1]), no delay, plus a pulse
 /// train added to the force; no encoder quantum, no noise. With
 /// integral_hz, its PI adds ki = kv 2 pi integral_hz on the velocity error.
-LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0, const Effects& fx = {}) {
+LoggedRun simulated_run(const DriveParams& d, double duration_s, double integral_hz = 0.0, const Effects& fx = {},
+                        const ExtraForce& extra = {}) {
   SimConfig cfg;
   cfg.drive = d;
   cfg.effects = fx;
+  cfg.extra_force = extra;
   cfg.controller.servo_rate_hz = 1000.0;
   cfg.controller.velocity_integral_hz = integral_hz;
   cfg.controller.acceleration_feedforward = false;
@@ -239,6 +241,42 @@ TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
   EXPECT_NE(model_file_from_json(typo, "t.json").error.find("\"ripple\""), std::string::npos);
 }
 
+// GIVEN a run whose plant has a ripple with a second harmonic (a load not
+// one sine: a screw's pitch error, a cogging shape)
+// WHEN replayed with the ripple as diagnose writes it, with each harmonic's
+// amplitude and phase, and as a file without the phases
+// THEN the harmonics are in the plant and close the gap; without the phases
+// the fundamental alone is, and the replay says so
+TEST(Replay, ARipplesHarmonicsAreSimulatedWithTheirPhases) {
+  Effects fundamental;
+  fundamental.ripple_amplitude_N = 10.0;
+  fundamental.ripple_period_m = 0.05;
+  fundamental.ripple_phase_rad = 0.3;
+  const ExtraForce second = [](double, double x, double) { return 6.0 * std::sin(2.0 * 2.0 * M_PI * x / 0.05 - 1.1); };
+  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, fundamental, second);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  const DriveParams d = true_drive();
+  const auto side = [](const DirectionFriction& f) {
+    return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
+  };
+  const json ripple = {{"amplitude_N", 10.0}, {"period_m", 0.05}, {"phase_rad", 0.3}, {"harmonics", 2},
+                       {"harmonic_amplitudes_N", {10.0, 6.0}}, {"harmonic_phases_rad", {0.3, -1.1}}};
+  json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
+            {"effects", json::array({{{"kind", "position_ripple"}, {"parameters", ripple}}})}};
+  const ReplayResult w = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
+  j["effects"][0]["parameters"].erase("harmonic_phases_rad");
+  const ReplayResult f = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
+  ASSERT_EQ(w.error, "");
+  ASSERT_EQ(f.error, "");
+  EXPECT_LT(w.same_processing_pct.force, 0.5);
+  EXPECT_GT(f.same_processing_pct.force, 5.0 * std::max(w.same_processing_pct.force, 0.2));
+  bool harmonics_said = false, fundamental_said = false;
+  for (const std::string& n : w.notes) harmonics_said = harmonics_said || n.find("with its harmonics") != std::string::npos;
+  for (const std::string& n : f.notes) fundamental_said = fundamental_said || n.find("fundamental only") != std::string::npos;
+  EXPECT_TRUE(harmonics_said);
+  EXPECT_TRUE(fundamental_said);
+}
+
 // GIVEN model files whose effects or mass the plant cannot take, THEN the
 // replay refuses each, naming the file, the effect and the key: no crash,
 // no exception, no NaN or infinite figure with status ok.
@@ -262,6 +300,10 @@ TEST(Replay, AnEffectThePlantCannotTakeIsRefusedByName) {
        "'x_max_m' must be above 'x_min_m'"},
       {{{"kind", "quadratic_viscous"}, {"parameters", {{"c2", "x"}}}}, "'c2' must be a finite number"},
       {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.0}}}}, "'period_m' must be > 0"},
+      {{{"kind", "position_ripple"},
+        {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 2}, {"harmonic_amplitudes_N", {5.0, 1.0}},
+                        {"harmonic_phases_rad", {0.0}}}}},
+       "'harmonic_amplitudes_N' and 'harmonic_phases_rad' must be lists of one length"},
       {{{"kind", "presliding_hysteresis"}, {"parameters", {{"force_N", 5.0}, {"distance_m", 0.0}, {"resets", "at reversals"}}}},
        "'distance_m' must be > 0"},
   };
@@ -392,6 +434,15 @@ TEST(Replay, AutomaticStepsMeetTheHalvingRuleOnFastEffects) {
   rippled.effects = light.ripple;
   EXPECT_GT(halving_change_at(2, model_of(light_model), light.c, light.run, rippled), 0.01);
   EXPECT_LE(halving_change(model_of(light_model), light.c, light.run, rippled), 0.01);
+  // The same ripple as a model file's second harmonic (of a 2 mm period):
+  // the extra force's own stiffness sets the steps as the plant's ripple's does.
+  ModelFile harmonic = model_of(light_model);
+  harmonic.effects = json::array(
+      {{{"kind", "position_ripple"},
+        {"parameters", {{"amplitude_N", 0.0}, {"period_m", 2e-3}, {"phase_rad", 0.0}, {"harmonics", 2},
+                        {"harmonic_amplitudes_N", {0.0, 3.0}}, {"harmonic_phases_rad", {0.0, 0.0}}}}}});
+  EXPECT_GT(halving_change_at(2, harmonic, light.c, light.run, {}), 0.01);
+  EXPECT_LE(halving_change(harmonic, light.c, light.run, {}), 0.01);
 
   std::vector<std::pair<std::string, Effects>> plants(5);
   plants[0].first = "position friction 150 N on [10, 30] mm";
