@@ -106,9 +106,14 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   // load that changes smoothly with position (a spring, a cable, a
   // counterweight) is drawn by it too: a spring's 60 N/m was `unexplained`,
   // and is closed to the noise at three travels.
-  m.grid = log_grid(std::max(4e-4, 1e-3 * e.travel), e.travel / 3.0, 160);
-  const std::vector<double> long_periods = log_grid(e.travel / 3.0, 3.0 * e.travel, 17);
-  m.grid.insert(m.grid.end(), long_periods.begin() + 1, long_periods.end());
+  // (On a travel under 1.2 mm a third of it is below the shortest period,
+  // 0.4 mm, and the grid is left as it was: nothing ascends past it.)
+  const double shortest = std::max(4e-4, 1e-3 * e.travel);
+  m.grid = log_grid(shortest, e.travel / 3.0, 160);
+  if (e.travel / 3.0 > shortest) {
+    const std::vector<double> long_periods = log_grid(e.travel / 3.0, 3.0 * e.travel, 17);
+    m.grid.insert(m.grid.end(), long_periods.begin() + 1, long_periods.end());
+  }
   m.continuous = true;
   m.sizes = {1, 2, 3};
   m.columns_per_size = 2;  // HarmonicMeans: harmonic h's pair the same for any count

@@ -8,8 +8,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "diagnose/diagnose.hpp"
+#include "diagnose/diagnose_catalogue.hpp"
 #include "test_support.hpp"
 
 namespace feedid::test {
@@ -170,6 +172,48 @@ TEST(DiagnoseFamilies, ASpringsPullIsDrawnByARippleBeyondTheTravel) {
     EXPECT_EQ(p["harmonic_phases_rad"].size(), p["harmonic_amplitudes_N"].size()) << p.dump();
   }
   EXPECT_GT(r.closed_fraction, 0.9) << host::summary(r);
+}
+
+}  // namespace
+}  // namespace feedid::test
+
+
+namespace feedid::test {
+namespace {
+
+/// The ripple's period grid over a travel of `travel_m` (the catalogue's
+/// second family).
+std::vector<double> ripple_grid(double travel_m) {
+  host::Signals s;
+  s.sample_rate_hz = 1000.0;
+  s.has_position = true;
+  for (int k = 0; k < 4000; ++k) {
+    s.t.push_back(k / s.sample_rate_hz);
+    s.x.push_back(0.05 * k / s.sample_rate_hz);
+    s.v.push_back(0.05);
+    s.u.push_back(20.0);
+  }
+  const double v_min = 1e-3;
+  const host::diag::Observations obs(s, v_min, 0.005, host::diag::make_folds(s, 40, v_min));
+  host::diag::TraceExtent e = host::diag::trace_extent(obs);
+  e.travel = travel_m;
+  const std::vector<host::diag::EffectModel> catalogue = host::diag::effect_catalogue(obs, e, 0.0, {});
+  EXPECT_EQ(catalogue.at(1).kind, "position_ripple");
+  return catalogue.at(1).grid;
+}
+
+// The grid ascends from the shortest period to three travels, so that the
+// golden section between a grid point's neighbours has a bracket; on a
+// travel under 1.2 mm, whose third is below the shortest period (0.4 mm),
+// nothing is appended past the grid it had.
+TEST(DiagnoseFamilies, RipplePeriodsAscendToThreeTravels) {
+  const std::vector<double> g = ripple_grid(0.1);
+  ASSERT_EQ(g.size(), 176u);
+  EXPECT_DOUBLE_EQ(g.front(), 4e-4);
+  EXPECT_NEAR(g.back(), 0.3, 1e-12);
+  for (std::size_t i = 1; i < g.size(); ++i) EXPECT_GT(g[i], g[i - 1]) << i;
+  const std::vector<double> tiny = ripple_grid(1e-3);
+  EXPECT_EQ(tiny, host::diag::log_grid(4e-4, 1e-3 / 3.0, 160));
 }
 
 }  // namespace
