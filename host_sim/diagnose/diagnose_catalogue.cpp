@@ -132,7 +132,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   };
   m.columns = [columns_at](double p, int harmonics, Observations::Draw r) { return columns_at({p}, harmonics, r).front(); };
   m.columns_at_many = columns_at;
-  m.parameters = [travel = e.travel, longest = m.grid.back()](double p, int harmonics, const Vec& c, double) {
+  m.parameters = [travel = e.travel](double p, int harmonics, const Vec& c, double) {
     nlohmann::json j{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
     if (harmonics > 1) {
       nlohmann::json amp = nlohmann::json::array(), phase = nlohmann::json::array();
@@ -147,7 +147,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
     // Seen over less than one period, the period is less certain, and a
     // load that changes smoothly with position fits as such a ripple: the
     // report says so, and where the period is the search's end.
-    if (p > 0.97 * longest)
+    if (p > 0.97 * 3.0 * travel)  // the grid's top (a travel under 1.2 mm has none: its grid ends below the travel)
       j["period_note"] = "at the top of the search range (three travels): a load that changes smoothly with position "
                          "over the travel (a spring, a cable, a counterweight), not a period the data resolve";
     else if (p > travel)
