@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <complex>
 #include <exception>
 #include <functional>
 #include <limits>
@@ -21,6 +22,7 @@
 #include "diagnose_blocks.hpp"
 #include "diagnose_catalogue.hpp"
 #include "diagnose_fit.hpp"
+#include "phasor.hpp"
 #include "identify/gravity.hpp"
 #include "io/beside.hpp"
 
@@ -984,8 +986,9 @@ void where_in_frequency(const Observations& obs, const Vec& r, double block_s, s
       for (std::size_t fi = 0; fi < freqs.size(); ++fi) {
         double re = 0.0, im = 0.0;
         for (std::size_t b = i; b < j; ++b) {
-          re += r(static_cast<Eigen::Index>(b)) * std::cos(2 * M_PI * freqs[fi] * o[b].t);
-          im += r(static_cast<Eigen::Index>(b)) * std::sin(2 * M_PI * freqs[fi] * o[b].t);
+          const std::complex<double> z = diag::unit_phasor(2 * M_PI * freqs[fi] * o[b].t);
+          re += r(static_cast<Eigen::Index>(b)) * z.real();
+          im += r(static_cast<Eigen::Index>(b)) * z.imag();
         }
         power[fi] += (re * re + im * im) / static_cast<double>(j - i);
       }

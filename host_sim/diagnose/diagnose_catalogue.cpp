@@ -1,6 +1,7 @@
 #include "diagnose_catalogue.hpp"
 
 #include "model/effects.hpp"
+#include "phasor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -65,8 +66,8 @@ class HarmonicMeans {
   HarmonicMeans(double k, int harmonics) : k_(k), harmonics_(harmonics) {}
   void operator()(const Segment& sg, double* out) {
     std::complex<double> z0 = z_prev_;
-    if (sg.x0 != x_prev_) z0 = std::polar(1.0, k_ * sg.x0);
-    const std::complex<double> z1 = std::polar(1.0, k_ * sg.x1);
+    if (sg.x0 != x_prev_) z0 = unit_phasor(k_ * sg.x0);
+    const std::complex<double> z1 = unit_phasor(k_ * sg.x1);
     const double dphi = k_ * (sg.x1 - sg.x0);
     std::complex<double> p0 = z0, p1 = z1;
     for (int h = 1; h <= harmonics_; ++h, p0 *= z0, p1 *= z1) {

@@ -1,0 +1,56 @@
+#pragma once
+// e^{i theta} without the library's sincos: the ripple family draws one per
+// segment and period tried (two million on the 25 s EMPS PULSES run with a
+// given model, a seventh of diagnose's time), and glibc's sincos spends
+// most of each call saving and restoring the rounding mode.
+
+#include <cmath>
+#include <complex>
+
+namespace feedid::host::diag {
+
+/// Above this |theta| (rad) the reduction below loses its exactness
+/// (n * kPio2Hi is exact while n < 2^20), and the library is called.
+constexpr double kPhasorReducedMax = 1.0e6;
+
+/// e^{i theta}: theta reduced by n pi/2 (Cody and Waite, pi/2 in three
+/// parts as fdlibm's __ieee754_rem_pio2 splits it), then fdlibm's kernel
+/// polynomials on [-pi/4, pi/4]. Within 2e-16 of the library's sin and cos
+/// for |theta| up to kPhasorReducedMax (tests/diagnose/phasor_test.cpp).
+inline std::complex<double> unit_phasor(double theta) {
+  if (!(std::fabs(theta) < kPhasorReducedMax)) return std::polar(1.0, theta);
+  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+  constexpr double kPio2Hi = 1.57079632673412561417e+00;   // first 33 bits of pi/2
+  constexpr double kPio2Mid = 6.07710050630396597660e-11;  // next 33 bits
+  constexpr double kPio2Lo = 2.02226624879595063154e-21;   // the rest
+  // Rounded to the nearest integer by adding and taking away 1.5 * 2^52
+  // (round to nearest is the mode these run in): nearbyint is a library
+  // call on the baseline x86-64 the host builds for.
+  constexpr double kRoundingShift = 6755399441055744.0;
+  const double n = (theta * kTwoOverPi + kRoundingShift) - kRoundingShift;
+  const double r = ((theta - n * kPio2Hi) - n * kPio2Mid) - n * kPio2Lo;
+  const double z = r * r;
+  const double sin_r =
+      r + r * z *
+              (-1.66666666666666324348e-01 +
+               z * (8.33333333332248946124e-03 +
+                    z * (-1.98412698298579493134e-04 +
+                         z * (2.75573137070700676789e-06 + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+  const double cos_r =
+      1.0 - 0.5 * z +
+      z * z *
+          (4.16666666666666019037e-02 +
+           z * (-1.38888888888741095749e-03 +
+                z * (2.48015872894767294178e-05 +
+                     z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+  // The quadrant q = n mod 4 turns (cos r, sin r) by q quarter turns:
+  // selected, not branched on (the quadrants of successive segments follow
+  // no pattern a branch predictor learns).
+  const long long q = static_cast<long long>(n) & 3;
+  const bool odd = (q & 1) != 0;
+  const double re = (odd ? sin_r : cos_r) * (((q + 1) & 2) != 0 ? -1.0 : 1.0);
+  const double im = (odd ? cos_r : sin_r) * ((q & 2) != 0 ? -1.0 : 1.0);
+  return {re, im};
+}
+
+}  // namespace feedid::host::diag

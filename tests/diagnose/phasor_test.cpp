@@ -1,0 +1,53 @@
+// unit_phasor against the library's sin and cos (host_sim/diagnose/phasor.hpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "diagnose/phasor.hpp"
+
+namespace feedid::test {
+namespace {
+
+using host::diag::kPhasorReducedMax;
+using host::diag::unit_phasor;
+
+double worst_error_up_to(double scale, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> theta(-scale, scale);
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    const double t = theta(rng);
+    const std::complex<double> z = unit_phasor(t);
+    worst = std::max({worst, std::fabs(z.real() - std::cos(t)), std::fabs(z.imag() - std::sin(t))});
+  }
+  return worst;
+}
+
+TEST(UnitPhasor, AgreesWithTheLibraryToTheLastBitsAtEveryScale) {
+  std::mt19937_64 rng(7);
+  // From a fraction of a turn to the reduction's limit: 1e-15 is a few
+  // units in the last place of an entry of size one.
+  for (const double scale : {0.5, 4.0, 100.0, 1e4, 0.99 * kPhasorReducedMax})
+    EXPECT_LT(worst_error_up_to(scale, rng), 1e-15) << "|theta| up to " << scale;
+}
+
+TEST(UnitPhasor, EachQuadrantAndItsEdgesAreTurnedRight) {
+  for (int quarter = -8; quarter <= 8; ++quarter)
+    for (const double off : {-0.78, -1e-9, 0.0, 1e-9, 0.78}) {
+      const double t = quarter * M_PI / 2 + off;
+      const std::complex<double> z = unit_phasor(t);
+      EXPECT_NEAR(z.real(), std::cos(t), 1e-15) << t;
+      EXPECT_NEAR(z.imag(), std::sin(t), 1e-15) << t;
+    }
+}
+
+TEST(UnitPhasor, BeyondTheReductionItIsTheLibrarysAndNonFiniteStaysSo) {
+  for (const double t : {2.0 * kPhasorReducedMax, -5e12}) {
+    EXPECT_EQ(unit_phasor(t), std::polar(1.0, t)) << t;
+  }
+  EXPECT_TRUE(std::isnan(unit_phasor(std::nan("")).real()));
+  EXPECT_TRUE(std::isnan(unit_phasor(INFINITY).imag()));
+}
+
+}  // namespace
+}  // namespace feedid::test
