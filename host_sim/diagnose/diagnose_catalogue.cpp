@@ -489,33 +489,38 @@ class LoadFilters {
     double w, z;  ///< rad/s, damping ratio
   };
   LoadFilters(const Observations& obs, Observations::Resolution r, const std::vector<Resonance>& res)
-      : phi_(res.size()), y_(res.size(), 0.0), yd_(res.size(), 0.0), jerk_gain_(res.size()) {
-    for (std::size_t k = 0; k < res.size(); ++k) {
+      : n_(res.size()), y_(res.size(), 0.0), yd_(res.size(), 0.0), jerk_gain_(res.size()) {
+    // Phi once per distinct segment length (Observations::segment_lengths),
+    // not an exp and a sincos per segment; a length's filters side by side.
+    const std::vector<double>& lengths = obs.segment_lengths(r);
+    phi_.resize(lengths.size() * n_);
+    for (std::size_t k = 0; k < n_; ++k) {
       const double w = res[k].w, z = res[k].z;
       jerk_gain_[k] = 2.0 * z * w;
       const double wd = w * std::sqrt(1.0 - z * z);
-      // Phi once per distinct segment length (Observations::segment_lengths),
-      // not an exp and a sincos per segment.
-      phi_[k].reserve(obs.segment_lengths(r).size());
-      for (const double h : obs.segment_lengths(r)) {
-        const double decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
-        phi_[k].push_back({decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)});
+      for (std::size_t l = 0; l < lengths.size(); ++l) {
+        const double h = lengths[l], decay = std::exp(-z * w * h), c = std::cos(wd * h), s = std::sin(wd * h);
+        phi_[l * n_ + k] = {decay * (c + z * w / wd * s), decay * s / wd, -decay * w * w / wd * s, decay * (c - z * w / wd * s)};
       }
     }
   }
   /// out[k]: filter k's mean load acceleration over the next segment less
   /// the motor's. Every segment of the resolution, in time order
   /// (Observations::segment_columns, stateful).
-  void next(const Segment& sg, double* out) {
+  void next(const Segment& sg, double* __restrict out) {
     const double a = sg.accel, step = started_ ? a - accel_before_ : 0.0;
-    for (std::size_t k = 0; k < phi_.size(); ++k) {
-      if (started_) yd_[k] += jerk_gain_[k] * step;
-      else y_[k] = a;
-      const Phi& p = phi_[k][sg.length];
-      const double e = y_[k] - a, y0 = y_[k];
-      y_[k] = a + p.p11 * e + p.p12 * yd_[k];
-      yd_[k] = p.p21 * e + p.p22 * yd_[k];
-      out[k] = 0.5 * (y0 + y_[k]) - a;
+    if (!started_) std::fill(y_.begin(), y_.end(), a);
+    // Unaliased locals, so that the states stay in registers across the
+    // filters (through `out` the compiler had to reload them).
+    double* __restrict y = y_.data();
+    double* __restrict yd = yd_.data();
+    const double* __restrict gain = jerk_gain_.data();
+    const Phi* __restrict phi = phi_.data() + sg.length * n_;
+    for (std::size_t k = 0; k < n_; ++k) {
+      const double e = y[k] - a, y0 = y[k], v = yd[k] + gain[k] * step;
+      y[k] = a + phi[k].p11 * e + phi[k].p12 * v;
+      yd[k] = phi[k].p21 * e + phi[k].p22 * v;
+      out[k] = 0.5 * (y0 + y[k]) - a;
     }
     started_ = true;
     accel_before_ = a;
@@ -525,7 +530,8 @@ class LoadFilters {
   struct Phi {
     double p11, p12, p21, p22;
   };
-  std::vector<std::vector<Phi>> phi_;
+  std::size_t n_;
+  std::vector<Phi> phi_;  ///< per segment length, the n_ filters' transitions
   std::vector<double> y_, yd_, jerk_gain_;
   double accel_before_ = 0.0;
   bool started_ = false;
