@@ -754,6 +754,22 @@ std::vector<Evaluation> evaluate_all(const Stage& st, const Model& current, cons
   return evals;
 }
 
+/// Term k's parameters from m's joint fit with all its terms.
+nlohmann::json term_parameters(const Stage& st, const Model& m, std::size_t k) {
+  Eigen::Index c = static_cast<Eigen::Index>(model_columns(st.base, m).size());
+  for (const auto& t : m.terms) c -= static_cast<Eigen::Index>(t.cols.size());
+  for (std::size_t i = 0; i < k; ++i) c += static_cast<Eigen::Index>(m.terms[i].cols.size());
+  const auto& t = m.terms[k];
+  return st.catalogue[t.effect].parameters(t.p, t.size, m.fit.theta.segment(c, static_cast<Eigen::Index>(t.cols.size())),
+                                           stage_mass(st, m.fit.theta));
+}
+
+/// Why term k of m is not physical in m's joint fit (empty: it is).
+std::string term_implausible(const Stage& st, const Model& m, std::size_t k) {
+  const EffectModel& em = st.catalogue[m.terms[k].effect];
+  return em.implausible ? em.implausible(term_parameters(st, m, k), stage_mass(st, m.fit.theta)) : std::string();
+}
+
 /// Two effects that explain the gap only together. Tested alone, each
 /// leaves the other's residual in its z test's spread, so neither passes
 /// (z 4-5 on gaps 10-50x the noise floor: drift beside a delay, position
@@ -794,6 +810,10 @@ PairStep best_pair(const Stage& st, const std::vector<Evaluation>& evals, const 
     judge(b, gap, opt);  // z of b given a; energy share of the pair against the step's gap
     if (!b.eligible || (best.found && b.c.heldout_rms_N >= best.second.c.heldout_rms_N)) continue;
     const Model both = adopt(st, b);
+    // The first member was judged physical alone; refitted beside the
+    // second it may not be (a compliance whose load mass turned negative
+    // was named in a pair): such a pair is not named.
+    if (!term_implausible(st, both, both.terms.size() - 2).empty()) continue;
     const double a_given_b = improvement_z(alone[j].residual, both.residual, st.obs);
     if (a_given_b < opt.significance_z) continue;
     best = {a, b, both, a_given_b, true};
@@ -855,14 +875,7 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
 
 /// Each named effect's parameters from the joint fit with all of them.
 void name_parameters(const Stage& st, const Model& m, DiagnoseResult& out) {
-  Eigen::Index c = static_cast<Eigen::Index>(model_columns(st.base, m).size());
-  for (const auto& t : m.terms) c -= static_cast<Eigen::Index>(t.cols.size());
-  for (std::size_t k = 0; k < m.terms.size(); ++k) {
-    const auto& t = m.terms[k];
-    const auto q = static_cast<Eigen::Index>(t.cols.size());
-    out.effects[k].parameters = st.catalogue[t.effect].parameters(t.p, t.size, m.fit.theta.segment(c, q), stage_mass(st, m.fit.theta));
-    c += q;
-  }
+  for (std::size_t k = 0; k < m.terms.size(); ++k) out.effects[k].parameters = term_parameters(st, m, k);
 }
 
 /// theta: m, Fc+, Fc-, sigma+, sigma-, then (Fs, dE) per direction with a dip.
