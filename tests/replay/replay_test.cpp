@@ -277,6 +277,40 @@ TEST(Replay, ARipplesHarmonicsAreSimulatedWithTheirPhases) {
   EXPECT_TRUE(fundamental_said);
 }
 
+// GIVEN a model file with two ripples, the first with a second harmonic
+// WHEN replayed on a run whose plant has the second ripple alone
+// THEN the plant's one ripple is the later one, harmonics and all: the
+// earlier one's harmonic is not left in the extra force, and the replay
+// says the earlier one was replaced
+TEST(Replay, ALaterRippleReplacesAnEarlierOneWithItsHarmonics) {
+  Effects fundamental;
+  fundamental.ripple_amplitude_N = 10.0;
+  fundamental.ripple_period_m = 0.05;
+  fundamental.ripple_phase_rad = 0.3;
+  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, fundamental);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  const DriveParams d = true_drive();
+  const auto side = [](const DirectionFriction& f) {
+    return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
+  };
+  const json earlier = {{"amplitude_N", 4.0}, {"period_m", 0.02}, {"phase_rad", 0.0}, {"harmonics", 2},
+                        {"harmonic_amplitudes_N", {4.0, 6.0}}, {"harmonic_phases_rad", {0.0, 1.0}}};
+  const json later = {{"amplitude_N", 10.0}, {"period_m", 0.05}, {"phase_rad", 0.3}};
+  json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
+            {"effects", json::array({{{"kind", "position_ripple"}, {"parameters", earlier}},
+                                     {{"kind", "position_ripple"}, {"parameters", later}}})}};
+  const ReplayResult both = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
+  j["effects"].erase(0);
+  const ReplayResult alone = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
+  ASSERT_EQ(both.error, "");
+  ASSERT_EQ(alone.error, "");
+  EXPECT_LT(alone.same_processing_pct.force, 0.5);
+  EXPECT_NEAR(both.same_processing_pct.force, alone.same_processing_pct.force, 1e-9);
+  bool replaced_said = false;
+  for (const std::string& n : both.notes) replaced_said = replaced_said || n.find("replaced by a later position_ripple") != std::string::npos;
+  EXPECT_TRUE(replaced_said);
+}
+
 // GIVEN model files whose effects or mass the plant cannot take, THEN the
 // replay refuses each, naming the file, the effect and the key: no crash,
 // no exception, no NaN or infinite figure with status ok.
@@ -304,6 +338,12 @@ TEST(Replay, AnEffectThePlantCannotTakeIsRefusedByName) {
         {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 2}, {"harmonic_amplitudes_N", {5.0, 1.0}},
                         {"harmonic_phases_rad", {0.0}}}}},
        "'harmonic_amplitudes_N' and 'harmonic_phases_rad' must be lists of one length"},
+      {{{"kind", "position_ripple"},
+        {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 3}, {"harmonic_amplitudes_N", {5.0, 1.0}},
+                        {"harmonic_phases_rad", {0.0, 0.5}}}}},
+       "'harmonics' is 3 but the lists give 2"},
+      {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 1.5}}}},
+       "'harmonics' must be a whole number >= 1"},
       {{{"kind", "presliding_hysteresis"}, {"parameters", {{"force_N", 5.0}, {"distance_m", 0.0}, {"resets", "at reversals"}}}},
        "'distance_m' must be > 0"},
   };
