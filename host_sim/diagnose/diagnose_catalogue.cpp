@@ -365,6 +365,7 @@ std::string drift_turns_friction_negative(const Observations& obs, const std::ve
 EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, const MeasuredFriction& friction) {
   EffectModel m;
   m.kind = effect_name(Effect::thermal_drift);
+  m.friction_with_speed_or_time = true;
   m.grid = log_grid(std::max(1.0, 0.02 * e.longest_run_s), 5.0 * e.longest_run_s, 40);
   m.continuous = true;
   m.sizes = {1, 2};
@@ -403,6 +404,7 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
 EffectModel quadratic_viscous_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::quadratic_viscous);
+  m.friction_with_speed_or_time = true;
   m.columns = [&obs](double, int, Observations::Draw r) {
     const Vec c = obs.sample_column([&obs](std::size_t j) {
       const double v = obs.interval_v(j);

@@ -57,6 +57,10 @@ struct EffectModel {
   std::function<std::vector<double>(double)> refine = {};
   /// "" if the fitted parameters are physical for a drive of mass_kg, else why not.
   std::function<std::string(const nlohmann::json&, double mass_kg)> implausible = {};
+  /// A change of friction with speed or time: it stands in for a base whose
+  /// friction law the run does not settle (base_friction_unsettled), and is
+  /// not named beside one.
+  bool friction_with_speed_or_time = false;
 };
 
 /// Extent of the trace the grids are laid over.

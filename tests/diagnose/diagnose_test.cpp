@@ -77,6 +77,31 @@ host::SimConfig open_loop(host::Program program, ForceLog force, std::uint64_t s
 // GIVEN a block length that is no length (0, negative, NaN, infinite),
 // THEN the diagnosis refuses it by name instead of answering 'none' or
 // 'too little motion'.
+// GIVEN short ladders of an effect-free drive (8 to 12 s: the speeds logged
+// end inside the Stribeck fall, so the base's friction law is not settled)
+// WHEN diagnosed
+// THEN the unsettled base is said, and no change of friction with speed or
+// time is named in its place (8 s named a thermal drift of +2700 N s/m
+// viscous change, 12 s a quadratic damping that "closed" 97 % of the gap)
+TEST(DiagnoseBase, AnUnsettledFrictionLawIsSaidAndNothingStandsInForIt) {
+  for (const double seconds : {8.0, 10.0, 12.0}) {
+    SimSpec spec;
+    spec.duration_s = seconds;
+    const host::DiagnoseResult r = host::diagnose(host::simulate(sim_config(spec)), host::DiagnoseOptions{});
+    ASSERT_TRUE(r.error.empty()) << seconds << " s: " << r.error;
+    bool said = false;
+    for (const auto& a : r.ambiguities) said = said || a["kinds"][0] == "base_friction_unsettled";
+    EXPECT_TRUE(said) << seconds << " s\n" << host::summary(r);
+    for (const auto& e : r.effects)
+      EXPECT_TRUE(e.kind != "thermal_drift" && e.kind != "quadratic_viscous") << seconds << " s\n" << host::summary(r);
+  }
+  // A ladder long enough to settle it says nothing of the kind.
+  SimSpec settled;
+  settled.duration_s = 30.0;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(sim_config(settled)), host::DiagnoseOptions{});
+  for (const auto& a : r.ambiguities) EXPECT_NE(a["kinds"][0], "base_friction_unsettled") << host::summary(r);
+}
+
 TEST(DiagnoseOptionsCheck, ABlockThatIsNoLengthIsRefused) {
   const host::Trace t = host::simulate(test::sim_config(test::SimSpec{}));
   for (double block : {0.0, -0.01, std::nan(""), HUGE_VAL}) {
