@@ -385,6 +385,7 @@ struct Verdict {
   double rms_base_N = kNaN, rms_augmented_N = kNaN, noise_floor_N = kNaN, closed_fraction = kNaN;
   double max_z = kNaN;  ///< largest z of a plausible candidate at the first step (calibration)
   std::vector<std::string> named;  ///< every effect forward selection named, in order (not unexplained)
+  nlohmann::json ambiguous = nlohmann::json::array();  ///< the kinds of each of diagnose's ambiguities
 };
 
 Verdict diagnose_blind(const Trace& trace) {
@@ -408,6 +409,7 @@ Verdict diagnose_blind(const Trace& trace) {
         v.parameters = {{"force_N", a["offset_N"]}};
       }
     for (const auto& e : r.effects) v.named.push_back(e.kind);
+    for (const auto& a : r.ambiguities) v.ambiguous.push_back(a.value("kinds", nlohmann::json::array()));
     v.max_z = -std::numeric_limits<double>::infinity();
     for (const auto& c : r.candidates)
       if (!c.indistinguishable && c.note.rfind("not physical", 0) != 0) v.max_z = std::max(v.max_z, c.z_statistic);
@@ -814,7 +816,8 @@ nlohmann::json to_json(const std::vector<CaseRecord>& recs, const Scores& s, con
                             {"noise_floor_N", finite_or_null(r.verdict.noise_floor_N)},
                             {"closed_fraction", finite_or_null(r.verdict.closed_fraction)},
                             {"max_z", finite_or_null(r.verdict.max_z)},
-                            {"effects", r.verdict.named}};
+                            {"effects", r.verdict.named},
+                            {"ambiguous", r.verdict.ambiguous}};
     if (!r.verdict.error.empty()) named["error"] = r.verdict.error;
     cs.push_back({{"case", i + 1},
                   {"truth", {{"effect", r.truth.label}, {"pair", r.truth.pair}, {"parameters", r.truth.effect}, {"effect_rms_N", r.truth.effect_rms_N}}},
