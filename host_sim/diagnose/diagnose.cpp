@@ -172,10 +172,15 @@ std::vector<int> all_columns(const BaseColumns& b, const Model& m) {
 }
 
 /// A direction whose friction law the run does not settle: friction falls
-/// across every speed logged, or a magnitude came out negative. What the
-/// base then misses, a change of friction with speed or time draws.
+/// across every speed logged (flagged so, or a viscous slope that came out
+/// negative). What the base then misses, a change of friction with speed
+/// or time draws. Any non-physical magnitude is not enough: a strong
+/// quadratic damping left a slightly negative Coulomb force, and the
+/// damping was then not named (a blind pair case).
 bool friction_unsettled(const feedid::DirectionEstimate<double>& d) {
-  return d.friction_identified() && (d.flags & (feedid::flag_friction_still_falling | feedid::flag_not_physical)) != 0;
+  return d.friction_identified() &&
+         ((d.flags & feedid::flag_friction_still_falling) != 0 ||
+          ((d.flags & feedid::flag_not_physical) != 0 && d.viscous_Ns_m < 0.0));
 }
 
 BaseColumns add_base_columns(const Observations& obs, ColumnBank& bank, const IdentifyResult& base) {
@@ -868,6 +873,21 @@ void report_rival(const Stage& st, const std::vector<Evaluation>& evals, const D
                     " is named for its lower error, but this run does not tell them apart"}});
 }
 
+/// report_rival's entries against the effects finally named: a rival is
+/// an alternative to an effect that stays named, so one whose effect the
+/// verdict dropped goes, and so does one that a later step named too (not
+/// an alternative but the other half of a pair whose members each close
+/// part of the first step's gap).
+void keep_rivals_of_named(DiagnoseResult& out) {
+  const auto named = [&](const nlohmann::json& kind) {
+    return std::any_of(out.effects.begin(), out.effects.end(), [&](const NamedEffect& e) { return e.kind == kind; });
+  };
+  auto& a = out.ambiguities;
+  a.erase(std::remove_if(a.begin(), a.end(),
+                         [&](const nlohmann::json& x) { return x.contains("z") && (!named(x["kinds"][0]) || named(x["kinds"][1])); }),
+          a.end());
+}
+
 /// Forward selection: add the best significant effect, refit, test the
 /// rest on what remains; stop when the gap is noise or nothing qualifies.
 Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& opt, DiagnoseResult& out) {
@@ -978,7 +998,7 @@ void report_unsettled_friction(DiagnoseResult& out) {
       {{"kinds", {"base_friction_unsettled"}},
        {"directions", dirs},
        {"note", "the base model's friction law is not settled by this run in the " + dirs +
-                    " direction (friction falls across every speed logged, or a magnitude came out negative): the base "
+                    " direction (friction falls across every speed logged): the base "
                     "gets a Stribeck dip to fit, and a change of friction with speed or time (quadratic_viscous, "
                     "thermal_drift) is not named, since it would stand in for what the base misses. A run that also "
                     "reaches speeds where friction rises again settles it (docs/recording.md)."}});
@@ -1377,6 +1397,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const Model final_model = select_effects(st, base, opt, out);
   name_parameters(st, final_model, out);
   verdict(st, base, final_model, opt, out);
+  keep_rivals_of_named(out);
   if (!out.effects.empty()) {
     out.augmented_model = opt.model ? opt.model->drive : drive_params(base_cols, final_model);
     out.has_augmented_model = true;

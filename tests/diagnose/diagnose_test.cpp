@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "bench/blind_bench.hpp"
 #include "diagnose/diagnose.hpp"
+#include "io/csv_trace.hpp"
 #include "test_support.hpp"
 
 namespace feedid::test {
@@ -95,6 +97,24 @@ TEST(DiagnoseBase, AnUnsettledFrictionLawIsSaidAndNothingStandsInForIt) {
     for (const auto& e : r.effects)
       EXPECT_TRUE(e.kind != "thermal_drift" && e.kind != "quadratic_viscous") << seconds << " s\n" << host::summary(r);
   }
+  // A strong quadratic damping beside a ripple (blind pair case 27 of seed
+  // 31) leaves the base's Coulomb force slightly negative in one
+  // direction: that base is not physical, but its friction does not fall
+  // with speed, and the damping is still named.
+  host::BlindOptions o;
+  o.cases = 30;
+  o.seed = 31;
+  o.labels = "pair";
+  o.write_case = 27;
+  o.quiet = true;
+  o.case_path = ::testing::TempDir() + "blind_pair_27.csv";
+  ASSERT_EQ(host::run_blind_bench(o).bad_input, "");
+  const host::CsvResult pair = host::read_trace_csv(o.case_path, host::CsvColumns{});
+  ASSERT_TRUE(pair.error.empty()) << pair.error;
+  const host::DiagnoseResult q = host::diagnose(pair.trace, host::DiagnoseOptions{});
+  ASSERT_TRUE(q.error.empty()) << q.error;
+  EXPECT_TRUE(std::any_of(q.effects.begin(), q.effects.end(), [](const auto& e) { return e.kind == "quadratic_viscous"; }))
+      << host::summary(q);
   // A ladder long enough to settle it says nothing of the kind.
   SimSpec settled;
   settled.duration_s = 30.0;
