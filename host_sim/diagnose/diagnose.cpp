@@ -903,7 +903,7 @@ void report_rival(const Stage& st, const std::vector<Evaluation>& evals, const D
   zs << std::setprecision(2) << z << " < " << opt.significance_z;
   out.ambiguities.push_back(
       {{"kinds", {best.c.kind, rival->c.kind}},
-       {"step", out.steps.size()},
+       {"effect_number", out.effects.size() + 1},  // the effect being named: 1 for the first
        {"z", z},
        {"note", best.c.kind + " (held-out RMS " + fmt(best.c.heldout_rms_N, N) + ") or " + rival->c.kind + " (" +
                     fmt(rival->c.heldout_rms_N, N) + "): each closes the gap, and the held-out test does not prefer the "

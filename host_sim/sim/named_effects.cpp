@@ -122,6 +122,9 @@ Drag drift_drag(Parameters& in, ExtraForceScales& scales) {
 /// from harmonic_amplitudes_N and harmonic_phases_rad; each harmonic's
 /// period / 2 pi and stiffness 2 pi h A_h / P into `scales`. Empty where
 /// the file gives no phases (written before they were reported).
+/// Harmonics a model file's ripple may have (diagnose reports up to 3).
+constexpr int kMaxRippleHarmonics = 64;
+
 Drag ripple_harmonics_drag(Parameters& in, double period_m, double harmonics, ExtraForceScales& scales) {
   if (!in.p.contains("harmonic_phases_rad")) return {};
   const std::vector<double> amp = in.numbers_in(in.p, "", "harmonic_amplitudes_N"),
@@ -131,7 +134,7 @@ Drag ripple_harmonics_drag(Parameters& in, double period_m, double harmonics, Ex
   else if (static_cast<double>(amp.size()) != harmonics)
     in.fail("'harmonics' is " + std::to_string(static_cast<long long>(harmonics)) + " but the lists give " + std::to_string(amp.size()) +
             " (diagnose writes one amplitude and phase per harmonic, the fundamental first)");
-  if (!in.error.empty()) return {};
+  if (!in.error.empty() || amp.size() < 2) return {};
   const double k = 2.0 * kPi / period_m;
   for (std::size_t h = 1; h < amp.size(); ++h) {
     const double kh = k * static_cast<double>(h + 1);
@@ -145,15 +148,20 @@ Drag ripple_harmonics_drag(Parameters& in, double period_m, double harmonics, Ex
   };
 }
 
+/// The plant has one ripple: its harmonics' drag and their scales, held
+/// apart from the other drags so that a later ripple replaces an earlier
+/// one whole (its steps included).
+struct RippleSlot {
+  Drag harmonics;
+  ExtraForceScales scales;
+};
+
 /// The plant's effects and the extra force's drags, with their scales.
 struct Into {
   Effects& fx;
   std::vector<Drag>& drags;
   ExtraForceScales& scales;
-  /// The plant has one ripple: the index in drags of its harmonics (kNone:
-  /// none), so that a later ripple replaces an earlier one whole.
-  std::size_t& ripple_harmonics;
-  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  RippleSlot& ripple;
 };
 
 /// One named effect into the plant: true when it entered (note says how), false with the reason.
@@ -170,20 +178,15 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
     fx.ripple_period_m = in.positive("period_m", 1.0);
     fx.ripple_phase_rad = in.number("phase_rad", 0.0);
     note = "a load force sine in position";
-    if (out.ripple_harmonics != Into::kNone) {
-      out.drags.erase(out.drags.begin() + static_cast<std::ptrdiff_t>(out.ripple_harmonics));
-      out.ripple_harmonics = Into::kNone;
-    }
+    out.ripple = RippleSlot{};
     const double count = in.number("harmonics", 1.0);
-    if (!(count >= 1.0 && count == std::floor(count))) in.fail("'harmonics' must be a whole number >= 1");
-    if (count > 1.0 && in.error.empty()) {
-      Drag harmonics = ripple_harmonics_drag(in, fx.ripple_period_m, count, out.scales);
-      note = harmonics ? "a load force sine in position, with its harmonics"
-                       : "its fundamental only (the file gives no harmonic_phases_rad)";
-      if (harmonics) {
-        out.drags.push_back(std::move(harmonics));
-        out.ripple_harmonics = out.drags.size() - 1;
-      }
+    if (!(count >= 1.0 && count <= kMaxRippleHarmonics && count == std::floor(count)))
+      in.fail("'harmonics' must be a whole number from 1 to " + std::to_string(kMaxRippleHarmonics));
+    if (in.error.empty() && (count > 1.0 || in.p.contains("harmonic_amplitudes_N"))) {
+      out.ripple.harmonics = ripple_harmonics_drag(in, fx.ripple_period_m, count, out.ripple.scales);
+      if (count > 1.0)
+        note = out.ripple.harmonics ? "a load force sine in position, with its harmonics"
+                                    : "its fundamental only (the file gives no harmonic_phases_rad)";
     }
   } else if (kind == effect_name(Effect::position_friction)) {
     if (in.text("shape") == "spline" && in.p.contains("level_N")) {
@@ -234,7 +237,9 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
 PlantEffects plant_effects(const nlohmann::json& named, double mass_kg) {
   PlantEffects out;
   std::vector<Drag> drags;
-  std::size_t ripple_harmonics = Into::kNone, ripple_entry = Into::kNone;
+  RippleSlot ripple;
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::size_t ripple_entry = kNone;
   for (const nlohmann::json& e : named) {
     PlantEffect p;
     p.kind = e.value("kind", std::string());
@@ -242,9 +247,9 @@ PlantEffects plant_effects(const nlohmann::json& named, double mass_kg) {
     Parameters in{parameters, ""};
     if (!parameters.is_object()) in.fail("its parameters must be an object");
     p.simulated = in.error.empty() &&
-                  into_plant(p.kind, in, mass_kg, {out.effects, drags, out.extra_scales, ripple_harmonics}, p.note);
+                  into_plant(p.kind, in, mass_kg, {out.effects, drags, out.extra_scales, ripple}, p.note);
     if (p.simulated && p.kind == effect_name(Effect::position_ripple)) {
-      if (ripple_entry != Into::kNone) {
+      if (ripple_entry != kNone) {
         out.list[ripple_entry].simulated = false;
         out.list[ripple_entry].note = "not simulated: replaced by a later position_ripple (the plant has one ripple)";
       }
@@ -252,6 +257,12 @@ PlantEffects plant_effects(const nlohmann::json& named, double mass_kg) {
     }
     if (!in.error.empty() && out.error.empty()) out.error = "effect \"" + p.kind + "\": " + in.error;
     out.list.push_back(p);
+  }
+  if (ripple.harmonics) {
+    drags.push_back(std::move(ripple.harmonics));
+    ExtraForceScales& sc = out.extra_scales;
+    sc.length_m = std::min(sc.length_m, ripple.scales.length_m);
+    sc.stiffness_N_m += ripple.scales.stiffness_N_m;
   }
   if (!drags.empty())
     out.extra_force = [drags](double t, double x, double v) {

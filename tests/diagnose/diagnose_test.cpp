@@ -76,9 +76,6 @@ host::SimConfig open_loop(host::Program program, ForceLog force, std::uint64_t s
   return c;
 }
 
-// GIVEN a block length that is no length (0, negative, NaN, infinite),
-// THEN the diagnosis refuses it by name instead of answering 'none' or
-// 'too little motion'.
 // GIVEN short ladders of an effect-free drive (8 to 12 s: the speeds logged
 // end inside the Stribeck fall, so the base's friction law is not settled)
 // WHEN diagnosed
@@ -115,6 +112,17 @@ TEST(DiagnoseBase, AnUnsettledFrictionLawIsSaidAndNothingStandsInForIt) {
   ASSERT_TRUE(q.error.empty()) << q.error;
   EXPECT_TRUE(std::any_of(q.effects.begin(), q.effects.end(), [](const auto& e) { return e.kind == "quadratic_viscous"; }))
       << host::summary(q);
+  // A constant load larger than the Coulomb force (an inclined axis) leaves
+  // one direction's Coulomb force negative; friction does not fall with
+  // speed there, and a quadratic damping beside it is named.
+  SimSpec loaded;
+  host::SimConfig lc = sim_config(loaded);
+  lc.effects.quadratic_c2_Ns2_m2 = 3000.0;
+  lc.effects.load.offset_N = 300.0;
+  const host::DiagnoseResult l = host::diagnose(host::simulate(lc), host::DiagnoseOptions{});
+  ASSERT_TRUE(l.error.empty()) << l.error;
+  EXPECT_EQ(l.effect, "quadratic_viscous") << host::summary(l);
+  for (const auto& a : l.ambiguities) EXPECT_NE(a["kinds"][0], "base_friction_unsettled") << host::summary(l);
   // A ladder long enough to settle it says nothing of the kind.
   SimSpec settled;
   settled.duration_s = 30.0;
@@ -157,8 +165,23 @@ TEST(DiagnoseAmbiguity, TwoFamiliesThatFitAlikeAreReportedAsRivals) {
   const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), host::DiagnoseOptions{});
   ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
   EXPECT_TRUE(rival_of(r, r.effect).empty()) << host::summary(r);
+  // Two effects that are both there each close part of the first step's
+  // gap, so the first step's runner-up can look like a rival: once named
+  // at the next step it is the other half of the answer, not a rival.
+  SimSpec both_spec;
+  host::SimConfig both = sim_config(both_spec);
+  both.effects.ripple_amplitude_N = 4.0;
+  both.effects.ripple_period_m = 0.01;
+  both.effects.drift_fraction = 0.3;
+  const host::DiagnoseResult b = host::diagnose(host::simulate(both), host::DiagnoseOptions{});
+  ASSERT_TRUE(b.error.empty()) << b.error;
+  ASSERT_GE(b.effects.size(), 2u) << host::summary(b);
+  for (const auto& a : b.ambiguities) EXPECT_FALSE(a.contains("z")) << a.dump() << "\n" << host::summary(b);
 }
 
+// GIVEN a block length that is no length (0, negative, NaN, infinite),
+// THEN the diagnosis refuses it by name instead of answering 'none' or
+// 'too little motion'.
 TEST(DiagnoseOptionsCheck, ABlockThatIsNoLengthIsRefused) {
   const host::Trace t = host::simulate(test::sim_config(test::SimSpec{}));
   for (double block : {0.0, -0.01, std::nan(""), HUGE_VAL}) {

@@ -206,22 +206,33 @@ TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   EXPECT_GT(w.same_processing_pct.acceleration, 5.0 * std::max(r.same_processing_pct.acceleration, 0.2));
 }
 
-TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
-  // GIVEN a run whose plant has a position ripple its friction law lacks
+/// 7 s of the true drive in the loop, its plant with a ripple of amplitude
+/// (N), period (m) and phase (rad), and any extra force beside it.
+LoggedRun rippled_run(double amplitude_N, double period_m, double phase_rad, const ExtraForce& extra = {}) {
   Effects ripple;
-  ripple.ripple_amplitude_N = 15.0;
-  ripple.ripple_period_m = 0.02;
-  ripple.ripple_phase_rad = 0.3;
-  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, ripple);
-  const Controller c = controller_from_json(minimal_controller(), "c");
-  // WHEN replayed with a model file that names the ripple as diagnose writes it, and without it
-  const DriveParams d = true_drive();
+  ripple.ripple_amplitude_N = amplitude_N;
+  ripple.ripple_period_m = period_m;
+  ripple.ripple_phase_rad = phase_rad;
+  return simulated_run(true_drive(), 7.0, 0.0, ripple, extra);
+}
+
+/// A model file's JSON for drive d with the given effects, as diagnose
+/// --model-out writes it.
+json model_json(const DriveParams& d, const json& effects) {
   const auto side = [](const DirectionFriction& f) {
     return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
   };
-  const json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
-                  {"effects", json::array({{{"kind", "position_ripple"},
-                                            {"parameters", {{"amplitude_N", 15.0}, {"period_m", 0.02}, {"phase_rad", 0.3}}}}})}};
+  return {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)}, {"effects", effects}};
+}
+
+TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
+  // GIVEN a run whose plant has a position ripple its friction law lacks
+  const LoggedRun run = rippled_run(15.0, 0.02, 0.3);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  // WHEN replayed with a model file that names the ripple as diagnose writes it, and without it
+  const DriveParams d = true_drive();
+  const json j = model_json(d, json::array({{{"kind", "position_ripple"},
+                                             {"parameters", {{"amplitude_N", 15.0}, {"period_m", 0.02}, {"phase_rad", 0.3}}}}}));
   const ModelFile with = model_file_from_json(j, "m.json");
   ASSERT_TRUE(with.warnings.empty());
   ModelFile bare = with;
@@ -248,21 +259,13 @@ TEST(Replay, AModelFilesEffectsAreSimulatedInItsPlant) {
 // THEN the harmonics are in the plant and close the gap; without the phases
 // the fundamental alone is, and the replay says so
 TEST(Replay, ARipplesHarmonicsAreSimulatedWithTheirPhases) {
-  Effects fundamental;
-  fundamental.ripple_amplitude_N = 10.0;
-  fundamental.ripple_period_m = 0.05;
-  fundamental.ripple_phase_rad = 0.3;
   const ExtraForce second = [](double, double x, double) { return 6.0 * std::sin(2.0 * 2.0 * M_PI * x / 0.05 - 1.1); };
-  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, fundamental, second);
+  const LoggedRun run = rippled_run(10.0, 0.05, 0.3, second);
   const Controller c = controller_from_json(minimal_controller(), "c");
   const DriveParams d = true_drive();
-  const auto side = [](const DirectionFriction& f) {
-    return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
-  };
   const json ripple = {{"amplitude_N", 10.0}, {"period_m", 0.05}, {"phase_rad", 0.3}, {"harmonics", 2},
                        {"harmonic_amplitudes_N", {10.0, 6.0}}, {"harmonic_phases_rad", {0.3, -1.1}}};
-  json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
-            {"effects", json::array({{{"kind", "position_ripple"}, {"parameters", ripple}}})}};
+  json j = model_json(d, json::array({{{"kind", "position_ripple"}, {"parameters", ripple}}}));
   const ReplayResult w = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
   j["effects"][0]["parameters"].erase("harmonic_phases_rad");
   const ReplayResult f = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
@@ -283,29 +286,24 @@ TEST(Replay, ARipplesHarmonicsAreSimulatedWithTheirPhases) {
 // earlier one's harmonic is not left in the extra force, and the replay
 // says the earlier one was replaced
 TEST(Replay, ALaterRippleReplacesAnEarlierOneWithItsHarmonics) {
-  Effects fundamental;
-  fundamental.ripple_amplitude_N = 10.0;
-  fundamental.ripple_period_m = 0.05;
-  fundamental.ripple_phase_rad = 0.3;
-  const LoggedRun run = simulated_run(true_drive(), 7.0, 0.0, fundamental);
+  const LoggedRun run = rippled_run(10.0, 0.05, 0.3);
   const Controller c = controller_from_json(minimal_controller(), "c");
   const DriveParams d = true_drive();
-  const auto side = [](const DirectionFriction& f) {
-    return json{{"sigma", f.viscous_Ns_m}, {"fc", f.coulomb_N}, {"fs", f.breakaway_N}, {"vs", f.stribeck_velocity_m_s}};
-  };
   const json earlier = {{"amplitude_N", 4.0}, {"period_m", 0.02}, {"phase_rad", 0.0}, {"harmonics", 2},
                         {"harmonic_amplitudes_N", {4.0, 6.0}}, {"harmonic_phases_rad", {0.0, 1.0}}};
   const json later = {{"amplitude_N", 10.0}, {"period_m", 0.05}, {"phase_rad", 0.3}};
-  json j = {{"m", d.mass_kg}, {"pos", side(d.pos)}, {"neg", side(d.neg)},
-            {"effects", json::array({{{"kind", "position_ripple"}, {"parameters", earlier}},
-                                     {{"kind", "position_ripple"}, {"parameters", later}}})}};
+  json j = model_json(d, json::array({{{"kind", "position_ripple"}, {"parameters", earlier}},
+                                      {{"kind", "position_ripple"}, {"parameters", later}}}));
   const ReplayResult both = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
   j["effects"].erase(0);
   const ReplayResult alone = replay(model_file_from_json(j, "m.json"), c, run, ReplayOptions{});
   ASSERT_EQ(both.error, "");
   ASSERT_EQ(alone.error, "");
   EXPECT_LT(alone.same_processing_pct.force, 0.5);
-  EXPECT_NEAR(both.same_processing_pct.force, alone.same_processing_pct.force, 1e-9);
+  EXPECT_EQ(both.same_processing_pct.force, alone.same_processing_pct.force);
+  // Its steps too: the earlier ripple's harmonic set no time scale.
+  EXPECT_EQ(both.substeps, alone.substeps);
+  EXPECT_EQ(both.shortest_time_scale_s, alone.shortest_time_scale_s);
   bool replaced_said = false;
   for (const std::string& n : both.notes) replaced_said = replaced_said || n.find("replaced by a later position_ripple") != std::string::npos;
   EXPECT_TRUE(replaced_said);
@@ -343,7 +341,13 @@ TEST(Replay, AnEffectThePlantCannotTakeIsRefusedByName) {
                         {"harmonic_phases_rad", {0.0, 0.5}}}}},
        "'harmonics' is 3 but the lists give 2"},
       {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 1.5}}}},
-       "'harmonics' must be a whole number >= 1"},
+       "'harmonics' must be a whole number from 1 to 64"},
+      {{{"kind", "position_ripple"}, {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonics", 1e20}}}},
+       "'harmonics' must be a whole number from 1 to 64"},
+      {{{"kind", "position_ripple"},
+        {"parameters", {{"amplitude_N", 5.0}, {"period_m", 0.01}, {"harmonic_amplitudes_N", {5.0, 1.0, 0.5}},
+                        {"harmonic_phases_rad", {0.0, 0.5, 1.0}}}}},
+       "'harmonics' is 1 but the lists give 3"},
       {{{"kind", "presliding_hysteresis"}, {"parameters", {{"force_N", 5.0}, {"distance_m", 0.0}, {"resets", "at reversals"}}}},
        "'distance_m' must be > 0"},
   };
