@@ -71,12 +71,12 @@ class HarmonicMeans {
     const double dphi = k_ * (sg.x1 - sg.x0);
     std::complex<double> p0 = z0, p1 = z1;
     for (int h = 1; h <= harmonics_; ++h, p0 *= z0, p1 *= z1) {
-      // (p1 - p0) / (i h dphi), written out: the same bits as the complex
-      // division (Smith's rule with a zero real part), without its library call.
+      // (p1 - p0) / (i h dphi), written out: one division, not the complex
+      // division's library call or its two.
       const std::complex<double> rise = p1 - p0;
-      const std::complex<double> mean = std::fabs(h * dphi) > 1e-4
-                                            ? std::complex<double>(rise.imag() / (h * dphi), -rise.real() / (h * dphi))
-                                            : 0.5 * (p0 + p1);
+      const double inv = 1.0 / (h * dphi);
+      const std::complex<double> mean = std::fabs(h * dphi) > 1e-4 ? std::complex<double>(rise.imag() * inv, -rise.real() * inv)
+                                                                    : 0.5 * (p0 + p1);
       out[2 * (h - 1)] = mean.imag();
       out[2 * (h - 1) + 1] = mean.real();
     }
