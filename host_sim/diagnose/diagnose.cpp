@@ -508,6 +508,9 @@ constexpr double kGridTieRelative = 1e-9;
 /// Width in log(p) at which a continuous parameter's search stops.
 constexpr double kParameterLogTolerance = 1e-3;
 
+/// The golden section's smaller share of a bracket, (3 - sqrt 5) / 2.
+constexpr double kGoldenShare = 0.3819660112501051;
+
 /// Brent's minimisation (Brent 1973, ch. 5; Numerical Recipes 10.3) of f
 /// on [a, b] from x0 inside it, where f(x0) = f0 is known, until the
 /// bracket is within `width`: parabolic steps through the three best
@@ -516,7 +519,6 @@ constexpr double kParameterLogTolerance = 1e-3;
 /// sections alone took 11 from the grid's bracket.
 template <class F>
 void brent_minimum(double a, double b, double x0, double f0, double width, F f) {
-  constexpr double kGoldenShare = 0.3819660112501051;  // (3 - sqrt 5) / 2
   const double tol = 0.25 * width;  // stops once |x - mid| <= 2 tol - (b - a) / 2: b - a <= 4 tol
   double x = x0, w = x0, v = x0, fx = f0, fw = f0, fv = f0, d = 0.0, e = 0.0;
   for (int it = 0; it < 40; ++it) {
@@ -560,7 +562,7 @@ void brent_minimum(double a, double b, double x0, double f0, double width, F f) 
 
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
-/// discrete refinement or golden section in log on fine ones. Only the
+/// discrete refinement or Brent's steps in log on fine ones. Only the
 /// identification observations' SSR is read, so only they are drawn.
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
   using Res = Observations::Resolution;
@@ -613,9 +615,13 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
     }
   if (em.continuous && grid.size() >= 3) {
     const double a = std::log(grid[best_i > 0 ? best_i - 1 : 0]), b = std::log(grid[std::min(best_i + 1, grid.size() - 1)]);
-    const double x0 = std::log(best_p);
-    if (x0 > a && x0 < b)
-      brent_minimum(a, b, x0, best_ssr, kParameterLogTolerance, [&](double x) { return try_p(std::exp(x)); });
+    const auto f = [&](double x) { return try_p(std::exp(x)); };
+    // From the grid's best value, whose SSR is known; where that is an end
+    // of the bracket (the grid's first or last value), from the golden
+    // point inside it, as the golden sections started.
+    double x0 = std::log(best_p), f0 = best_ssr;
+    if (!(x0 > a && x0 < b)) x0 = a + kGoldenShare * (b - a), f0 = f(x0);
+    brent_minimum(a, b, x0, f0, kParameterLogTolerance, f);
   }
   return best_p;
 }

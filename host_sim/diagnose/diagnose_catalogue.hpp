@@ -16,7 +16,7 @@ namespace feedid::host::diag {
 struct EffectModel {
   std::string kind;
   std::vector<double> grid;  ///< values of the nonlinear parameter (empty: none)
-  bool continuous = false;   ///< refine between grid points by golden-section search in log
+  bool continuous = false;   ///< refine between grid points by Brent's steps in log (golden sections and parabolas)
   /// Family sizes (docs/diagnosis.md, "Families"): the nonlinear parameter
   /// is searched at the first; then every size is fitted at that parameter
   /// and the one with the least size-penalised error (choose_size in
