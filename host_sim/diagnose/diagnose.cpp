@@ -19,6 +19,7 @@
 #include <future>
 #include <thread>
 #include <tuple>
+#include <utility>
 
 #include "diagnose_blocks.hpp"
 #include "diagnose_catalogue.hpp"
@@ -614,7 +615,8 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
       }
     }
   if (em.continuous && grid.size() >= 3) {
-    const double a = std::log(grid[best_i > 0 ? best_i - 1 : 0]), b = std::log(grid[std::min(best_i + 1, grid.size() - 1)]);
+    double a = std::log(grid[best_i > 0 ? best_i - 1 : 0]), b = std::log(grid[std::min(best_i + 1, grid.size() - 1)]);
+    if (a > b) std::swap(a, b);  // a descending grid (a ripple's on a travel under 1.2 mm)
     const auto f = [&](double x) { return try_p(std::exp(x)); };
     // From the grid's best value, whose SSR is known; where that is an end
     // of the bracket (the grid's first or last value), from the golden
