@@ -413,15 +413,19 @@ class SearchColumns {
   explicit SearchColumns(const std::vector<EffectModel>& catalogue) {
     for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
+  /// Columns are shared, not copied: a kept grid point is read by every
+  /// search that asks for it (a ripple's 176 periods, 35 kB each on EMPS
+  /// PULSES: their copies took a third of a search on the kept grid).
+  using Columns = std::shared_ptr<const Mat>;
   /// em's columns at parameter p and size, drawn as r says.
-  Mat at(const EffectModel& em, double p, int size, Observations::Draw r) { return at_many(em, {p}, size, r).front(); }
+  Columns at(const EffectModel& em, double p, int size, Observations::Draw r) { return at_many(em, {p}, size, r).front(); }
   /// The same at each of ps: those not kept drawn together where the
   /// family can (EffectModel::columns_at_many).
-  std::vector<Mat> at_many(const EffectModel& em, const std::vector<double>& ps, int size, Observations::Draw r) {
-    std::vector<Mat> out(ps.size());
+  std::vector<Columns> at_many(const EffectModel& em, const std::vector<double>& ps, int size, Observations::Draw r) {
+    std::vector<Columns> out(ps.size());
     std::vector<std::size_t> missing;
     for (std::size_t i = 0; i < ps.size(); ++i)
-      if (!kept(em, ps[i], size, r, out[i])) missing.push_back(i);
+      if (!(out[i] = kept(em, ps[i], size, r))) missing.push_back(i);
     if (missing.empty()) return out;
     std::vector<double> drawn_at;
     for (const std::size_t i : missing) drawn_at.push_back(ps[i]);
@@ -430,8 +434,8 @@ class SearchColumns {
     else
       for (const double p : drawn_at) drawn.push_back(em.columns(p, size, r));
     for (std::size_t j = 0; j < missing.size(); ++j) {
-      offer(em, drawn_at[j], size, r, drawn[j]);
-      out[missing[j]] = std::move(drawn[j]);
+      out[missing[j]] = std::make_shared<const Mat>(std::move(drawn[j]));
+      offer(em, drawn_at[j], size, r, out[missing[j]]);
     }
     return out;
   }
@@ -441,23 +445,21 @@ class SearchColumns {
   static Key key_of(double p, int size, Observations::Draw r) {
     return Key{p, size, static_cast<int>(r.resolution), static_cast<int>(r.rows)};
   }
-  /// The kept columns into `cols`, if they are.
-  bool kept(const EffectModel& em, double p, int size, Observations::Draw r, Mat& cols) {
-    if (em.keep_columns == EffectModel::Keep::never) return false;
+  /// The kept columns, or none.
+  Columns kept(const EffectModel& em, double p, int size, Observations::Draw r) {
+    if (em.keep_columns == EffectModel::Keep::never) return {};
     Store& store = *family_.at(&em);
     const std::lock_guard<std::mutex> hold(store.lock);
     const auto it = store.kept.find(key_of(p, size, r));
-    if (it == store.kept.end()) return false;
-    cols = it->second;
-    return true;
+    return it == store.kept.end() ? Columns{} : it->second;
   }
   /// Columns just drawn, kept as em.keep_columns says and the budgets allow.
-  void offer(const EffectModel& em, double p, int size, Observations::Draw r, const Mat& cols) {
+  void offer(const EffectModel& em, double p, int size, Observations::Draw r, const Columns& cols) {
     using Keep = EffectModel::Keep;
     if (em.keep_columns == Keep::never) return;
     Store& store = *family_.at(&em);
     const Key key = key_of(p, size, r);
-    const std::size_t bytes = static_cast<std::size_t>(cols.size()) * sizeof(double);
+    const std::size_t bytes = static_cast<std::size_t>(cols->size()) * sizeof(double);
     const std::lock_guard<std::mutex> hold(store.lock);
     const bool again = !store.drawn.insert(key).second;
     if (store.kept.count(key) == 0 &&
@@ -473,7 +475,7 @@ class SearchColumns {
   struct Store {
     std::mutex lock;
     std::set<Key> drawn;
-    std::map<Key, Mat> kept;
+    std::map<Key, Columns> kept;
   };
   std::map<const EffectModel*, std::unique_ptr<Store>> family_;
   std::atomic<std::size_t> bytes_{0};  ///< kept, over all families
@@ -511,6 +513,30 @@ constexpr double kParameterLogTolerance = 1e-3;
 
 /// The golden section's smaller share of a bracket, (3 - sqrt 5) / 2.
 constexpr double kGoldenShare = 0.3819660112501051;
+
+/// Candidates drawn at once where a family draws them cheaper together.
+constexpr std::size_t kBatch = 8;
+
+/// The identification SSR of the held fit with em's columns at each of ps
+/// (size `size`, drawn as r says): from the columns themselves, or from
+/// their edges' products where the family's columns are differences of
+/// edges (EffectModel::edges_of), every edge drawn once for all of ps.
+std::vector<double> ssrs_beside(const Stage& st, const ColumnBank::Held& held, const EffectModel& em,
+                                const std::vector<double>& ps, int size, Observations::Draw r) {
+  std::vector<double> out;
+  if (em.edges_of && size == em.sizes.front()) {
+    const diag::EdgeSet set(em.edges_of, ps);
+    const ColumnBank::Edges e = st.bank.edges_beside(held, em.edge_columns(set.edges, r));
+    for (const double p : ps) {
+      const auto [a, b] = em.edges_of(p);
+      out.push_back(st.bank.ssr_of_difference(held, e, set.index(a), set.index(b)));
+    }
+    return out;
+  }
+  for (const SearchColumns::Columns& cols : st.search_columns.at_many(em, ps, size, r))
+    out.push_back(st.bank.ssr_beside(held, *cols));
+  return out;
+}
 
 /// Brent's minimisation (Brent 1973, ch. 5; Numerical Recipes 10.3) of f
 /// on [a, b] from x0 inside it, where f(x0) = f0 is known, until the
@@ -570,25 +596,24 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   using Rows = Observations::Rows;
   const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
   const ColumnBank::Held held = st.bank.hold(with);
-  auto ssr_of = [&](const Mat& cols_id) { return st.bank.ssr_beside(held, cols_id); };
-  auto cost = [&](double p, Res r) { return ssr_of(st.search_columns.at(em, p, size, {r, Rows::identification})); };
+  const auto ssrs = [&](const std::vector<double>& ps, Res r) { return ssrs_beside(st, held, em, ps, size, {r, Rows::identification}); };
+  auto cost = [&](double p, Res r) { return ssrs({p}, r).front(); };
   const Res grid_res = em.fine_grid || grid.size() == 1 ? Res::fine : Res::coarse;
   double best_ssr = kInf, best_p = grid[0];
   std::size_t best_i = 0;
   // A few grid points drawn at once, where the family draws them cheaper
-  // together (EffectModel::columns_at_many).
-  constexpr std::size_t kBatch = 8;
-  for (std::size_t i0 = 0; i0 < grid.size(); i0 += kBatch) {
+  // together (EffectModel::columns_at_many); all at once from edges.
+  const std::size_t batch = em.edges_of ? grid.size() : kBatch;
+  for (std::size_t i0 = 0; i0 < grid.size(); i0 += batch) {
     const std::vector<double> ps(grid.begin() + static_cast<std::ptrdiff_t>(i0),
-                                 grid.begin() + static_cast<std::ptrdiff_t>(std::min(grid.size(), i0 + kBatch)));
-    const std::vector<Mat> cols = st.search_columns.at_many(em, ps, size, {grid_res, Rows::identification});
+                                 grid.begin() + static_cast<std::ptrdiff_t>(std::min(grid.size(), i0 + batch)));
+    const std::vector<double> ssr = ssrs(ps, grid_res);
     for (std::size_t j = 0; j < ps.size(); ++j) {
-      const double c = ssr_of(cols[j]);
       // Grid points whose columns agree on the identification observations
       // (two position ranges over the same blocks) tie to the last digits:
       // the first one is kept, so that rounding does not choose.
       const double margin = std::isfinite(best_ssr) ? kGridTieRelative * std::fabs(best_ssr) : 0.0;
-      if (c < best_ssr - margin) best_ssr = c, best_p = ps[j], best_i = i0 + j;
+      if (ssr[j] < best_ssr - margin) best_ssr = ssr[j], best_p = ps[j], best_i = i0 + j;
     }
   }
   if (grid.size() == 1) return best_p;
@@ -598,20 +623,20 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
     if (c < best_ssr) best_ssr = c, best_p = p;
     return c;
   };
-  // Each round's values in batches, tried in order as one by one (a
-  // position range's edges moved cell by cell: 40 passes over the fine
-  // segments a round, a tenth of diagnose on EMPS PULSES).
+  // Each round's values in batches (a round's all at once from edges),
+  // tried in order as one by one (a position range's edges moved cell by
+  // cell: 40 passes over the fine segments a round, a tenth of diagnose on
+  // EMPS PULSES, before batches; one pass over 42 edges since).
   if (em.refine)
     for (int round = 0; round < 2; ++round) {
       const std::vector<double> around = em.refine(best_p);
-      for (std::size_t i0 = 0; i0 < around.size(); i0 += kBatch) {
+      const std::size_t refine_batch = em.edges_of ? around.size() : kBatch;
+      for (std::size_t i0 = 0; i0 < around.size(); i0 += refine_batch) {
         const std::vector<double> ps(around.begin() + static_cast<std::ptrdiff_t>(i0),
-                                     around.begin() + static_cast<std::ptrdiff_t>(std::min(around.size(), i0 + kBatch)));
-        const std::vector<Mat> cols = st.search_columns.at_many(em, ps, size, {Res::fine, Rows::identification});
-        for (std::size_t j = 0; j < ps.size(); ++j) {
-          const double c = ssr_of(cols[j]);
-          if (c < best_ssr) best_ssr = c, best_p = ps[j];
-        }
+                                     around.begin() + static_cast<std::ptrdiff_t>(std::min(around.size(), i0 + refine_batch)));
+        const std::vector<double> ssr = ssrs(ps, Res::fine);
+        for (std::size_t j = 0; j < ps.size(); ++j)
+          if (ssr[j] < best_ssr) best_ssr = ssr[j], best_p = ps[j];
       }
     }
   if (em.continuous && grid.size() >= 3) {

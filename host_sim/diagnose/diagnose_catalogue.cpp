@@ -17,6 +17,20 @@ std::size_t run_of(const std::vector<double>& run_starts, double t) {
   return it == run_starts.begin() ? 0 : static_cast<std::size_t>(it - run_starts.begin()) - 1;
 }
 
+EdgeSet::EdgeSet(const std::function<std::pair<int, int>(double)>& edges_of, const std::vector<double>& ps) {
+  for (const double p : ps) {
+    const auto [a, b] = edges_of(p);
+    edges.push_back(a);
+    edges.push_back(b);
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+}
+
+Eigen::Index EdgeSet::index(int edge) const {
+  return static_cast<Eigen::Index>(std::lower_bound(edges.begin(), edges.end(), edge) - edges.begin());
+}
+
 namespace {
 
 /// exp(x) for x <= 0, with what underflows to exactly 0 not sent to exp's
@@ -232,24 +246,38 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
   for (int a = 0; a < cells; a += coarse)
     for (int b = a + coarse; b <= cells; b += coarse)
       if (!(a == 0 && b == cells)) m.grid.push_back(a * 1000 + b);
-  auto range = [e](double code) {
-    const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
+  // A range's code: its lower cell edge times 1000 plus its upper one.
+  const auto edges_of = [](double code) { return std::pair<int, int>{static_cast<int>(code) / 1000, static_cast<int>(code) % 1000}; };
+  auto range = [e, edges_of](double code) {
+    const auto [a, b] = edges_of(code);
     return std::pair<double, double>{e.x_lo + e.travel * a / cells, e.x_lo + e.travel * b / cells};
   };
-  // Size 0: the share of each segment inside a range, signed as the motion.
-  auto ranges = [&obs, range](const std::vector<double>& codes, Observations::Draw r) {
-    std::vector<std::pair<double, double>> at;
-    for (const double code : codes) at.push_back(range(code));
-    const Mat all = obs.segment_columns(static_cast<int>(at.size()), false, r, [&at](std::size_t, const Segment& sg, double* out) {
+  // Size 0: the share of each segment inside a range, signed as the
+  // motion: the share below its upper edge less that below its lower one
+  // (a point on the lower edge is inside, one on the upper is not). A
+  // search scores the 209 ranges from 21 edges (EffectModel::edges_of).
+  auto edge_columns = [&obs, x_lo = e.x_lo, travel = e.travel](const std::vector<int>& edges, Observations::Draw r) {
+    std::vector<double> at;
+    for (const int k : edges) at.push_back(x_lo + travel * k / cells);
+    return obs.segment_columns(static_cast<int>(at.size()), false, r, [&at](std::size_t, const Segment& sg, double* out) {
       const double lo = std::min(sg.x0, sg.x1), hi = std::max(sg.x0, sg.x1);
       for (std::size_t j = 0; j < at.size(); ++j) {
-        const auto [xa, xb] = at[j];
-        const double inside = hi - lo < 1e-12 ? (lo >= xa && lo < xb ? 1.0 : 0.0)
-                                              : std::max(0.0, std::min(hi, xb) - std::max(lo, xa)) / (hi - lo);
-        out[j] = inside * sign_of(sg);
+        const double below = hi - lo < 1e-12 ? (lo < at[j] ? 1.0 : 0.0) : std::clamp((at[j] - lo) / (hi - lo), 0.0, 1.0);
+        out[j] = below * sign_of(sg);
       }
     });
-    return split_columns(all, codes.size(), 1);
+  };
+  m.edges_of = edges_of;
+  m.edge_columns = edge_columns;
+  auto ranges = [edge_columns, edges_of](const std::vector<double>& codes, Observations::Draw r) {
+    const EdgeSet set(edges_of, codes);
+    const Mat below = edge_columns(set.edges, r);
+    std::vector<Mat> out;
+    for (const double code : codes) {
+      const auto [a, b] = edges_of(code);
+      out.push_back(below.col(set.index(b)) - below.col(set.index(a)));
+    }
+    return out;
   };
   m.columns = [&obs, ranges, x_lo = e.x_lo, travel = e.travel](double code, int spans, Observations::Draw r) {
     if (spans > 0)
@@ -272,8 +300,8 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
     const auto [xa, xb] = range(code);
     return nlohmann::json{{"x_min_m", xa}, {"x_max_m", xb}, {"delta_N", c(0)}, {"shape", "range"}};
   };
-  m.refine = [](double code) {
-    const int a = static_cast<int>(code) / 1000, b = static_cast<int>(code) % 1000;
+  m.refine = [edges_of](double code) {
+    const auto [a, b] = edges_of(code);
     std::vector<double> out;
     for (int d = -coarse; d <= coarse; ++d) {
       if (a + d >= 0 && a + d < b) out.push_back((a + d) * 1000 + b);

@@ -13,6 +13,14 @@
 
 namespace feedid::host::diag {
 
+/// The distinct edges of candidates ps (EffectModel::edges_of), ascending,
+/// and where each edge is among them: its column in the edges' columns.
+struct EdgeSet {
+  std::vector<int> edges;
+  EdgeSet(const std::function<std::pair<int, int>(double)>& edges_of, const std::vector<double>& ps);
+  Eigen::Index index(int edge) const;
+};
+
 struct EffectModel {
   std::string kind;
   std::vector<double> grid;  ///< values of the nonlinear parameter (empty: none)
@@ -41,6 +49,16 @@ struct EffectModel {
   /// cheaper than one by one (a compliance's filters step side by side);
   /// empty: one by one. The same bits as `columns`.
   std::function<std::vector<Mat>(const std::vector<double>&, int, Observations::Draw)> columns_at_many;
+  /// Where every column of the search (at the first size) is the
+  /// difference of two of a few shared columns, the edges: a position
+  /// range's is the share of each segment below its upper edge less the
+  /// share below its lower one. Then a search scores its candidates from
+  /// the edges' products (ColumnBank::Edges), a few edge columns drawn
+  /// instead of a column per candidate (position friction's 209 ranges:
+  /// 21 edges). edges_of(p): p's lower and upper edge; edge_columns: the
+  /// edges' columns, drawn as asked. Empty: not such a family.
+  std::function<std::pair<int, int>(double)> edges_of = {};
+  std::function<Mat(const std::vector<int>&, Observations::Draw)> edge_columns = {};
   /// The grid needs fine segments too (a resonance above the coarse segments' rate).
   bool fine_grid = false;
   /// Whether the columns its search draws are kept across the selection's

@@ -6,6 +6,16 @@
 
 namespace feedid::host::diag {
 
+namespace {
+/// ssr_beside: up to this many columns, their products are taken as dot
+/// products rather than a matrix product.
+constexpr Eigen::Index kDotProductsUpTo = 4;
+/// ssr_of_difference: the share of the edges' own products below which a
+/// difference's products are not taken from them (their rounding, the unit
+/// roundoff of those, would be more than about 1e-10 of the difference's).
+constexpr double kDifferenceResolved = 1e-6;
+}  // namespace
+
 ColumnBank::ColumnBank(Vec y, std::vector<char> id) : y_(std::move(y)), id_(std::move(id)) {
   for (Eigen::Index i = 0; i < y_.size(); ++i) (id_[static_cast<std::size_t>(i)] ? id_rows_ : other_rows_).push_back(i);
   y_id_ = rows_of(y_, id_rows_);
@@ -129,16 +139,27 @@ ColumnBank::Held ColumnBank::hold(const std::vector<int>& with) const {
 double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (!held.fit.ok) return kInf;
-  // The products a joint fit would take, as one matrix product each (a
-  // grid point's few columns against up to ~50 held ones).
-  const Mat gram = cols_id.transpose() * cols_id;
-  Mat s = gram;
-  Vec r = cols_id.transpose() * y_id_;
+  const Eigen::Index q = cols_id.cols();
+  // The products a joint fit would take. A grid point has one to a few
+  // columns: dot by dot, where a matrix product would first pack them
+  // (a third of the search's time on a ripple's kept grid).
+  Mat s(q, q);
+  Vec r(q);
+  if (q <= kDotProductsUpTo) {
+    for (Eigen::Index j = 0; j < q; ++j) {
+      r(j) = cols_id.col(j).dot(y_id_);
+      for (Eigen::Index i = 0; i <= j; ++i) s(i, j) = s(j, i) = cols_id.col(i).dot(cols_id.col(j));
+    }
+  } else {
+    s.noalias() = cols_id.transpose() * cols_id;
+    r.noalias() = cols_id.transpose() * y_id_;
+  }
+  const Vec diag = s.diagonal();
   if (held.x_id.cols() > 0) {
     // Column by column: a matrix-vector product each, where a matrix
     // product would repack the held columns for a grid point's one or two.
-    Mat c(held.x_id.cols(), cols_id.cols());
-    for (Eigen::Index k = 0; k < cols_id.cols(); ++k) c.col(k).noalias() = held.x_id.transpose() * cols_id.col(k);
+    Mat c(held.x_id.cols(), q);
+    for (Eigen::Index k = 0; k < q; ++k) c.col(k).noalias() = held.x_id.transpose() * cols_id.col(k);
     s.noalias() -= c.transpose() * held.g_inv * c;
     r.noalias() -= c.transpose() * held.fit.theta;
   }
@@ -146,7 +167,6 @@ double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
   // search sees the identification rows only; the candidate's final fit,
   // extra(), sees them all).
   if (!(s.allFinite() && r.allFinite())) return kInf;
-  const Eigen::Index q = s.rows();
   if (q == 0) return held.fit.ssr_id;
   // What the extra columns add beyond the held ones, in the correlation
   // form of solve_normal_equations and about its cut: the joint matrix's
@@ -155,16 +175,59 @@ double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
   // instead of noise.
   const double cut = kNormalEquationsCut * std::max(1.0, held.largest_eigenvalue);
   Vec scale(q);
-  for (Eigen::Index i = 0; i < q; ++i) scale(i) = gram(i, i) > 0 ? 1.0 / std::sqrt(gram(i, i)) : 0.0;
+  for (Eigen::Index i = 0; i < q; ++i) scale(i) = diag(i) > 0 ? 1.0 / std::sqrt(diag(i)) : 0.0;
   const Mat sc = scale.asDiagonal() * s * scale.asDiagonal();
   const Vec rc = scale.asDiagonal() * r;
-  Eigen::SelfAdjointEigenSolver<Mat> eig(sc);
-  if (eig.info() != Eigen::Success) return kInf;
   double drop = 0.0;
-  for (Eigen::Index k = 0; k < q; ++k) {
-    const double lambda = eig.eigenvalues()(k);
-    if (lambda > cut) drop += std::pow(eig.eigenvectors().col(k).dot(rc), 2) / lambda;
+  if (q == 1) {
+    // One column: its own eigenvector, as the solver below returns it.
+    if (sc(0, 0) > cut) drop = rc(0) * rc(0) / sc(0, 0);
+  } else {
+    Eigen::SelfAdjointEigenSolver<Mat> eig(sc);
+    if (eig.info() != Eigen::Success) return kInf;
+    for (Eigen::Index k = 0; k < q; ++k) {
+      const double lambda = eig.eigenvalues()(k);
+      if (lambda > cut) drop += std::pow(eig.eigenvectors().col(k).dot(rc), 2) / lambda;
+    }
   }
+  const double ssr = held.fit.ssr_id - drop;
+  return std::isfinite(ssr) ? ssr : kInf;
+}
+
+ColumnBank::Edges ColumnBank::edges_beside(const Held& held, Mat edges_id) const {
+  Edges e;
+  e.gram.noalias() = edges_id.transpose() * edges_id;
+  e.s = e.gram;
+  e.r.noalias() = edges_id.transpose() * y_id_;
+  if (held.x_id.cols() > 0) {
+    const Mat c = held.x_id.transpose() * edges_id;
+    e.s.noalias() -= c.transpose() * held.g_inv * c;
+    e.r.noalias() -= c.transpose() * held.fit.theta;
+  }
+  e.cols_id = std::move(edges_id);
+  return e;
+}
+
+double ColumnBank::ssr_of_difference(const Held& held, const Edges& e, Eigen::Index a, Eigen::Index b) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (!held.fit.ok) return kInf;
+  // The difference's products expanded: b'b - 2 a'b + a'a. Their rounding
+  // is the edges' own products' (G_aa + G_bb) times the unit roundoff; a
+  // difference whose products are less than kDifferenceResolved of those
+  // is read from its column instead, so that the SSR agrees with
+  // ssr_beside's far within the grid's tie margin (kGridTieRelative in
+  // diagnose.cpp) and a zero column stays exactly nothing.
+  const double scale_of_edges = e.gram(a, a) + e.gram(b, b);
+  const double gram = e.gram(b, b) - 2.0 * e.gram(a, b) + e.gram(a, a);
+  const double s = e.s(b, b) - 2.0 * e.s(a, b) + e.s(a, a);
+  const double r = e.r(b) - e.r(a);
+  if (!(gram > kDifferenceResolved * scale_of_edges && s > kDifferenceResolved * scale_of_edges && std::isfinite(r)))
+    return ssr_beside(held, e.cols_id.col(b) - e.cols_id.col(a));
+  // ssr_beside's steps for one column.
+  const double cut = kNormalEquationsCut * std::max(1.0, held.largest_eigenvalue);
+  const double scale = 1.0 / std::sqrt(gram);
+  const double sc = scale * s * scale, rc = scale * r;
+  const double drop = sc > cut ? rc * rc / sc : 0.0;
   const double ssr = held.fit.ssr_id - drop;
   return std::isfinite(ssr) ? ssr : kInf;
 }

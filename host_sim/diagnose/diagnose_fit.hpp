@@ -68,6 +68,22 @@ class ColumnBank {
   /// given on the identification observations alone (identification_rows);
   /// +infinity where either fit fails.
   double ssr_beside(const Held& held, const Mat& cols_id) const;
+  /// Candidate columns that are differences of shared ones (edges: column
+  /// b less column a), beside a held fit: the edges' products, from which
+  /// each difference's SSR is read without drawing it. In exact arithmetic
+  /// ssr_of_difference equals ssr_beside of the difference column.
+  struct Edges {
+    Mat cols_id;  ///< the edges on the identification observations
+    Mat gram;     ///< their own products
+    Mat s;        ///< gram less what the held columns explain of it
+    Vec r;        ///< their products with y, less the held fit's
+  };
+  Edges edges_beside(const Held& held, Mat edges_id) const;
+  /// The identification SSR of the held fit with edge b less edge a added:
+  /// from the products where they resolve the difference, else (two edges
+  /// alike on these observations, or their difference in the held span)
+  /// from the difference column itself.
+  double ssr_of_difference(const Held& held, const Edges& e, Eigen::Index a, Eigen::Index b) const;
   /// y minus the fitted columns, on every observation.
   Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
   /// Leverage x_i' G^+ x_i of every observation under the fit on bank

@@ -108,5 +108,59 @@ TEST(DiagnoseFit, ANonFiniteColumnFailsAndNothingHeldIsTheColumnsOwnFit) {
   EXPECT_NEAR(b.bank.ssr_beside(none, b.bank.identification_rows(own)), f.ssr_id, 1e-9 * none.fit.ssr_id);
 }
 
+// Candidates that are differences of shared edge columns (position
+// friction's ranges: the share below the upper edge less the share below
+// the lower one) score from the edges' products as their drawn difference
+// column does beside the same held fit: an informative one, one in the
+// held span, one that is all zero on the identification rows, one that is
+// zero but for a trace on one row (which the products cannot resolve), and
+// with nothing held.
+TEST(DiagnoseFit, DifferencesOfEdgesScoreAsTheirDrawnColumns) {
+  for (bool collinear : {false, true}) {
+    Bank b = make_bank(collinear);
+    const Vec& a = b.bank.column(b.with[0]);
+    const Vec& s = b.bank.column(b.with[1]);
+    const Eigen::Index n = a.size();
+    Mat edges(n, 5);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      edges(i, 0) = std::cos(0.3 * static_cast<double>(i));
+      edges(i, 1) = edges(i, 0) + b.bank.y()(i) - 2.0 * a(i) + s(i);  // 1 - 0 carries c
+      edges(i, 2) = edges(i, 1) + 3.0 * a(i) - s(i);                  // 2 - 1 lies in the held span
+      edges(i, 3) = edges(i, 2);                                      // 3 - 2 is zero
+      edges(i, 4) = edges(i, 2) + (i == 4 ? 1e-9 : 0.0);              // 4 - 2 is zero but on row 4
+    }
+    for (const std::vector<int>& held_cols : {b.with, std::vector<int>{}}) {
+      const ColumnBank::Held held = b.bank.hold(held_cols);
+      const ColumnBank::Edges e = b.bank.edges_beside(held, b.bank.identification_rows(edges));
+      for (const auto& [lo, hi] : {std::pair{0, 1}, {1, 2}, {2, 3}, {0, 3}, {1, 3}, {2, 4}, {0, 4}}) {
+        const Mat diff = edges.col(hi) - edges.col(lo);
+        const double want = b.bank.ssr_beside(held, b.bank.identification_rows(diff));
+        EXPECT_NEAR(b.bank.ssr_of_difference(held, e, lo, hi), want, 1e-9 * b.bank.y().squaredNorm())
+            << "edges " << lo << " to " << hi << ", collinear held columns: " << collinear << ", held " << held_cols.size();
+      }
+      EXPECT_EQ(b.bank.ssr_of_difference(held, e, 2, 3), held.fit.ssr_id);  // a zero column lowers nothing
+    }
+    const ColumnBank::Held held = b.bank.hold(b.with);
+    const ColumnBank::Edges e = b.bank.edges_beside(held, b.bank.identification_rows(edges));
+    EXPECT_LT(b.bank.ssr_of_difference(held, e, 0, 1), 0.2 * held.fit.ssr_id);
+    EXPECT_NEAR(b.bank.ssr_of_difference(held, e, 1, 2), held.fit.ssr_id, 1e-9 * held.fit.ssr_id);
+  }
+}
+
+// A NaN in an edge fails every difference that reads it, as the drawn column does.
+TEST(DiagnoseFit, ANonFiniteEdgeFailsItsDifferences) {
+  Bank b = make_bank(false);
+  const ColumnBank::Held held = b.bank.hold(b.with);
+  Mat edges(b.bank.y().size(), 3);
+  edges.col(0) = b.bank.column(b.with[0]);
+  edges.col(1) = 2.0 * edges.col(0);
+  edges.col(2) = edges.col(1);
+  edges(4, 2) = NAN;  // row 4: an identification row
+  const ColumnBank::Edges e = b.bank.edges_beside(held, b.bank.identification_rows(edges));
+  EXPECT_EQ(b.bank.ssr_of_difference(held, e, 1, 2), INFINITY);
+  EXPECT_EQ(b.bank.ssr_of_difference(held, e, 0, 2), INFINITY);
+  EXPECT_TRUE(std::isfinite(b.bank.ssr_of_difference(held, e, 0, 1)));
+}
+
 }  // namespace
 }  // namespace feedid::test
