@@ -95,6 +95,10 @@ bool identify_base(const Trace& trace, const Signals& sig, const diag::Folds& fo
     return false;
   }
   if (opt.model && !(out.error = opt.model->load.refusal(trace.source, trace.has_position)).empty()) return false;
+  // Beside a given model this fit sets only the velocity range and the
+  // signals' conventions: its standard errors (two more passes) are never
+  // read or shown.
+  if (opt.model) idopt.honest_standard_errors = false;
   out.base = identify_prepared(select_samples(sig, identification), idopt, trace.source + " (identification folds)");
   out.base.force_outliers = out.force_outliers;  // bridged on the whole trace, before the split
   if (!out.base.error.empty()) out.error = out.base.error;
@@ -661,15 +665,20 @@ class SizedColumns {
   SizedColumns(const EffectModel& em, double p) : em_(em), p_(p) {
     if (em.columns_per_size > 0) largest_ = em.columns(p, em.sizes.back(), {});
   }
+  /// Where sizes are not nested, each drawn once: choose_size fits every
+  /// size, and the evaluation fits the chosen one again.
   Mat at(int size) const {
-    if (em_.columns_per_size == 0) return em_.columns(p_, size, {});
-    return largest_.leftCols(static_cast<Eigen::Index>(size) * em_.columns_per_size);
+    if (em_.columns_per_size > 0) return largest_.leftCols(static_cast<Eigen::Index>(size) * em_.columns_per_size);
+    auto it = drawn_.find(size);
+    if (it == drawn_.end()) it = drawn_.emplace(size, em_.columns(p_, size, {})).first;
+    return it->second;
   }
 
  private:
   const EffectModel& em_;
   double p_;
   Mat largest_;
+  mutable std::map<int, Mat> drawn_;  ///< sizes drawn, where not nested
 };
 
 /// The family size at parameter p: each size fitted on the identification

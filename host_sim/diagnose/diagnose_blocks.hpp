@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <type_traits>
 #include <vector>
 
 #include "identify/identify.hpp"
@@ -143,21 +144,30 @@ class Observations {
     }
     return sums.columns();
   }
+  /// The values of a segment g wrote, [first, end): a family whose
+  /// columns are local says which (a spline's four of 2 (spans + 3)), and
+  /// only they are summed.
+  struct Band {
+    int first = 0, end = 0;
+  };
   /// Columns of w-weighted means of q values g(i, segment, out[q]) taken
   /// as constant over each segment. A stateful g (a filter) sees every
   /// segment in time order; otherwise only the segments of the blocks drawn.
+  /// g returns nothing (it may write all q) or the Band it wrote.
   template <typename G> Mat segment_columns(int q, bool stateful, Draw draw, G&& g) const {
     BlockSums sums(*this, q, draw.rows);
     std::vector<double> buffer(static_cast<std::size_t>(q), 0.0);
     double* value = buffer.data();
+    Band written{0, q};
     const std::vector<Segment>& segs = segments(draw.resolution);
     for (std::size_t i = 0; i < segs.size(); ++i) {
       const Segment& sg = segs[i];
       const bool wanted = sg.block != Segment::kNoBlock && drawn(sg.block, draw.rows);
       if (!wanted && !stateful) continue;
-      std::fill(buffer.begin(), buffer.end(), 0.0);
-      g(i, sg, value);
-      if (wanted) sums.add(sg.block, value, sg.dt, sg.t_rel);
+      std::fill(value + written.first, value + written.end, 0.0);
+      if constexpr (std::is_void_v<std::invoke_result_t<G&, std::size_t, const Segment&, double*>>) g(i, sg, value);
+      else written = g(i, sg, value);
+      if (wanted) sums.add(sg.block, value, sg.dt, sg.t_rel, written);
     }
     return sums.columns();
   }
@@ -182,11 +192,13 @@ class Observations {
     BlockSums(const Observations& o, int q, Rows rows)
         : o_(o), ending_row_(o.ending_row_[rows == Rows::all ? 0 : 1]), q_(static_cast<std::size_t>(q)), m_(3 * q_, 0.0),
           out_(Mat::Zero(static_cast<Eigen::Index>(rows == Rows::all ? o.obs_.size() : o.identification_obs_.size()), q)) {}
-    void add(std::size_t b, const double* g, double dt, double age) {
+    void add(std::size_t b, const double* g, double dt, double age) { add(b, g, dt, age, {0, static_cast<int>(q_)}); }
+    /// The same where only `band` of g can be non-zero.
+    void add(std::size_t b, const double* g, double dt, double age, Band band) {
       if (b != block_) next_block(b);
       double* m0 = m_.data();
       double* m1 = m0 + q_;
-      for (std::size_t c = 0; c < q_; ++c)
+      for (auto c = static_cast<std::size_t>(band.first); c < static_cast<std::size_t>(band.end); ++c)
         if (g[c] != 0.0) m0[c] += g[c] * dt, m1[c] += g[c] * age * dt;
     }
     Mat columns() {

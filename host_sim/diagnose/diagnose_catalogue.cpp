@@ -71,37 +71,46 @@ EffectModel offset_model(const Observations& obs) {
 }
 
 /// Means of sin(h k x) and cos(h k x), h = 1 .. harmonics, while x runs
-/// linearly across a segment: mean e^{i h phi} = (e^{i h phi1} - e^{i h
-/// phi0}) / (i h (phi1 - phi0)), the harmonics' phasors as powers of the
-/// fundamental's. Segments join, so each end's phasor serves twice: one
-/// sincos per segment.
+/// linearly across a segment, for each of several k (a grid's periods):
+/// mean e^{i h phi} = (e^{i h phi1} - e^{i h phi0}) / (i h (phi1 - phi0)),
+/// the harmonics' phasors as powers of the fundamental's. Segments join,
+/// so each end's phasors serve twice; the periods' phasors at one end are
+/// taken side by side (unit_phasors).
 class HarmonicMeans {
  public:
-  HarmonicMeans(double k, int harmonics) : k_(k), harmonics_(harmonics) {}
+  HarmonicMeans(std::vector<double> ks, int harmonics)
+      : k_(std::move(ks)), harmonics_(harmonics), re0_(k_.size()), im0_(k_.size()), re1_(k_.size()), im1_(k_.size()) {}
+  /// out: per k, per harmonic, the sin and the cos mean.
   void operator()(const Segment& sg, double* out) {
-    std::complex<double> z0 = z_prev_;
-    if (sg.x0 != x_prev_) z0 = unit_phasor(k_ * sg.x0);
-    const std::complex<double> z1 = unit_phasor(k_ * sg.x1);
-    const double dphi = k_ * (sg.x1 - sg.x0);
-    std::complex<double> p0 = z0, p1 = z1;
-    for (int h = 1; h <= harmonics_; ++h, p0 *= z0, p1 *= z1) {
-      // (p1 - p0) / (i h dphi), written out: one division, not the complex
-      // division's library call or its two.
-      const std::complex<double> rise = p1 - p0;
-      const double inv = 1.0 / (h * dphi);
-      const std::complex<double> mean = std::fabs(h * dphi) > 1e-4 ? std::complex<double>(rise.imag() * inv, -rise.real() * inv)
-                                                                    : 0.5 * (p0 + p1);
-      out[2 * (h - 1)] = mean.imag();
-      out[2 * (h - 1) + 1] = mean.real();
+    const std::size_t n = k_.size();
+    if (sg.x0 != x_prev_) unit_phasors(k_.data(), sg.x0, n, re0_.data(), im0_.data());
+    unit_phasors(k_.data(), sg.x1, n, re1_.data(), im1_.data());
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::complex<double> z0(re0_[j], im0_[j]), z1(re1_[j], im1_[j]);
+      const double dphi = k_[j] * (sg.x1 - sg.x0);
+      double* o = out + 2 * static_cast<std::ptrdiff_t>(j) * harmonics_;
+      std::complex<double> p0 = z0, p1 = z1;
+      for (int h = 1; h <= harmonics_; ++h, p0 *= z0, p1 *= z1) {
+        // (p1 - p0) / (i h dphi), written out: one division, not the
+        // complex division's library call or its two.
+        const std::complex<double> rise = p1 - p0;
+        const double inv = 1.0 / (h * dphi);
+        const std::complex<double> mean = std::fabs(h * dphi) > 1e-4 ? std::complex<double>(rise.imag() * inv, -rise.real() * inv)
+                                                                      : 0.5 * (p0 + p1);
+        o[2 * (h - 1)] = mean.imag();
+        o[2 * (h - 1) + 1] = mean.real();
+      }
     }
-    x_prev_ = sg.x1, z_prev_ = z1;
+    x_prev_ = sg.x1;
+    re0_.swap(re1_);
+    im0_.swap(im1_);
   }
 
  private:
-  double k_;
+  std::vector<double> k_;
   int harmonics_;
   double x_prev_ = std::numeric_limits<double>::quiet_NaN();
-  std::complex<double> z_prev_;
+  std::vector<double> re0_, im0_, re1_, im1_;  ///< phasors at the segment's start and end, per k
 };
 
 /// Load force periodic in position, sum over h of A_h sin(2 pi h x / P +
@@ -137,12 +146,12 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   // Several periods in one pass over the segments (the grid's), each its
   // own phasors.
   auto columns_at = [&obs](const std::vector<double>& ps, int harmonics, Observations::Draw r) {
-    std::vector<HarmonicMeans> means;
-    for (const double p : ps) means.emplace_back(2.0 * M_PI / p, harmonics);
+    std::vector<double> ks;
+    for (const double p : ps) ks.push_back(2.0 * M_PI / p);
+    HarmonicMeans means(std::move(ks), harmonics);
     const int q = 2 * harmonics;
-    const Mat all = obs.segment_columns(q * static_cast<int>(ps.size()), false, r, [&means, q](std::size_t, const Segment& sg, double* out) {
-      for (std::size_t j = 0; j < means.size(); ++j) means[j](sg, out + static_cast<std::ptrdiff_t>(j) * q);
-    });
+    const Mat all = obs.segment_columns(q * static_cast<int>(ps.size()), false, r,
+                                        [&means](std::size_t, const Segment& sg, double* out) { means(sg, out); });
     return split_columns(all, ps.size(), q);
   };
   m.columns = [columns_at](double p, int harmonics, Observations::Draw r) { return columns_at({p}, harmonics, r).front(); };
@@ -285,6 +294,7 @@ EffectModel position_friction_model(const Observations& obs, const TraceExtent& 
         const SplineBasis b(0.5 * (sg.x0 + sg.x1), x_lo, travel, spans);
         const int at = (sg.v > 0 ? 0 : spans + 3) + b.first;
         for (int k = 0; k < 4; ++k) out[at + k] = b.w[k] * sign_of(sg);
+        return Observations::Band{at, at + 4};  // a spline is non-zero on four spans
       });
     return ranges(std::vector<double>{code}, r).front();
   };

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <complex>
+#include <cstddef>
 
 namespace feedid::host::diag {
 
@@ -13,12 +14,11 @@ namespace feedid::host::diag {
 /// (n * kPio2Hi is exact while n < 2^20), and the library is called.
 constexpr double kPhasorReducedMax = 1.0e6;
 
-/// e^{i theta}: theta reduced by n pi/2 (Cody and Waite, pi/2 in three
-/// parts as fdlibm's __ieee754_rem_pio2 splits it), then fdlibm's kernel
-/// polynomials on [-pi/4, pi/4]. Within 2e-16 of the library's sin and cos
-/// for |theta| up to kPhasorReducedMax (tests/diagnose/phasor_test.cpp).
-inline std::complex<double> unit_phasor(double theta) {
-  if (!(std::fabs(theta) < kPhasorReducedMax)) return std::polar(1.0, theta);
+/// e^{i theta} for |theta| < kPhasorReducedMax: theta reduced by n pi/2
+/// (Cody and Waite, pi/2 in three parts as fdlibm's __ieee754_rem_pio2
+/// splits it), then fdlibm's kernel polynomials on [-pi/4, pi/4]. Branch
+/// free, so that a loop of them vectorizes (unit_phasors).
+inline void reduced_unit_phasor(double theta, double& re, double& im) {
   constexpr double kTwoOverPi = 6.36619772367581382433e-01;
   constexpr double kPio2Hi = 1.57079632673412561417e+00;   // first 33 bits of pi/2
   constexpr double kPio2Mid = 6.07710050630396597660e-11;  // next 33 bits
@@ -45,12 +45,37 @@ inline std::complex<double> unit_phasor(double theta) {
                      z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
   // The quadrant q = n mod 4 turns (cos r, sin r) by q quarter turns:
   // selected, not branched on (the quadrants of successive segments follow
-  // no pattern a branch predictor learns).
-  const long long q = static_cast<long long>(n) & 3;
+  // no pattern a branch predictor learns). |n| < 2^20: an int holds it.
+  const int q = static_cast<int>(n) & 3;
   const bool odd = (q & 1) != 0;
-  const double re = (odd ? sin_r : cos_r) * (((q + 1) & 2) != 0 ? -1.0 : 1.0);
-  const double im = (odd ? cos_r : sin_r) * ((q & 2) != 0 ? -1.0 : 1.0);
+  re = (odd ? sin_r : cos_r) * (((q + 1) & 2) != 0 ? -1.0 : 1.0);
+  im = (odd ? cos_r : sin_r) * ((q & 2) != 0 ? -1.0 : 1.0);
+}
+
+/// e^{i theta}: reduced_unit_phasor, or the library's beyond its range.
+/// Within 2e-16 of the library's sin and cos for |theta| up to
+/// kPhasorReducedMax (tests/diagnose/phasor_test.cpp).
+inline std::complex<double> unit_phasor(double theta) {
+  if (!(std::fabs(theta) < kPhasorReducedMax)) return std::polar(1.0, theta);
+  double re, im;
+  reduced_unit_phasor(theta, re, im);
   return {re, im};
+}
+
+/// e^{i k_j x} for j < n into re[j], im[j]: unit_phasor's values, side by
+/// side (a ripple grid's periods at one position), as one vectorized loop
+/// where every angle is in the reduction's range.
+inline void unit_phasors(const double* k, double x, std::size_t n, double* re, double* im) {
+  bool reduced = true;
+  for (std::size_t j = 0; j < n; ++j) reduced &= std::fabs(k[j] * x) < kPhasorReducedMax;
+  if (!reduced) {
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::complex<double> z = unit_phasor(k[j] * x);
+      re[j] = z.real(), im[j] = z.imag();
+    }
+    return;
+  }
+  for (std::size_t j = 0; j < n; ++j) reduced_unit_phasor(k[j] * x, re[j], im[j]);
 }
 
 }  // namespace feedid::host::diag

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "diagnose/diagnose.hpp"
@@ -214,6 +215,78 @@ TEST(DiagnoseFamilies, RipplePeriodsAscendToThreeTravels) {
   for (std::size_t i = 1; i < g.size(); ++i) EXPECT_GT(g[i], g[i - 1]) << i;
   const std::vector<double> tiny = ripple_grid(1e-3);
   EXPECT_EQ(tiny, host::diag::log_grid(4e-4, 1e-3 / 3.0, 160));
+}
+
+/// Observations of a back-and-forth motion over 0.1 m (positive, then
+/// negative, with dwells at the ends), 1 kHz.
+struct SweepObservations {
+  host::Signals s;
+  std::unique_ptr<host::diag::Observations> obs;
+  SweepObservations() {
+    s.sample_rate_hz = 1000.0;
+    s.has_position = true;
+    double x = 0.0;
+    for (int k = 0; k < 8000; ++k) {
+      const int phase = (k / 1000) % 4;  // out, dwell, back, dwell
+      const double v = phase == 0 ? 0.1 : phase == 2 ? -0.1 : 0.0;
+      s.t.push_back(k / s.sample_rate_hz);
+      s.x.push_back(x);
+      s.v.push_back(v);
+      s.u.push_back(20.0 * (v > 0) - 20.0 * (v < 0));
+      x += v / s.sample_rate_hz;
+    }
+    const double v_min = 1e-3;
+    obs = std::make_unique<host::diag::Observations>(s, v_min, 0.005, host::diag::make_folds(s, 40, v_min));
+  }
+};
+
+// A family that says which values of a segment it wrote (a spline's four)
+// draws the columns it would draw writing them without saying so, also
+// where successive segments write different bands.
+TEST(DiagnoseFamilies, ABandedDrawIsTheFullDraw) {
+  const SweepObservations so;
+  using Obs = host::diag::Observations;
+  for (const Obs::Resolution res : {Obs::Resolution::fine, Obs::Resolution::coarse})
+    for (const Obs::Rows rows : {Obs::Rows::all, Obs::Rows::identification}) {
+      const auto values = [](const host::diag::Segment& sg, double* out) {
+        const int at = static_cast<int>(std::fabs(sg.x0) * 100.0) % 7;  // moves with position
+        for (int k = 0; k < 3; ++k) out[at + k] = sg.v * (k + 1) + sg.x1;
+        return Obs::Band{at, at + 3};
+      };
+      const host::diag::Mat full = so.obs->segment_columns(10, false, {res, rows}, [&](std::size_t, const host::diag::Segment& sg, double* out) {
+        values(sg, out);
+      });
+      const host::diag::Mat banded = so.obs->segment_columns(10, false, {res, rows}, [&](std::size_t, const host::diag::Segment& sg, double* out) {
+        return values(sg, out);
+      });
+      ASSERT_GT(full.cwiseAbs().sum(), 0.0);
+      EXPECT_EQ(banded, full);
+    }
+}
+
+// Position friction's ranges, drawn as the share below the upper edge less
+// the share below the lower one, are each segment's share inside the
+// range, signed as the motion.
+TEST(DiagnoseFamilies, APositionRangeIsItsEdgesDifference) {
+  const SweepObservations so;
+  using Obs = host::diag::Observations;
+  const host::diag::TraceExtent e = host::diag::trace_extent(*so.obs);
+  const std::vector<host::diag::EffectModel> catalogue = host::diag::effect_catalogue(*so.obs, e, 0.0, {});
+  const host::diag::EffectModel& pf = catalogue.at(2);
+  ASSERT_EQ(pf.kind, "position_friction");
+  ASSERT_TRUE(pf.edges_of);
+  for (const double code : {10.0 * 1000 + 20, 0.0 * 1000 + 190, 55.0 * 1000 + 56, 150.0 * 1000 + 200}) {
+    const auto [a, b] = pf.edges_of(code);
+    const double xa = e.x_lo + e.travel * a / 200, xb = e.x_lo + e.travel * b / 200;
+    const host::diag::Mat got = pf.columns(code, 0, {Obs::Resolution::fine, Obs::Rows::all});
+    const host::diag::Mat want = so.obs->segment_columns(1, false, {Obs::Resolution::fine, Obs::Rows::all}, [&](std::size_t, const host::diag::Segment& sg, double* out) {
+      const double lo = std::min(sg.x0, sg.x1), hi = std::max(sg.x0, sg.x1);
+      const double inside = hi - lo < 1e-12 ? (lo >= xa && lo < xb ? 1.0 : 0.0) : std::max(0.0, std::min(hi, xb) - std::max(lo, xa)) / (hi - lo);
+      out[0] = inside * (sg.v > 0 ? 1.0 : -1.0);
+    });
+    ASSERT_GT(want.cwiseAbs().sum(), 0.0) << code;
+    EXPECT_LT((got - want).cwiseAbs().maxCoeff(), 1e-12) << code;
+  }
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "diagnose/phasor.hpp"
 
@@ -11,6 +12,7 @@ namespace {
 
 using host::diag::kPhasorReducedMax;
 using host::diag::unit_phasor;
+using host::diag::unit_phasors;
 
 double worst_error_up_to(double scale, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> theta(-scale, scale);
@@ -47,6 +49,29 @@ TEST(UnitPhasor, BeyondTheReductionItIsTheLibrarysAndNonFiniteStaysSo) {
   }
   EXPECT_TRUE(std::isnan(unit_phasor(std::nan("")).real()));
   EXPECT_TRUE(std::isnan(unit_phasor(INFINITY).imag()));
+}
+
+// Side by side (a ripple grid's periods at one position) the phasors are
+// unit_phasor's to the bit, in range and where one angle is beyond the
+// reduction or not finite (then every angle of the call takes the scalar way).
+TEST(UnitPhasor, SideBySideTheyAreTheScalarOnesToTheBit) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> k(1.0, 2e4);
+  std::vector<double> ks(37);
+  for (double& v : ks) v = k(rng);
+  for (const double x : {0.0, 1e-3, -0.37, 12.5, 2.0 * kPhasorReducedMax / 2e4, std::nan("")}) {
+    std::vector<double> re(ks.size()), im(ks.size());
+    unit_phasors(ks.data(), x, ks.size(), re.data(), im.data());
+    for (std::size_t j = 0; j < ks.size(); ++j) {
+      const std::complex<double> z = unit_phasor(ks[j] * x);
+      if (std::isnan(x)) {
+        EXPECT_TRUE(std::isnan(re[j]) && std::isnan(im[j]));
+        continue;
+      }
+      EXPECT_EQ(re[j], z.real()) << "x " << x << " k " << ks[j];
+      EXPECT_EQ(im[j], z.imag()) << "x " << x << " k " << ks[j];
+    }
+  }
 }
 
 }  // namespace
