@@ -414,13 +414,14 @@ class SearchColumns {
  public:
   /// One store per family of `catalogue`, each with its own lock: a pair
   /// search draws one family beside several partners at once.
-  explicit SearchColumns(const std::vector<EffectModel>& catalogue) {
+  SearchColumns(const std::vector<EffectModel>& catalogue, const ColumnBank& bank) : bank_(bank) {
     for (const EffectModel& em : catalogue) family_.emplace(&em, std::make_unique<Store>());
   }
   /// Columns are shared, not copied: a kept grid point is read by every
   /// search that asks for it (a ripple's 176 periods, 35 kB each on EMPS
-  /// PULSES: their copies took a third of a search on the kept grid).
-  using Columns = std::shared_ptr<const Mat>;
+  /// PULSES: their copies took a third of a search on the kept grid), its
+  /// own products taken once (ColumnBank::Candidate).
+  using Columns = std::shared_ptr<const ColumnBank::Candidate>;
   /// em's columns at parameter p and size, drawn as r says.
   Columns at(const EffectModel& em, double p, int size, Observations::Draw r) { return at_many(em, {p}, size, r).front(); }
   /// The same at each of ps: those not kept drawn together where the
@@ -438,7 +439,7 @@ class SearchColumns {
     else
       for (const double p : drawn_at) drawn.push_back(em.columns(p, size, r));
     for (std::size_t j = 0; j < missing.size(); ++j) {
-      out[missing[j]] = std::make_shared<const Mat>(std::move(drawn[j]));
+      out[missing[j]] = std::make_shared<const ColumnBank::Candidate>(bank_.candidate(std::move(drawn[j])));
       offer(em, drawn_at[j], size, r, out[missing[j]]);
     }
     return out;
@@ -463,7 +464,7 @@ class SearchColumns {
     if (em.keep_columns == Keep::never) return;
     Store& store = *family_.at(&em);
     const Key key = key_of(p, size, r);
-    const std::size_t bytes = static_cast<std::size_t>(cols->size()) * sizeof(double);
+    const std::size_t bytes = static_cast<std::size_t>(cols->cols_id.size()) * sizeof(double);
     const std::lock_guard<std::mutex> hold(store.lock);
     const bool again = !store.drawn.insert(key).second;
     if (store.kept.count(key) == 0 &&
@@ -481,6 +482,7 @@ class SearchColumns {
     std::set<Key> drawn;
     std::map<Key, Columns> kept;
   };
+  const ColumnBank& bank_;
   std::map<const EffectModel*, std::unique_ptr<Store>> family_;
   std::atomic<std::size_t> bytes_{0};  ///< kept, over all families
 
@@ -1154,21 +1156,25 @@ void where_bins(const Observations& obs, const Vec& r, const std::string& domain
 /// Peak of the periodogram of the held-out residual over runs of contiguous observations.
 void where_in_frequency(const Observations& obs, const Vec& r, double block_s, std::vector<WhereEntry>& out) {
   const std::vector<double> freqs = log_grid(0.5, 0.45 / block_s, 120);
-  std::vector<double> power(freqs.size(), 0.0);
+  const std::size_t nf = freqs.size();
+  std::vector<double> k(nf), power(nf, 0.0), re(nf), im(nf), zr(nf), zi(nf);
+  for (std::size_t fi = 0; fi < nf; ++fi) k[fi] = 2 * M_PI * freqs[fi];
   const auto& o = obs.obs();
   for (std::size_t i = 0; i < o.size();) {
     std::size_t j = i + 1;
     while (j < o.size() && o[i].heldout && o[j].heldout && o[j].a == o[j - 1].a + 1) ++j;
-    if (o[i].heldout && j - i >= 32)
-      for (std::size_t fi = 0; fi < freqs.size(); ++fi) {
-        double re = 0.0, im = 0.0;
-        for (std::size_t b = i; b < j; ++b) {
-          const std::complex<double> z = diag::unit_phasor(2 * M_PI * freqs[fi] * o[b].t);
-          re += r(static_cast<Eigen::Index>(b)) * z.real();
-          im += r(static_cast<Eigen::Index>(b)) * z.imag();
-        }
-        power[fi] += (re * re + im * im) / static_cast<double>(j - i);
+    if (o[i].heldout && j - i >= 32) {
+      // Every frequency's phasors at an observation side by side
+      // (unit_phasors); each frequency's sums in the observations' order.
+      std::fill(re.begin(), re.end(), 0.0);
+      std::fill(im.begin(), im.end(), 0.0);
+      for (std::size_t b = i; b < j; ++b) {
+        diag::unit_phasors(k.data(), o[b].t, nf, zr.data(), zi.data());
+        const double rb = r(static_cast<Eigen::Index>(b));
+        for (std::size_t fi = 0; fi < nf; ++fi) re[fi] += rb * zr[fi], im[fi] += rb * zi[fi];
       }
+      for (std::size_t fi = 0; fi < nf; ++fi) power[fi] += (re[fi] * re[fi] + im[fi] * im[fi]) / static_cast<double>(j - i);
+    }
     i = j;
   }
   double total = 0.0;
@@ -1462,7 +1468,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   const std::vector<EffectModel> catalogue = diag::effect_catalogue(
       obs, extent, out.lag_beyond_conventions_s,
       opt.model ? given_friction(opt.model->drive, base_cols, base, runs) : measured_friction(base_cols, base, runs));
-  SearchColumns search_columns(catalogue);
+  SearchColumns search_columns(catalogue, bank);
   const Stage st{obs, bank, search_columns, base_cols, catalogue,
                  point_sampling_floor(obs, mass_kg, out.base.signals.force_convention == "instant"),
                  opt.model ? mass_kg : 0.0,

@@ -136,24 +136,37 @@ ColumnBank::Held ColumnBank::hold(const std::vector<int>& with) const {
   return h;
 }
 
-double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  if (!held.fit.ok) return kInf;
+ColumnBank::Candidate ColumnBank::candidate(Mat cols_id) const {
+  Candidate c;
   const Eigen::Index q = cols_id.cols();
-  // The products a joint fit would take. A grid point has one to a few
-  // columns: dot by dot, where a matrix product would first pack them
-  // (a third of the search's time on a ripple's kept grid).
-  Mat s(q, q);
-  Vec r(q);
+  // A grid point has one to a few columns: dot by dot, where a matrix
+  // product would first pack them (a third of the search's time on a
+  // ripple's kept grid).
+  c.gram.resize(q, q);
+  c.xty.resize(q);
   if (q <= kDotProductsUpTo) {
     for (Eigen::Index j = 0; j < q; ++j) {
-      r(j) = cols_id.col(j).dot(y_id_);
-      for (Eigen::Index i = 0; i <= j; ++i) s(i, j) = s(j, i) = cols_id.col(i).dot(cols_id.col(j));
+      c.xty(j) = cols_id.col(j).dot(y_id_);
+      for (Eigen::Index i = 0; i <= j; ++i) c.gram(i, j) = c.gram(j, i) = cols_id.col(i).dot(cols_id.col(j));
     }
   } else {
-    s.noalias() = cols_id.transpose() * cols_id;
-    r.noalias() = cols_id.transpose() * y_id_;
+    c.gram.noalias() = cols_id.transpose() * cols_id;
+    c.xty.noalias() = cols_id.transpose() * y_id_;
   }
+  c.cols_id = std::move(cols_id);
+  return c;
+}
+
+double ColumnBank::ssr_beside(const Held& held, const Mat& cols_id) const { return ssr_beside(held, candidate(cols_id)); }
+
+double ColumnBank::ssr_beside(const Held& held, const Candidate& cand) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (!held.fit.ok) return kInf;
+  const Mat& cols_id = cand.cols_id;
+  const Eigen::Index q = cols_id.cols();
+  // The products a joint fit would take.
+  Mat s = cand.gram;
+  Vec r = cand.xty;
   const Vec diag = s.diagonal();
   if (held.x_id.cols() > 0) {
     // Column by column: a matrix-vector product each, where a matrix

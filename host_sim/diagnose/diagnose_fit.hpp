@@ -68,6 +68,18 @@ class ColumnBank {
   /// given on the identification observations alone (identification_rows);
   /// +infinity where either fit fails.
   double ssr_beside(const Held& held, const Mat& cols_id) const;
+  /// A candidate's columns on the identification observations with what
+  /// of their products does not depend on the held fit: their own and
+  /// with y. A kept grid point (SearchColumns in diagnose.cpp) is scored
+  /// beside many held fits, its own products taken once.
+  struct Candidate {
+    Mat cols_id;
+    Mat gram;
+    Vec xty;
+  };
+  Candidate candidate(Mat cols_id) const;
+  /// ssr_beside of a candidate.
+  double ssr_beside(const Held& held, const Candidate& c) const;
   /// Candidate columns that are differences of shared ones (edges: column
   /// b less column a), beside a held fit: the edges' products, from which
   /// each difference's SSR is read without drawing it. In exact arithmetic
