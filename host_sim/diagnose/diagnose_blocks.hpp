@@ -211,22 +211,24 @@ class Observations {
     /// Closes the current block: the observation ending with it (its first
     /// block the one before) gets its values.
     void next_block(std::size_t b) {
-      double* m0 = m_.data();
-      double* m1 = m0 + q_;
-      double* m1_before = m1 + q_;
-      if (block_ != kNone) {
-        const Eigen::Index row = ending_row_[block_];
-        if (row >= 0 && before_ + 1 == block_) {
-          const Triangle& w = o_.triangle_[o_.observation_ending_[block_]];
-          double* out = out_.data() + row;
-          const Eigen::Index stride = out_.rows();
-          for (std::size_t c = 0; c < q_; ++c)
-            out[static_cast<Eigen::Index>(c) * stride] = w.rise * m1_before[c] + w.top * m0[c] + w.fall * m1[c];
+      double* __restrict m0 = m_.data();
+      double* __restrict m1 = m0 + q_;
+      double* __restrict m1_before = m1 + q_;
+      const Eigen::Index row = block_ != kNone ? ending_row_[block_] : -1;
+      if (row >= 0 && before_ + 1 == block_) {
+        // The observation's values and the moments' shift in one pass.
+        const Triangle& w = o_.triangle_[o_.observation_ending_[block_]];
+        double* out = out_.data() + row;
+        const Eigen::Index stride = out_.rows();
+        for (std::size_t c = 0; c < q_; ++c) {
+          out[static_cast<Eigen::Index>(c) * stride] = w.rise * m1_before[c] + w.top * m0[c] + w.fall * m1[c];
+          m1_before[c] = m1[c], m0[c] = m1[c] = 0.0;
         }
-        before_ = block_;
+      } else {
+        for (std::size_t c = 0; c < q_; ++c) m1_before[c] = m1[c], m0[c] = m1[c] = 0.0;
       }
+      if (block_ != kNone) before_ = block_;
       block_ = b;
-      for (std::size_t c = 0; c < q_; ++c) m1_before[c] = m1[c], m0[c] = m1[c] = 0.0;
     }
     const Observations& o_;
     const std::vector<Eigen::Index>& ending_row_;

@@ -52,13 +52,18 @@ inline void reduced_unit_phasor(double theta, double& re, double& im) {
   im = (odd ? cos_r : sin_r) * ((q & 2) != 0 ? -1.0 : 1.0);
 }
 
-/// e^{i theta}: reduced_unit_phasor, or the library's beyond its range.
-/// Within 2e-16 of the library's sin and cos for |theta| up to
-/// kPhasorReducedMax (tests/diagnose/phasor_test.cpp).
+/// e^{i theta} into re, im: reduced_unit_phasor, or the library's beyond its range.
+inline void reduced_or_library(double theta, double& re, double& im) {
+  if (std::fabs(theta) < kPhasorReducedMax) return reduced_unit_phasor(theta, re, im);
+  const std::complex<double> z = std::polar(1.0, theta);
+  re = z.real(), im = z.imag();
+}
+
+/// e^{i theta}: within 2e-16 of the library's sin and cos for |theta| up
+/// to kPhasorReducedMax, the library's beyond (tests/diagnose/phasor_test.cpp).
 inline std::complex<double> unit_phasor(double theta) {
-  if (!(std::fabs(theta) < kPhasorReducedMax)) return std::polar(1.0, theta);
   double re, im;
-  reduced_unit_phasor(theta, re, im);
+  reduced_or_library(theta, re, im);
   return {re, im};
 }
 
@@ -66,13 +71,14 @@ inline std::complex<double> unit_phasor(double theta) {
 /// side (a ripple grid's periods at one position), as one vectorized loop
 /// where every angle is in the reduction's range.
 inline void unit_phasors(const double* k, double x, std::size_t n, double* re, double* im) {
+  if (n == 1) {  // one period (a Brent step): the vector loop's checks would cost more than the phasor
+    reduced_or_library(k[0] * x, re[0], im[0]);
+    return;
+  }
   bool reduced = true;
   for (std::size_t j = 0; j < n; ++j) reduced &= std::fabs(k[j] * x) < kPhasorReducedMax;
   if (!reduced) {
-    for (std::size_t j = 0; j < n; ++j) {
-      const std::complex<double> z = unit_phasor(k[j] * x);
-      re[j] = z.real(), im[j] = z.imag();
-    }
+    for (std::size_t j = 0; j < n; ++j) reduced_or_library(k[j] * x, re[j], im[j]);
     return;
   }
   for (std::size_t j = 0; j < n; ++j) reduced_unit_phasor(k[j] * x, re[j], im[j]);
