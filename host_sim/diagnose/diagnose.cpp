@@ -523,6 +523,9 @@ constexpr double kGoldenShare = 0.3819660112501051;
 /// Candidates drawn at once where a family draws them cheaper together.
 constexpr std::size_t kBatch = 8;
 
+/// Whether em's search at `size` scores its candidates from edges (EffectModel::edges_of).
+bool by_edges(const EffectModel& em, int size) { return em.edges_of && size == em.sizes.front(); }
+
 /// The identification SSR of the held fit with em's columns at each of ps
 /// (size `size`, drawn as r says): from the columns themselves, or from
 /// their edges' products where the family's columns are differences of
@@ -530,14 +533,15 @@ constexpr std::size_t kBatch = 8;
 std::vector<double> ssrs_beside(const Stage& st, const ColumnBank::Held& held, const EffectModel& em,
                                 const std::vector<double>& ps, int size, Observations::Draw r) {
   std::vector<double> out;
-  if (em.edges_of && size == em.sizes.front()) {
+  if (by_edges(em, size)) {
     const diag::EdgeSet set(em.edges_of, ps);
     const ColumnBank::Edges e = st.bank.edges_beside(held, em.edge_columns(set.edges, r));
+    std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
     for (const double p : ps) {
       const auto [a, b] = em.edges_of(p);
-      out.push_back(st.bank.ssr_of_difference(held, e, set.index(a), set.index(b)));
+      pairs.emplace_back(set.index(a), set.index(b));
     }
-    return out;
+    return st.bank.ssrs_of_differences(held, e, pairs);
   }
   for (const SearchColumns::Columns& cols : st.search_columns.at_many(em, ps, size, r))
     out.push_back(st.bank.ssr_beside(held, *cols));
@@ -609,7 +613,7 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   std::size_t best_i = 0;
   // A few grid points drawn at once, where the family draws them cheaper
   // together (EffectModel::columns_at_many); all at once from edges.
-  const std::size_t batch = em.edges_of ? grid.size() : kBatch;
+  const std::size_t batch = by_edges(em, size) ? grid.size() : kBatch;
   for (std::size_t i0 = 0; i0 < grid.size(); i0 += batch) {
     const std::vector<double> ps(grid.begin() + static_cast<std::ptrdiff_t>(i0),
                                  grid.begin() + static_cast<std::ptrdiff_t>(std::min(grid.size(), i0 + batch)));
@@ -636,7 +640,7 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
   if (em.refine)
     for (int round = 0; round < 2; ++round) {
       const std::vector<double> around = em.refine(best_p);
-      const std::size_t refine_batch = em.edges_of ? around.size() : kBatch;
+      const std::size_t refine_batch = by_edges(em, size) ? around.size() : kBatch;
       for (std::size_t i0 = 0; i0 < around.size(); i0 += refine_batch) {
         const std::vector<double> ps(around.begin() + static_cast<std::ptrdiff_t>(i0),
                                      around.begin() + static_cast<std::ptrdiff_t>(std::min(around.size(), i0 + refine_batch)));
@@ -681,6 +685,13 @@ class SizedColumns {
   double p_;
   Mat largest_;
   mutable std::map<int, Mat> drawn_;  ///< sizes drawn, where not nested
+
+ public:
+  /// Only `size` is read from here on: the others' memory goes (on a long
+  /// log the three spline sizes of position friction held 46 MB).
+  void keep_only(int size) {
+    for (auto it = drawn_.begin(); it != drawn_.end();) it = it->first == size ? std::next(it) : drawn_.erase(it);
+  }
 };
 
 /// The family size at parameter p: each size fitted on the identification
@@ -723,8 +734,9 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   e.c.kind = em.kind;
   const std::vector<int> with = model_columns(st.base, current);
   e.p = search_parameter(st, with, em, em.sizes.front());
-  const SizedColumns sized(em, e.p);
+  SizedColumns sized(em, e.p);
   e.size = choose_size(st, with, em, sized);
+  sized.keep_only(e.size);
   // A larger size can move the parameter (a compliance's frequency with
   // its damping): searched again at the size chosen.
   const double p_searched = e.p;

@@ -150,6 +150,12 @@ class Observations {
   struct Band {
     int first = 0, end = 0;
   };
+  /// b within [0, q], never inverted: a family's band cannot take the
+  /// zeroing or the sums past its q values.
+  static Band clamped(Band b, int q) {
+    const int first = std::clamp(b.first, 0, q);
+    return {first, std::clamp(b.end, first, q)};
+  }
   /// Columns of w-weighted means of q values g(i, segment, out[q]) taken
   /// as constant over each segment. A stateful g (a filter) sees every
   /// segment in time order; otherwise only the segments of the blocks drawn.
@@ -166,7 +172,7 @@ class Observations {
       if (!wanted && !stateful) continue;
       std::fill(value + written.first, value + written.end, 0.0);
       if constexpr (std::is_void_v<std::invoke_result_t<G&, std::size_t, const Segment&, double*>>) g(i, sg, value);
-      else written = g(i, sg, value);
+      else written = clamped(g(i, sg, value), q);
       if (wanted) sums.add(sg.block, value, sg.dt, sg.t_rel, written);
     }
     return sums.columns();

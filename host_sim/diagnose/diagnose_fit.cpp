@@ -7,7 +7,7 @@
 namespace feedid::host::diag {
 
 namespace {
-/// ssr_beside: up to this many columns, their products are taken as dot
+/// candidate(): up to this many columns, their products are taken as dot
 /// products rather than a matrix product.
 constexpr Eigen::Index kDotProductsUpTo = 4;
 /// ssr_of_difference: the share of the edges' own products below which a
@@ -225,11 +225,11 @@ double ColumnBank::ssr_of_difference(const Held& held, const Edges& e, Eigen::In
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (!held.fit.ok) return kInf;
   // The difference's products expanded: b'b - 2 a'b + a'a. Their rounding
-  // is the edges' own products' (G_aa + G_bb) times the unit roundoff; a
-  // difference whose products are less than kDifferenceResolved of those
-  // is read from its column instead, so that the SSR agrees with
-  // ssr_beside's far within the grid's tie margin (kGridTieRelative in
-  // diagnose.cpp) and a zero column stays exactly nothing.
+  // is at least the edges' own products' (G_aa + G_bb) times the unit
+  // roundoff; a difference whose products are less than
+  // kDifferenceResolved of those is read from its column instead, so that
+  // a zero column stays exactly nothing. (The held columns' condition adds
+  // to it: ssrs_of_differences reads the near-least from their columns.)
   const double scale_of_edges = e.gram(a, a) + e.gram(b, b);
   const double gram = e.gram(b, b) - 2.0 * e.gram(a, b) + e.gram(a, a);
   const double s = e.s(b, b) - 2.0 * e.s(a, b) + e.s(a, a);
@@ -243,6 +243,21 @@ double ColumnBank::ssr_of_difference(const Held& held, const Edges& e, Eigen::In
   const double drop = sc > cut ? rc * rc / sc : 0.0;
   const double ssr = held.fit.ssr_id - drop;
   return std::isfinite(ssr) ? ssr : kInf;
+}
+
+std::vector<double> ColumnBank::ssrs_of_differences(const Held& held, const Edges& e,
+                                                    const std::vector<std::pair<Eigen::Index, Eigen::Index>>& pairs) const {
+  std::vector<double> out;
+  double least = std::numeric_limits<double>::infinity();
+  for (const auto& [a, b] : pairs) {
+    out.push_back(ssr_of_difference(held, e, a, b));
+    least = std::min(least, out.back());
+  }
+  if (!std::isfinite(least)) return out;
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    if (out[i] <= least + kRescoreMargin * std::fabs(least))
+      out[i] = ssr_beside(held, e.cols_id.col(pairs[i].second) - e.cols_id.col(pairs[i].first));
+  return out;
 }
 
 Vec ColumnBank::residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const {

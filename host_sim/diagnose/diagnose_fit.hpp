@@ -94,8 +94,20 @@ class ColumnBank {
   /// The identification SSR of the held fit with edge b less edge a added:
   /// from the products where they resolve the difference, else (two edges
   /// alike on these observations, or their difference in the held span)
-  /// from the difference column itself.
+  /// from the difference column itself. The expansion's rounding grows
+  /// with the held columns' condition (to 1e-7 of the SSR beside nearly
+  /// collinear ones): a screen, which ssrs_of_differences completes.
   double ssr_of_difference(const Held& held, const Edges& e, Eigen::Index a, Eigen::Index b) const;
+  /// ssr_beside of every difference (a, b) of `pairs`, to its bits where it
+  /// matters: each screened by ssr_of_difference, then those within
+  /// kRescoreMargin of the least read from their columns, so that the
+  /// least and its ties are ssr_beside's own and equal columns tie exactly.
+  std::vector<double> ssrs_of_differences(const Held& held, const Edges& e,
+                                          const std::vector<std::pair<Eigen::Index, Eigen::Index>>& pairs) const;
+  /// Relative distance from the least screened SSR within which a
+  /// difference is read from its column: far above the expansion's
+  /// rounding, far below the SSR differences a search tells apart.
+  static constexpr double kRescoreMargin = 1e-5;
   /// y minus the fitted columns, on every observation.
   Vec residual(const std::vector<int>& cols, const Extra* extra, const Vec& theta) const;
   /// Leverage x_i' G^+ x_i of every observation under the fit on bank

@@ -14,7 +14,8 @@ namespace feedid::host::diag {
 /// (n * kPio2Hi is exact while n < 2^20), and the library is called.
 constexpr double kPhasorReducedMax = 1.0e6;
 
-/// e^{i theta} for |theta| < kPhasorReducedMax: theta reduced by n pi/2
+/// e^{i theta} for |theta| < kPhasorReducedMax only (beyond, n no longer
+/// fits the reduction or an int: reduced_or_library checks): theta reduced by n pi/2
 /// (Cody and Waite, pi/2 in three parts as fdlibm's __ieee754_rem_pio2
 /// splits it), then fdlibm's kernel polynomials on [-pi/4, pi/4]. Branch
 /// free, so that a loop of them vectorizes (unit_phasors).

@@ -5,6 +5,7 @@
 // collinear (an offset beside Coulomb terms of both signs).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -160,6 +161,43 @@ TEST(DiagnoseFit, ANonFiniteEdgeFailsItsDifferences) {
   EXPECT_EQ(b.bank.ssr_of_difference(held, e, 1, 2), INFINITY);
   EXPECT_EQ(b.bank.ssr_of_difference(held, e, 0, 2), INFINITY);
   EXPECT_TRUE(std::isfinite(b.bank.ssr_of_difference(held, e, 0, 1)));
+}
+
+// Beside nearly collinear held columns (three close Stribeck-like
+// columns) the expanded products round at 1e-7 of the SSR: the least and
+// everything near it are read from their columns, to the bit of
+// ssr_beside, so a search's choice and its ties are the drawn columns'.
+TEST(DiagnoseFit, NearTheLeastDifferencesAreScoredFromTheirColumns) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01;
+  const Eigen::Index n = 600;
+  Vec y(n);
+  std::vector<char> id(static_cast<std::size_t>(n));
+  Mat held_cols(n, 3), edges(n, 12);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double x = static_cast<double>(i) / static_cast<double>(n);
+    for (int k = 0; k < 3; ++k) held_cols(i, k) = std::exp(-std::pow(x / (0.30 + 0.001 * k), 2));
+    for (int k = 0; k < 12; ++k) edges(i, k) = std::clamp((k / 11.0 - x) * 40.0, 0.0, 1.0);  // share below edge k
+    y(i) = 3.0 * held_cols(i, 0) + 2.0 * (edges(i, 7) - edges(i, 4)) + 0.05 * n01(rng);
+    id[static_cast<std::size_t>(i)] = i % 3 != 0;
+  }
+  ColumnBank bank(y, id);
+  std::vector<int> with;
+  for (int k = 0; k < 3; ++k) with.push_back(bank.add(held_cols.col(k)));
+  const ColumnBank::Held held = bank.hold(with);
+  const ColumnBank::Edges e = bank.edges_beside(held, bank.identification_rows(edges));
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
+  for (Eigen::Index a = 0; a < 12; ++a)
+    for (Eigen::Index b = a + 1; b < 12; ++b) pairs.emplace_back(a, b);
+  const std::vector<double> got = bank.ssrs_of_differences(held, e, pairs);
+  std::vector<double> want;
+  for (const auto& [a, b] : pairs) want.push_back(bank.ssr_beside(held, bank.identification_rows(Mat(edges.col(b) - edges.col(a)))));
+  const std::size_t best = static_cast<std::size_t>(std::min_element(want.begin(), want.end()) - want.begin());
+  EXPECT_EQ(pairs[best], (std::pair<Eigen::Index, Eigen::Index>{4, 7}));  // the range y carries
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (want[k] <= want[best] * (1.0 + 1e-6)) EXPECT_EQ(got[k], want[k]) << pairs[k].first << " to " << pairs[k].second;
+    EXPECT_NEAR(got[k], want[k], 1e-6 * want[k]) << pairs[k].first << " to " << pairs[k].second;
+  }
 }
 
 }  // namespace

@@ -248,10 +248,12 @@ TEST(DiagnoseFamilies, ABandedDrawIsTheFullDraw) {
   using Obs = host::diag::Observations;
   for (const Obs::Resolution res : {Obs::Resolution::fine, Obs::Resolution::coarse})
     for (const Obs::Rows rows : {Obs::Rows::all, Obs::Rows::identification}) {
+      // The band moves with position, and its last value is left to the
+      // zeroing: what an earlier segment wrote there must not stay.
       const auto values = [](const host::diag::Segment& sg, double* out) {
-        const int at = static_cast<int>(std::fabs(sg.x0) * 100.0) % 7;  // moves with position
+        const int at = static_cast<int>(std::fabs(sg.x0) * 100.0) % 7;
         for (int k = 0; k < 3; ++k) out[at + k] = sg.v * (k + 1) + sg.x1;
-        return Obs::Band{at, at + 3};
+        return Obs::Band{at, at + 4};
       };
       const host::diag::Mat full = so.obs->segment_columns(10, false, {res, rows}, [&](std::size_t, const host::diag::Segment& sg, double* out) {
         values(sg, out);

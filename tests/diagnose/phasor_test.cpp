@@ -51,6 +51,23 @@ TEST(UnitPhasor, BeyondTheReductionItIsTheLibrarysAndNonFiniteStaysSo) {
   EXPECT_TRUE(std::isnan(unit_phasor(INFINITY).imag()));
 }
 
+// One angle alone (a Brent step's period) takes the scalar way: the same
+// bits, also beyond the reduction and at an infinity.
+TEST(UnitPhasor, OneAngleAloneIsTheScalarOne) {
+  for (const double theta : {0.3, -2.0e5, 2.0 * kPhasorReducedMax, double(INFINITY)}) {
+    const double k = 1.0;
+    double re = 0.0, im = 0.0;
+    unit_phasors(&k, theta, 1, &re, &im);
+    const std::complex<double> z = unit_phasor(theta);
+    if (std::isinf(theta)) {
+      EXPECT_TRUE(std::isnan(re) && std::isnan(z.real()));
+      continue;
+    }
+    EXPECT_EQ(re, z.real()) << theta;
+    EXPECT_EQ(im, z.imag()) << theta;
+  }
+}
+
 // Side by side (a ripple grid's periods at one position) the phasors are
 // unit_phasor's to the bit, in range and where one angle is beyond the
 // reduction or not finite (then every angle of the call takes the scalar way).
