@@ -422,10 +422,8 @@ class SearchColumns {
   /// PULSES: their copies took a third of a search on the kept grid), its
   /// own products taken once (ColumnBank::Candidate).
   using Columns = std::shared_ptr<const ColumnBank::Candidate>;
-  /// em's columns at parameter p and size, drawn as r says.
-  Columns at(const EffectModel& em, double p, int size, Observations::Draw r) { return at_many(em, {p}, size, r).front(); }
-  /// The same at each of ps: those not kept drawn together where the
-  /// family can (EffectModel::columns_at_many).
+  /// em's columns at each of ps and size, drawn as r says: those not kept
+  /// drawn together where the family can (EffectModel::columns_at_many).
   std::vector<Columns> at_many(const EffectModel& em, const std::vector<double>& ps, int size, Observations::Draw r) {
     std::vector<Columns> out(ps.size());
     std::vector<std::size_t> missing;
