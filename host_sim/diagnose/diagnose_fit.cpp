@@ -14,6 +14,12 @@ constexpr Eigen::Index kDotProductsUpTo = 4;
 /// difference's products are not taken from them (their rounding, the unit
 /// roundoff of those, would be more than about 1e-10 of the difference's).
 constexpr double kDifferenceResolved = 1e-6;
+
+/// What one extra column lowers the SSR by, from its products in
+/// correlation form (sc: its own less what the held columns explain, rc:
+/// with the held fit's residual): its own eigenvector, as the eigensolver
+/// of ssr_beside returns it for one column; nothing below the cut.
+double one_column_drop(double sc, double rc, double cut) { return sc > cut ? rc * rc / sc : 0.0; }
 }  // namespace
 
 ColumnBank::ColumnBank(Vec y, std::vector<char> id) : y_(std::move(y)), id_(std::move(id)) {
@@ -193,8 +199,7 @@ double ColumnBank::ssr_beside(const Held& held, const Candidate& cand) const {
   const Vec rc = scale.asDiagonal() * r;
   double drop = 0.0;
   if (q == 1) {
-    // One column: its own eigenvector, as the solver below returns it.
-    if (sc(0, 0) > cut) drop = rc(0) * rc(0) / sc(0, 0);
+    drop = one_column_drop(sc(0, 0), rc(0), cut);
   } else {
     Eigen::SelfAdjointEigenSolver<Mat> eig(sc);
     if (eig.info() != Eigen::Success) return kInf;
@@ -239,9 +244,7 @@ double ColumnBank::ssr_of_difference(const Held& held, const Edges& e, Eigen::In
   // ssr_beside's steps for one column.
   const double cut = kNormalEquationsCut * std::max(1.0, held.largest_eigenvalue);
   const double scale = 1.0 / std::sqrt(gram);
-  const double sc = scale * s * scale, rc = scale * r;
-  const double drop = sc > cut ? rc * rc / sc : 0.0;
-  const double ssr = held.fit.ssr_id - drop;
+  const double ssr = held.fit.ssr_id - one_column_drop(scale * s * scale, scale * r, cut);
   return std::isfinite(ssr) ? ssr : kInf;
 }
 
