@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <future>
 #include <memory>
+#include <optional>
 
 #include "diagnose/diagnose.hpp"
 #include "gap/model_gap.hpp"
@@ -47,27 +49,38 @@ struct DiagnoseCommand : Command {
     more.insert(more.end(), in_path.begin(), in_path.end());
     return more;
   }
+  /// --controller's file, read before the trace so that the reference
+  /// and extra command are read beside it (replay.hpp,
+  /// start_reference_and_extra); an error names what is wrong.
+  std::string read_controller(std::optional<Controller>& controller) const {
+    if (controller_path.empty()) return "";
+    if (model_path.empty()) return "--controller needs --model (the model to replay)";
+    if (in_path.size() != 1 || !input.in_list.empty()) return "--controller: a replay takes one continuous recording (one --in)";
+    controller = read_controller_file(controller_path);
+    if (!controller->error.empty()) return controller->error;
+    warn(controller->warnings);
+    return "";
+  }
   /// diagnose --model [--controller]: the given model's gap (gap/model_gap.hpp).
-  int run_given_model(const CsvResult& csv) {
+  /// --model's file into opt.model, its warnings said; an error names what is wrong.
+  std::string read_model() {
+    if (model_path.empty()) return "";
     opt.model = read_model_file(model_path);
-    if (!opt.model->error.empty()) return bad_input(opt.model->error);
+    if (!opt.model->error.empty()) return opt.model->error;
     warn(opt.model->warnings);
     if (!opt.model->effects.empty())
       std::fprintf(stderr, "note: %s: its %zu effect(s) are not the diagnosis's base (its mass, friction and load are): "
                    "the effects are named anew\n", model_path.c_str(), opt.model->effects.size());
     if (const std::string why = model_units_mismatch({{"units", opt.model->units}}, opt.identify.units); !why.empty())
-      return bad_input(model_path + ": " + why);
-    std::optional<Controller> controller;
+      return model_path + ": " + why;
+    return "";
+  }
+  int run_given_model(const CsvResult& csv, const std::optional<Controller>& controller, std::future<CsvResult> both) {
     std::optional<LoggedRun> run;
     ReplayOptions ropt;
     ropt.units = opt.identify.units;
-    if (!controller_path.empty()) {
-      if (in_path.size() != 1 || !input.in_list.empty())
-        return bad_input("--controller: a replay takes one continuous recording (one --in)");
-      controller = read_controller_file(controller_path);
-      if (!controller->error.empty()) return bad_input(controller->error);
-      warn(controller->warnings);
-      run = read_logged_run(in_path.front(), cols, *controller, csv);
+    if (controller) {
+      run = read_logged_run(in_path.front(), cols, *controller, csv, both.get());
       if (!run->error.empty()) return bad_input(run->error);
       for (const auto& n : run->notes) std::fprintf(stderr, "note: %s\n", n.c_str());
     }
@@ -95,13 +108,17 @@ struct DiagnoseCommand : Command {
       return bad_input("diagnose --method " + method + ": the diagnosis refits the bands model's terms and has no "
                        "other method; use identify --method " + method + " for that estimate");
     }
+    opt.identify.units = input.units();
+    if (const std::string why = read_model(); !why.empty()) return bad_input(why);
+    std::optional<Controller> controller;
+    if (const std::string why = read_controller(controller); !why.empty()) return bad_input(why);
+    std::future<CsvResult> both;
+    if (controller) both = start_reference_and_extra(in_path.front(), cols, *controller, opt.threads != 1);
     CsvResult csv;
     if (!read_trace(in_path, input, cols, csv)) return 2;
     Progress p("diagnose");
     if (csv.trace.samples.size() > 500000) opt.progress = std::ref(p);
-    opt.identify.units = input.units();
-    if (!model_path.empty()) return run_given_model(csv);
-    if (!controller_path.empty()) return bad_input("--controller needs --model (the model to replay)");
+    if (!model_path.empty()) return run_given_model(csv, controller, std::move(both));
     const DiagnoseResult r = diagnose(csv.trace, opt);
     if (!json_path.empty() && !write_json(json_path, to_json(r))) return 1;
     if (!model_out_path.empty() && r.error.empty() &&

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "io/beside.hpp"
 #include "io/trace_files.hpp"
 #include "signals/filters.hpp"
 #include "sim/plant.hpp"
@@ -303,12 +304,19 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
 
 }  // namespace
 
-bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
-  if (c.extra_command.empty()) return false;
+/// The one pass's read (read_reference_and_extra): not ok where the
+/// controller names no extra command.
+CsvResult reference_and_extra_file(const std::string& path, const CsvColumns& cols, const Controller& c) {
+  if (c.extra_command.empty()) return {};
   CsvColumns both = through_position(cols, c.reference, cols.position_scale);
   both.force = c.extra_command;
   both.force_scale = 1.0;
-  const CsvResult r = read_trace_file(path, both);
+  return read_trace_file(path, both);
+}
+
+/// The reference and the extra command of `r` (that pass's read) into
+/// run; false, with run untouched, where r failed or kept other rows.
+bool take_reference_and_extra(const CsvResult& r, LoggedRun& run) {
   if (!r.ok || !r.trace.has_position || r.trace.samples.size() != run.t.size() ||
       first_other_row(r.trace, run.t) != run.t.size())
     return false;
@@ -321,6 +329,15 @@ bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, c
   return true;
 }
 
+bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run) {
+  return take_reference_and_extra(reference_and_extra_file(path, cols, c), run);
+}
+
+std::future<CsvResult> start_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c,
+                                                 bool beside) {
+  return run_beside(beside, [path, cols, c] { return reference_and_extra_file(path, cols, c); });
+}
+
 ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe) {
   opt.effects = pe.effects;
   opt.extra_force = pe.extra_force;
@@ -329,10 +346,13 @@ ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe) {
 }
 
 LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
-  return read_logged_run(path, cols, c, read_trace_file(path, cols));
+  std::future<CsvResult> both = start_reference_and_extra(path, cols, c, true);
+  const CsvResult main = read_trace_file(path, cols);
+  return read_logged_run(path, cols, c, main, both.get());
 }
 
-LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main) {
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main,
+                          const CsvResult& both) {
   LoggedRun run;
   run.source = path;
   if (!main.ok) {
@@ -349,7 +369,8 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
     run.x.push_back(s.x_m);
     run.u.push_back(s.u_N);
   }
-  if (read_reference_and_extra(path, cols, c, run)) return run;
+  if (take_reference_and_extra(both, run)) return run;
+  // Column by column, where the one pass failed: these reads say why.
   Outcome<std::vector<double>> reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
   run.reference = std::move(reference.value);
   run.error = reference.error;

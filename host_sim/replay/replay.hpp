@@ -15,6 +15,7 @@
 // command held, Karnopp stick/slip at rest. Host only.
 #pragma once
 #include <limits>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -56,9 +57,19 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
 /// trace: read_logged_run then reads the columns one by one, and those
 /// reads say why.
 bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c, LoggedRun& run);
-/// The same, with `main`, the file as read_trace_file(path, cols) reads it
-/// (a caller that has read it already need not read it again).
-LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main);
+/// That one pass's read alone (the file with the reference in the position
+/// slot and the extra command in the force slot; not ok where the
+/// controller names no extra command), started beside the caller's read of
+/// the trace: on a thread of its own where `beside` allows
+/// (io/beside.hpp), so that the file's two passes take the time of one.
+std::future<CsvResult> start_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c,
+                                                 bool beside);
+/// The same as read_logged_run, with `main`, the file as
+/// read_trace_file(path, cols) reads it, and `both`, the pass
+/// start_reference_and_extra made (a caller that has read them already
+/// need not read them again).
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, const CsvResult& main,
+                          const CsvResult& both);
 
 struct ReplayOptions {
   /// Plant integration steps per sample; 0: the fewest that resolve the

@@ -9,6 +9,7 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "io/trace_files.hpp"
 #include "model/constants.hpp"
 #include "replay/replay.hpp"
 #include "report/report.hpp"
@@ -166,6 +167,14 @@ TEST(ReplayRun, ReferenceAndExtraCommandAreReadWithTheTrace) {
   ASSERT_TRUE(read_reference_and_extra(path, cols, c, one_pass));
   EXPECT_EQ(one_pass.reference, run.reference);
   EXPECT_EQ(one_pass.extra, run.extra);
+  // AND that pass started beside the trace's own read is the same pass, on a thread of its own or not
+  for (const bool beside : {true, false}) {
+    const LoggedRun started =
+        read_logged_run(path, cols, c, read_trace_file(path, cols), start_reference_and_extra(path, cols, c, beside).get());
+    EXPECT_EQ(started.error, "");
+    EXPECT_EQ(started.reference, run.reference) << beside;
+    EXPECT_EQ(started.extra, run.extra) << beside;
+  }
   write("nan", true);
   EXPECT_NE(read_logged_run(path, cols, c).error.find("extra command column 'e'"), std::string::npos);
   LoggedRun skipped_row;
