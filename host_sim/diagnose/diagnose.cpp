@@ -723,6 +723,7 @@ struct Evaluation {
   Model model;  ///< current + this effect, vs free (its columns not yet in the bank)
   bool plausible = false;  ///< fitted, physical, and not a combination of the model's terms
   bool eligible = false;
+  Mat columns;  ///< where plausible: the effect's columns at p and size, on every observation
 };
 
 Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
@@ -739,8 +740,8 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   // its damping): searched again at the size chosen.
   const double p_searched = e.p;
   if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size) e.p = search_parameter(st, with, em, e.size);
-  const ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
-                                             all_columns(st.base, current));
+  ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
+                                       all_columns(st.base, current));
   e.model = current;
   const LinearFit f = fit_vs_free(st.bank, st.base, e.model, &ex);
   if (!f.ok) {
@@ -776,6 +777,9 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
     e.c.note = "not named: the base's friction law is not settled on this run, and this effect would stand in for it";
   e.c.significant = !e.c.indistinguishable && why_not.empty() && !stands_in;
   e.plausible = e.c.significant;
+  // Kept for adopt(), which would otherwise draw the same columns again
+  // (serial: a pair step adopts every plausible candidate alone first).
+  if (e.plausible) e.columns = std::move(ex.cols);
   return e;
 }
 
@@ -794,13 +798,14 @@ void judge(Evaluation& e, const Gap& gap, const DiagnoseOptions& opt) {
 // 5. Selection: forward, one effect per step, on what the others leave.
 // ---------------------------------------------------------------------------
 
-/// Bank columns of an effect's term at parameter p.
-Model::Term make_term(const Stage& st, std::size_t effect, double p, int size) {
+/// Bank columns of an effect's term at parameter p: `drawn`, where they
+/// were drawn already on every observation, else drawn here.
+Model::Term make_term(const Stage& st, std::size_t effect, double p, int size, const Mat& drawn = Mat()) {
   Model::Term term;
   term.effect = effect;
   term.p = p;
   term.size = size;
-  const Mat cols = st.catalogue[effect].columns(p, size, {});
+  const Mat cols = drawn.size() > 0 ? drawn : st.catalogue[effect].columns(p, size, {});
   for (Eigen::Index c = 0; c < cols.cols(); ++c) term.cols.push_back(st.bank.add(cols.col(c)));
   return term;
 }
@@ -808,7 +813,7 @@ Model::Term make_term(const Stage& st, std::size_t effect, double p, int size) {
 /// Adds the chosen effect's columns to the bank and refits the model with it.
 Model adopt(const Stage& st, const Evaluation& e) {
   Model m = e.model;
-  m.terms.push_back(make_term(st, e.effect, e.p, e.size));
+  m.terms.push_back(make_term(st, e.effect, e.p, e.size, e.columns));
   refit(st.bank, st.base, m);
   return m;
 }

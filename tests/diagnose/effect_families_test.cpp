@@ -266,6 +266,30 @@ TEST(DiagnoseFamilies, ABandedDrawIsTheFullDraw) {
     }
 }
 
+// Where a family's sizes are nested (EffectModel::columns_per_size), a
+// smaller size's columns are the larger size's first ones to the bit: the
+// size search reads the smaller sizes off the largest draw, and adopt()
+// takes the columns the evaluation drew rather than drawing them again.
+TEST(DiagnoseFamilies, NestedSizesAreTheLargestDrawsFirstColumnsToTheBit) {
+  const SweepObservations so;
+  const host::diag::TraceExtent e = host::diag::trace_extent(*so.obs);
+  const std::vector<host::diag::EffectModel> catalogue = host::diag::effect_catalogue(*so.obs, e, 0.0, {});
+  int nested = 0;
+  for (const host::diag::EffectModel& em : catalogue) {
+    if (em.columns_per_size <= 0 || em.sizes.size() < 2) continue;
+    ++nested;
+    const double p = em.grid.empty() ? 0.0 : em.grid[em.grid.size() / 3];
+    const host::diag::Mat largest = em.columns(p, em.sizes.back(), {});
+    ASSERT_GT(largest.cwiseAbs().sum(), 0.0) << em.kind;
+    for (const int size : em.sizes) {
+      const host::diag::Mat alone = em.columns(p, size, {});
+      ASSERT_EQ(alone.cols(), static_cast<Eigen::Index>(size) * em.columns_per_size) << em.kind;
+      EXPECT_TRUE(alone == largest.leftCols(alone.cols())) << em.kind << " size " << size;
+    }
+  }
+  EXPECT_GE(nested, 2);  // the ripple's harmonics and the compliance's dampings at least
+}
+
 // Position friction's ranges, drawn as the share below the upper edge less
 // the share below the lower one, are each segment's share inside the
 // range, signed as the motion.
