@@ -1507,6 +1507,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // them is the file's, and an offset is a candidate like any other.
   if (!opt.model) report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
   report_run_levels(base_cols, out.effects.empty() ? base : final_model, opt, out);
+  if (opt.on_effects_final) opt.on_effects_final(out);
   out.where = where.get();
   if (out.gap_remains && !out.effects.empty()) out.where_left = where_gap_lies(obs, final_model.residual, out.base, opt.block_s);
   keep_series(obs, base.residual, out.effects.empty() ? base.residual : final_model.residual, out);

@@ -17,6 +17,8 @@
 
 namespace feedid::host {
 
+struct DiagnoseResult;
+
 struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
   double block_s = 0.005;         ///< residual block length (s): force residual is averaged per block
@@ -48,6 +50,11 @@ struct DiagnoseOptions {
   /// fitted on the identification folds, and the gap is judged on the
   /// held-out ones. Empty: the base model is fitted on the identification folds.
   std::optional<ModelFile> model;
+  /// Called once on the caller's thread when the named effects are final
+  /// (after the verdict), before the diagnosis's last reports (where the
+  /// gap is left, the kept series): diagnose --controller starts its
+  /// replay with the effects there, so that the two run side by side.
+  std::function<void(const DiagnoseResult&)> on_effects_final;
 };
 
 struct Candidate {

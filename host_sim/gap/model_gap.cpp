@@ -58,14 +58,17 @@ ModelFile replay_base(const ModelFile& model) {
   return base;
 }
 
-/// g.before, the base's replay, set: the replay after the named causes and the held-out figures of both.
-void replay_after(const ModelFile& base, const DiagnoseOptions& opt, const Controller& c, const LoggedRun& run,
-                  const ReplayOptions& ropt, ModelGap& g) {
+/// The replay after the named causes (`after`, started when the diagnosis's
+/// effects were final) and the held-out figures of both; g.before, the
+/// base's replay, set.
+void replay_after(const DiagnoseOptions& opt, const LoggedRun& run, std::future<ReplayResult> after, ModelGap& g) {
   g.error = g.before.error;
-  if (!g.error.empty()) return;  // the same loop would fail again with the effects
-  PlantEffects pe = plant_effects(named_effects_json(g.diagnosis.effects), base.drive.mass_kg);
-  g.plant = pe.list;
-  g.after = replay(base, c, run, with_plant_effects(ropt, pe));
+  if (!g.error.empty()) return;  // the same loop fails with the effects too
+  if (!after.valid()) {
+    g.error = run.source + ": the diagnosis ended without naming its effects final (no replay after them)";
+    return;
+  }
+  g.after = after.get();
   g.error = g.after.error;
   if (!g.error.empty()) return;
   const std::vector<char> keep = heldout_samples(g.before.t, g.diagnosis.fold_edges);
@@ -129,13 +132,22 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
   // The replay before the causes depends on the model and the run alone:
   // it runs beside the diagnosis where threads are allowed.
   const ModelFile base = replay_base(*opt.model);
-  std::future<ReplayResult> before;
+  std::future<ReplayResult> before, after;
   if (c && run) before = run_beside(opt.threads != 1, [&] { return replay(base, *c, *run, ropt); });
-  g.diagnosis = diagnose(trace, opt);
+  // The replay after the causes needs only the named effects: started as
+  // soon as they are final, beside the diagnosis's last reports.
+  DiagnoseOptions with_replay = opt;
+  if (c && run)
+    with_replay.on_effects_final = [&](const DiagnoseResult& d) {
+      PlantEffects pe = plant_effects(named_effects_json(d.effects), base.drive.mass_kg);
+      g.plant = pe.list;
+      after = run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
+    };
+  g.diagnosis = diagnose(trace, with_replay);
   g.error = g.diagnosis.error;
   if (!g.error.empty() || !c || !run) return g;
   g.before = before.get();
-  replay_after(base, opt, *c, *run, ropt, g);
+  replay_after(opt, *run, std::move(after), g);
   return g;
 }
 
