@@ -122,6 +122,18 @@ Observations::Observations(const Signals& s, double v_min, double block_s, const
   make_observations(accel);
   coarse_ = make_segments(accel, v_min, 2.0 * block_s);
   coarse_lengths_ = index_lengths(coarse_);
+  list_drawn_segments();
+}
+
+void Observations::list_drawn_segments() {
+  for (const Resolution r : {Resolution::coarse, Resolution::fine}) {
+    const std::vector<Segment>& segs = segments(r);
+    for (const Rows rows : {Rows::all, Rows::identification}) {
+      std::vector<std::size_t>& list = drawn_segments_[r == Resolution::fine][rows == Rows::identification];
+      for (std::size_t i = 0; i < segs.size(); ++i)
+        if (segs[i].block != Segment::kNoBlock && drawn(segs[i].block, rows)) list.push_back(i);
+    }
+  }
 }
 
 std::vector<double> Observations::index_lengths(std::vector<Segment>& segments) {

@@ -162,18 +162,24 @@ class Observations {
   /// g returns nothing (it may write all q) or the Band it wrote.
   template <typename G> Mat segment_columns(int q, bool stateful, Draw draw, G&& g) const {
     BlockSums sums(*this, q, draw.rows);
+    // g writes into zeros: the sums clear what they take (BlockSums::add),
+    // and a segment only filtered, not summed, clears its band here.
     std::vector<double> buffer(static_cast<std::size_t>(q), 0.0);
     double* value = buffer.data();
-    Band written{0, q};
     const std::vector<Segment>& segs = segments(draw.resolution);
-    for (std::size_t i = 0; i < segs.size(); ++i) {
+    const auto visit = [&](std::size_t i, bool wanted) {
       const Segment& sg = segs[i];
-      const bool wanted = sg.block != Segment::kNoBlock && drawn(sg.block, draw.rows);
-      if (!wanted && !stateful) continue;
-      std::fill(value + written.first, value + written.end, 0.0);
+      Band written{0, q};
       if constexpr (std::is_void_v<std::invoke_result_t<G&, std::size_t, const Segment&, double*>>) g(i, sg, value);
       else written = clamped(g(i, sg, value), q);
       if (wanted) sums.add(sg.block, value, sg.dt, sg.t_rel, written);
+      else std::fill(value + written.first, value + written.end, 0.0);
+    };
+    if (stateful) {
+      for (std::size_t i = 0; i < segs.size(); ++i) visit(i, segs[i].block != Segment::kNoBlock && drawn(segs[i].block, draw.rows));
+    } else {
+      for (const std::size_t i : drawn_segments_[draw.resolution == Resolution::fine][draw.rows == Rows::identification])
+        visit(i, true);
     }
     return sums.columns();
   }
@@ -198,18 +204,22 @@ class Observations {
     BlockSums(const Observations& o, int q, Rows rows)
         : o_(o), ending_row_(o.ending_row_[rows == Rows::all ? 0 : 1]), q_(static_cast<std::size_t>(q)), m_(3 * q_, 0.0),
           out_(Mat::Zero(static_cast<Eigen::Index>(rows == Rows::all ? o.obs_.size() : o.identification_obs_.size()), q)) {}
-    void add(std::size_t b, const double* g, double dt, double age) { add(b, g, dt, age, {0, static_cast<int>(q_)}); }
+    /// g's q values into block b's moments, each cleared once taken (the
+    /// caller's next values are written into zeros).
+    void add(std::size_t b, double* g, double dt, double age) { add(b, g, dt, age, {0, static_cast<int>(q_)}); }
     /// The same where only `band` of g can be non-zero.
-    void add(std::size_t b, const double* g, double dt, double age, Band band) {
+    void add(std::size_t b, double* g, double dt, double age, Band band) {
       if (b != block_) next_block(b);
       // Branch free, so that the loop vectorizes: a zero value adds +0,
       // which leaves every sum as it was (the sums start at +0).
       double* __restrict m0 = m_.data();
       double* __restrict m1 = m0 + q_;
-      const double* __restrict values = g;
+      double* __restrict values = g;
       for (auto c = static_cast<std::size_t>(band.first); c < static_cast<std::size_t>(band.end); ++c) {
-        m0[c] += values[c] * dt;
-        m1[c] += values[c] * age * dt;
+        const double v = values[c];
+        values[c] = 0.0;
+        m0[c] += v * dt;
+        m1[c] += v * age * dt;
       }
     }
     Mat columns() {
@@ -275,6 +285,10 @@ class Observations {
   std::vector<Eigen::Index> ending_row_[2];
   std::vector<Segment> fine_, coarse_;
   std::vector<double> fine_lengths_, coarse_lengths_;
+  /// The segments of drawn blocks, in time order: [fine][identification
+  /// rows alone], so that a draw visits only the segments it sums.
+  std::vector<std::size_t> drawn_segments_[2][2];
+  void list_drawn_segments();
   double force_integral(double t, std::size_t& j) const;
   std::vector<double> force_lp_, force_integral_;  ///< per sample: low-passed force, its integral from the start
 };
