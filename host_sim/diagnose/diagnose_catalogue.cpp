@@ -85,7 +85,30 @@ class HarmonicMeans {
     const std::size_t n = k_.size();
     if (sg.x0 != x_prev_) unit_phasors(k_.data(), sg.x0, n, re0_.data(), im0_.data());
     unit_phasors(k_.data(), sg.x1, n, re1_.data(), im1_.data());
-    for (std::size_t j = 0; j < n; ++j) {
+    if (harmonics_ == 1) fundamentals(sg, out);
+    else with_harmonics(sg, out);
+    x_prev_ = sg.x1;
+    re0_.swap(re1_);
+    im0_.swap(im1_);
+  }
+
+ private:
+  /// The fundamentals alone (a grid's search): with_harmonics' first
+  /// harmonic, the same operations on each k, without the powers' complex
+  /// products it would take and drop.
+  void fundamentals(const Segment& sg, double* out) const {
+    const double dx = sg.x1 - sg.x0;
+    for (std::size_t j = 0; j < k_.size(); ++j) {
+      const double dphi = k_[j] * dx, inv = 1.0 / dphi;
+      const bool moved = std::fabs(dphi) > 1e-4;
+      out[2 * j] = moved ? -(re1_[j] - re0_[j]) * inv : 0.5 * (im0_[j] + im1_[j]);
+      out[2 * j + 1] = moved ? (im1_[j] - im0_[j]) * inv : 0.5 * (re0_[j] + re1_[j]);
+    }
+  }
+
+  /// Every harmonic of every k: its phasors as powers of the fundamental's.
+  void with_harmonics(const Segment& sg, double* out) const {
+    for (std::size_t j = 0; j < k_.size(); ++j) {
       const std::complex<double> z0(re0_[j], im0_[j]), z1(re1_[j], im1_[j]);
       const double dphi = k_[j] * (sg.x1 - sg.x0);
       double* o = out + 2 * static_cast<std::ptrdiff_t>(j) * harmonics_;
@@ -101,12 +124,8 @@ class HarmonicMeans {
         o[2 * (h - 1) + 1] = mean.real();
       }
     }
-    x_prev_ = sg.x1;
-    re0_.swap(re1_);
-    im0_.swap(im1_);
   }
 
- private:
   std::vector<double> k_;
   int harmonics_;
   double x_prev_ = std::numeric_limits<double>::quiet_NaN();
