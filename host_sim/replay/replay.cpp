@@ -78,10 +78,17 @@ struct RelativeError {
 
 /// The four figures of measured (x, v, a, u) against simulated series over
 /// samples first.. (the errors' norms are the measured signals').
-ReplayFigures figures(const std::vector<double>* meas, const std::vector<double>* sim, std::size_t first) {
+/// The four signals' series, read in place.
+using FourSeries = std::array<const std::vector<double>*, 4>;
+
+/// 100 ||a - b|| / ||y|| for each of the four signals, over the samples
+/// `counted(k)` keeps (y's length at most).
+template <class Counted>
+ReplayFigures relative_errors(const FourSeries& y, const FourSeries& a, const FourSeries& b, Counted counted) {
   RelativeError e[4];
-  for (int s = 0; s < 4; ++s)
-    for (std::size_t k = first; k < meas[s].size(); ++k) e[s].add(meas[s][k] - sim[s][k], meas[s][k]);
+  for (std::size_t s = 0; s < 4; ++s)
+    for (std::size_t k = 0; k < y[s]->size(); ++k)
+      if (counted(k)) e[s].add((*a[s])[k] - (*b[s])[k], (*y[s])[k]);
   return {e[0].pct(), e[1].pct(), e[2].pct(), e[3].pct()};
 }
 
@@ -254,35 +261,36 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
 
 /// The three rows of figures, and the compared series (after drop_first) for plots.
 void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResult& r) {
-  const std::size_t n = run.t.size();
   const double rate = 1.0 / r.dt_s;
   std::vector<double> xf, v, a, xsf, vs, as;
   process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
   process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);
   const std::size_t first = static_cast<std::size_t>(opt.drop_first);
-  const std::vector<double> meas[4] = {xf, v, a, run.u};
-  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
-  const std::vector<double> processed[4] = {xsf, vs, as, r.u_sim};
-  r.error_pct = figures(meas, state, first);
-  r.same_processing_pct = figures(meas, processed, first);
+  const FourSeries meas = {&xf, &v, &a, &run.u};
+  const FourSeries state = {&r.x_sim, &r.v_sim, &r.a_sim, &r.u_sim};
+  const FourSeries processed = {&xsf, &vs, &as, &r.u_sim};
+  const auto compared = [first](std::size_t k) { return k >= first; };
+  r.error_pct = relative_errors(meas, meas, state, compared);
+  r.same_processing_pct = relative_errors(meas, meas, processed, compared);
   // The processing's own share: state against processed, relative to the measured norm.
-  RelativeError gap[4];
-  for (int s = 0; s < 4; ++s)
-    for (std::size_t k = first; k < n; ++k) gap[s].add(state[s][k] - processed[s][k], meas[s][k]);
-  r.processing_pct = {gap[0].pct(), gap[1].pct(), gap[2].pct(), gap[3].pct()};
-  auto tail = [&](const std::vector<double>& y) { return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(first), y.end()); };
+  r.processing_pct = relative_errors(meas, state, processed, compared);
+  // The series from `first` on, moved where nothing else reads them.
+  const auto from_first = [first](std::vector<double>& y) {
+    y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(std::min(first, y.size())));
+    return std::move(y);
+  };
+  const auto tail = [first](const std::vector<double>& y) {
+    return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(std::min(first, y.size())), y.end());
+  };
   r.t = tail(run.t);
-  r.x = tail(xf);
-  r.v = tail(v);
-  r.a = tail(a);
+  r.x = from_first(xf);
+  r.v = from_first(v);
+  r.a = from_first(a);
   r.u = tail(run.u);
-  r.x_sim = tail(r.x_sim);
-  r.v_sim = tail(r.v_sim);
-  r.a_sim = tail(r.a_sim);
-  r.u_sim = tail(r.u_sim);
-  r.x_sim_processed = tail(xsf);
-  r.v_sim_processed = tail(vs);
-  r.a_sim_processed = tail(as);
+  for (std::vector<double>* y : {&r.x_sim, &r.v_sim, &r.a_sim, &r.u_sim}) *y = from_first(*y);
+  r.x_sim_processed = from_first(xsf);
+  r.v_sim_processed = from_first(vs);
+  r.a_sim_processed = from_first(as);
 }
 
 /// Why the replay cannot start: an input's own error, an option out of
@@ -428,37 +436,23 @@ nlohmann::json gains_json(const Gains& g, ControlLaw law) {
   if (law == ControlLaw::p_pi) j["ki"] = g.ki;
   return j;
 }
-}  // namespace
-
-namespace {
 
 /// The four relative errors of a against b over the kept samples, relative to the measured signals.
-ReplayFigures kept_errors(const ReplayResult& r, const std::vector<double>* a, const std::vector<double>* b,
-                          const std::vector<char>& keep) {
-  const std::vector<double>* meas[4] = {&r.x, &r.v, &r.a, &r.u};
-  RelativeError e[4];
-  for (int s = 0; s < 4; ++s)
-    for (std::size_t k = 0; k < meas[s]->size() && k < keep.size(); ++k)
-      if (keep[k]) e[s].add(a[s][k] - b[s][k], (*meas[s])[k]);
-  return {e[0].pct(), e[1].pct(), e[2].pct(), e[3].pct()};
+ReplayFigures kept_errors(const ReplayResult& r, const FourSeries& a, const FourSeries& b, const std::vector<char>& keep) {
+  return relative_errors({&r.x, &r.v, &r.a, &r.u}, a, b, [&keep](std::size_t k) { return k < keep.size() && keep[k]; });
 }
 
 }  // namespace
 
 ReplayFigures figures_where(const ReplayResult& r, const std::vector<char>& keep, bool same_processing) {
-  const std::vector<double> meas[4] = {r.x, r.v, r.a, r.u};
-  if (same_processing) {
-    const std::vector<double> sim[4] = {r.x_sim_processed, r.v_sim_processed, r.a_sim_processed, r.u_sim};
-    return kept_errors(r, meas, sim, keep);
-  }
-  const std::vector<double> sim[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
-  return kept_errors(r, meas, sim, keep);
+  const FourSeries meas = {&r.x, &r.v, &r.a, &r.u};
+  if (same_processing) return kept_errors(r, meas, {&r.x_sim_processed, &r.v_sim_processed, &r.a_sim_processed, &r.u_sim}, keep);
+  return kept_errors(r, meas, {&r.x_sim, &r.v_sim, &r.a_sim, &r.u_sim}, keep);
 }
 
 ReplayFigures processing_where(const ReplayResult& r, const std::vector<char>& keep) {
-  const std::vector<double> state[4] = {r.x_sim, r.v_sim, r.a_sim, r.u_sim};
-  const std::vector<double> processed[4] = {r.x_sim_processed, r.v_sim_processed, r.a_sim_processed, r.u_sim};
-  return kept_errors(r, state, processed, keep);
+  return kept_errors(r, {&r.x_sim, &r.v_sim, &r.a_sim, &r.u_sim},
+                     {&r.x_sim_processed, &r.v_sim_processed, &r.a_sim_processed, &r.u_sim}, keep);
 }
 
 nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Controller& c, const ReplayOptions& opt) {
