@@ -10,9 +10,12 @@ run in turn, round after round, so that a slow spell of the machine falls
 on all of them alike.
 
     python3 host_sim/bench/cli_medians.py [--feedid build/bin/feedid] [--emps ../shared/data/emps] [--runs 21]
+        [--baseline OTHER_FEEDID]
 
 Prints a Markdown table: median and fastest time (ms) and the median's
-ratio to identify's.
+ratio to identify's. With --baseline, each command runs with both builds
+in turn (alternating which goes first), so that the machine's slow spells
+fall on both alike, and a second table gives the baseline's figures.
 """
 import argparse, os, statistics, subprocess, sys, tempfile, time
 
@@ -23,6 +26,7 @@ def main():
     ap.add_argument("--emps", default="../shared/data/emps")
     ap.add_argument("--controller", default="docs/examples/emps_controller.json")
     ap.add_argument("--runs", type=int, default=21)
+    ap.add_argument("--baseline", help="another feedid build, run alternately with --feedid")
     a = ap.parse_args()
     if a.runs < 1:
         ap.error("--runs must be >= 1")
@@ -39,19 +43,25 @@ def main():
             "diagnose --model --controller": ["diagnose", "--model", model, "--controller", a.controller, *run],
             "replay": ["replay", "--model", model, "--controller", a.controller, *run],
         }
-        times = {name: [] for name in commands}
+        builds = [a.feedid] + ([a.baseline] if a.baseline else [])
+        times = {(b, name): [] for b in builds for name in commands}
         for r in range(a.runs):
             print(f"round {r + 1} of {a.runs}", file=sys.stderr)
             for name, args in commands.items():
-                t0 = time.perf_counter()
-                subprocess.run([a.feedid, *args], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-                times[name].append(time.perf_counter() - t0)
-    base = statistics.median(times["identify"])
-    print("| command (EMPS PULSES) | median (ms) | fastest (ms) | against identify |")
-    print("|---|---|---|---|")
-    for name, t in times.items():
-        m = statistics.median(t)
-        print(f"| `{name}` | {1e3 * m:.1f} | {1e3 * min(t):.1f} | {m / base:.2f}x |")
+                for b in (builds if r % 2 == 0 else builds[::-1]):
+                    t0 = time.perf_counter()
+                    subprocess.run([b, *args], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                    times[(b, name)].append(time.perf_counter() - t0)
+    for b in builds:
+        if a.baseline:
+            print(f"\n{b}:\n")
+        base = statistics.median(times[(b, "identify")])
+        print("| command (EMPS PULSES) | median (ms) | fastest (ms) | against identify |")
+        print("|---|---|---|---|")
+        for name in commands:
+            t = times[(b, name)]
+            m = statistics.median(t)
+            print(f"| `{name}` | {1e3 * m:.1f} | {1e3 * min(t):.1f} | {m / base:.2f}x |")
 
 
 if __name__ == "__main__":
