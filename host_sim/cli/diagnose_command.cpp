@@ -34,7 +34,8 @@ struct DiagnoseCommand : Command {
     app->add_option("--block", opt.block_s, "residual block length (s)")->capture_default_str();
     app->add_option("--threads", opt.threads, "effect families searched at once (0: the machine's hardware "
                                               "threads; unless 1, one more finds where the gap lies beside them, "
-                                              "and with --controller another replays the model before the causes); "
+                                              "and with --controller others read the run's reference and replay "
+                                              "the model before and after the causes beside the diagnosis); "
                                               "the result is the same on any number")
         ->capture_default_str()
         ->check(CLI::Range(0, 256));

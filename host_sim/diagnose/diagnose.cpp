@@ -726,7 +726,10 @@ struct Evaluation {
   Mat columns;  ///< where plausible: the effect's columns at p and size, on every observation
 };
 
-Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
+/// `keep_columns`: a plausible evaluation keeps its columns for adopt()
+/// (a step's; a pair's second member is drawn again where adopted, so
+/// that a pair step's many evaluations do not hold theirs at once).
+Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect, bool keep_columns) {
   const EffectModel& em = st.catalogue[effect];
   Evaluation e;
   e.effect = effect;
@@ -779,7 +782,7 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect) {
   e.plausible = e.c.significant;
   // Kept for adopt(), which would otherwise draw the same columns again
   // (serial: a pair step adopts every plausible candidate alone first).
-  if (e.plausible) e.columns = std::move(ex.cols);
+  if (e.plausible && keep_columns) e.columns = std::move(ex.cols);
   return e;
 }
 
@@ -868,12 +871,16 @@ std::vector<Evaluation> evaluate_all(const Stage& st, const Model& current, cons
   std::vector<Evaluation> evals(todo.size());
   std::function<void(double)> progress;
   if (opt.progress) progress = [&](double share) { opt.progress(progress_from + (progress_to - progress_from) * share); };
-  run_jobs(todo.size(), opt, [&](std::size_t k) { evals[k] = evaluate(st, current, todo[k]); }, progress);
+  run_jobs(todo.size(), opt, [&](std::size_t k) { evals[k] = evaluate(st, current, todo[k], true); }, progress);
   for (auto& e : evals) judge(e, gap, opt);
   std::stable_sort(evals.begin(), evals.end(), [](const Evaluation& a, const Evaluation& b) {
     if (a.eligible != b.eligible) return a.eligible;
     return a.c.heldout_rms_N < b.c.heldout_rms_N;
   });
+  // Only the first is adopted where it is eligible; where not, the pair
+  // step adopts each plausible one alone.
+  if (!evals.empty() && evals.front().eligible)
+    for (auto e = evals.begin() + 1; e != evals.end(); ++e) e->columns = Mat();
   return evals;
 }
 
@@ -902,9 +909,13 @@ std::string term_implausible(const Stage& st, const Model& m, std::size_t k) {
 /// when each member is significant given the other and together they
 /// explain the step's energy share; the best such pair (least held-out RMS).
 struct PairStep {
-  Evaluation first, second;  ///< second: searched and fitted beside first
-  Model model;               ///< current + both, both in the bank
-  double first_z = 0.0;      ///< first's z given second
+  struct Member {
+    std::size_t effect = 0;  ///< catalogue index
+    Candidate c;
+  };
+  Member first, second;  ///< second: searched and fitted beside first
+  Model model;           ///< current + both, both in the bank
+  double first_z = 0.0;  ///< first's z given second
   bool found = false;
 };
 
@@ -923,7 +934,7 @@ PairStep best_pair(const Stage& st, const std::vector<Evaluation>& evals, const 
     for (std::size_t j = i + 1; j < pool.size(); ++j) pairs.emplace_back(i, j);
   std::vector<Evaluation> second(pairs.size());
   run_jobs(pairs.size(), opt, [&](std::size_t k) {
-    second[k] = evaluate(st, alone[pairs[k].first], pool[pairs[k].second]->effect);
+    second[k] = evaluate(st, alone[pairs[k].first], pool[pairs[k].second]->effect, false);
   });
   PairStep best;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -939,7 +950,7 @@ PairStep best_pair(const Stage& st, const std::vector<Evaluation>& evals, const 
     if (!term_implausible(st, both, both.terms.size() - 2).empty()) continue;
     const double a_given_b = improvement_z(alone[j].residual, both.residual, st.obs);
     if (a_given_b < opt.significance_z) continue;
-    best = {a, b, both, a_given_b, true};
+    best = {{a.effect, a.c}, {b.effect, b.c}, both, a_given_b, true};
   }
   return best;
 }

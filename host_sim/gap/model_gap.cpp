@@ -6,6 +6,7 @@
 #include "io/beside.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -132,16 +133,25 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
   // The replay before the causes depends on the model and the run alone:
   // it runs beside the diagnosis where threads are allowed.
   const ModelFile base = replay_base(*opt.model);
+  std::atomic<bool> before_failed{false};  // declared before the futures, which are joined first
   std::future<ReplayResult> before, after;
-  if (c && run) before = run_beside(opt.threads != 1, [&] { return replay(base, *c, *run, ropt); });
+  if (c && run)
+    before = run_beside(opt.threads != 1, [&] {
+      ReplayResult r = replay(base, *c, *run, ropt);
+      before_failed = !r.error.empty();
+      return r;
+    });
   // The replay after the causes needs only the named effects: started as
-  // soon as they are final, beside the diagnosis's last reports.
+  // soon as they are final, beside the diagnosis's last reports (not
+  // where the replay before them has failed already: it would too).
   DiagnoseOptions with_replay = opt;
   if (c && run)
     with_replay.on_effects_final = [&](const DiagnoseResult& d) {
+      if (opt.on_effects_final) opt.on_effects_final(d);
       PlantEffects pe = plant_effects(named_effects_json(d.effects), base.drive.mass_kg);
       g.plant = pe.list;
-      after = run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
+      if (!before_failed)
+        after = run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
     };
   g.diagnosis = diagnose(trace, with_replay);
   g.error = g.diagnosis.error;

@@ -346,7 +346,7 @@ JsonAndWarnings model_gap_files(const std::vector<std::string>& paths, const py:
     throw py::value_error("controller: a replay takes one continuous recording (one path)");
   py::gil_scoped_release release;
   return run_model_gap(read_trace_files(paths, o.columns), o, g,
-                       [&](const Controller& ctl) { return read_logged_run(paths.front(), o.columns, ctl); });
+                       [&](const Controller& ctl) { return read_logged_run(paths.front(), o.columns, ctl, o.diagnose.threads != 1); });
 }
 
 /// `feedid replay`: the given model in the given controller's loop over the

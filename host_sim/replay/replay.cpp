@@ -343,7 +343,9 @@ bool read_reference_and_extra(const std::string& path, const CsvColumns& cols, c
 
 std::future<CsvResult> start_reference_and_extra(const std::string& path, const CsvColumns& cols, const Controller& c,
                                                  bool beside) {
-  return run_beside(beside, [path, cols, c] { return reference_and_extra_file(path, cols, c); });
+  // A .mat file is read through libmatio and HDF5, which need not be
+  // built for two threads at once: its passes run one after the other.
+  return run_beside(beside && !is_mat_file(path), [path, cols, c] { return reference_and_extra_file(path, cols, c); });
 }
 
 ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe) {
@@ -353,8 +355,8 @@ ReplayOptions with_plant_effects(ReplayOptions opt, const PlantEffects& pe) {
   return opt;
 }
 
-LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c) {
-  std::future<CsvResult> both = start_reference_and_extra(path, cols, c, true);
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, bool beside) {
+  std::future<CsvResult> both = start_reference_and_extra(path, cols, c, beside);
   const CsvResult main = read_trace_file(path, cols);
   return read_logged_run(path, cols, c, main, both.get());
 }

@@ -47,8 +47,9 @@ struct LoggedRun {
 /// columns. An extra command the log lacks is none (a run without pulses
 /// replays with the controller of one with them), said in notes.
 /// `error` names a missing reference column, or says where the rows the
-/// reads keep differ.
-LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c);
+/// reads keep differ. `beside`: the reference and extra command's pass may
+/// run on a thread of its own beside the trace's (start_reference_and_extra).
+LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const Controller& c, bool beside = true);
 /// The reference and the extra command into `run` (whose t the file's
 /// trace gave) in one pass over the file: the reference through the
 /// position slot (scaled like the position), the extra command through the
