@@ -996,12 +996,21 @@ void keep_rivals_of_named(DiagnoseResult& out) {
           a.end());
 }
 
+/// The effects named so far with their parameters from current's joint
+/// fit: what name_parameters reports where no later step names more.
+std::vector<NamedEffect> named_so_far(const Stage& st, const Model& current, const DiagnoseResult& out) {
+  std::vector<NamedEffect> named = out.effects;
+  for (std::size_t k = 0; k < current.terms.size() && k < named.size(); ++k) named[k].parameters = term_parameters(st, current, k);
+  return named;
+}
+
 /// Forward selection: add the best significant effect, refit, test the
 /// rest on what remains; stop when the gap is noise or nothing qualifies.
 Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& opt, DiagnoseResult& out) {
   Model current = base;
   std::vector<bool> used(st.catalogue.size(), false);
   for (int step = 0; step < opt.max_effects; ++step) {
+    if (step > 0 && opt.on_effects_provisional) opt.on_effects_provisional(named_so_far(st, current, out));
     const Gap gap = measure_gap(current.residual, st.obs, st.sampling_floor_N);
     // The first step's candidates are listed even without a gap (and
     // calibrate the test on effect-free traces); later ones need a gap.
@@ -1050,9 +1059,7 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
 }
 
 /// Each named effect's parameters from the joint fit with all of them.
-void name_parameters(const Stage& st, const Model& m, DiagnoseResult& out) {
-  for (std::size_t k = 0; k < m.terms.size(); ++k) out.effects[k].parameters = term_parameters(st, m, k);
-}
+void name_parameters(const Stage& st, const Model& m, DiagnoseResult& out) { out.effects = named_so_far(st, m, out); }
 
 /// theta: m, Fc+, Fc-, sigma+, sigma-, then (Fs, dE) per direction with a dip.
 DriveParams drive_params(const BaseColumns& b, const Model& m) {

@@ -18,6 +18,7 @@
 namespace feedid::host {
 
 struct DiagnoseResult;
+struct NamedEffect;
 
 struct DiagnoseOptions {
   IdentifyOptions identify;       ///< how the base model is identified (columns, filters)
@@ -55,6 +56,11 @@ struct DiagnoseOptions {
   /// gap is left, the kept series): diagnose --controller starts its
   /// replay with the effects there, so that the two run side by side.
   std::function<void(const DiagnoseResult&)> on_effects_final;
+  /// Called on the caller's thread at each step after the first, with the
+  /// effects named so far and their parameters as they would be reported
+  /// were this step to name none: diagnose --controller starts its replay
+  /// after the causes on them there, and keeps it where they are final.
+  std::function<void(const std::vector<NamedEffect>&)> on_effects_provisional;
 };
 
 struct Candidate {

@@ -141,18 +141,39 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
       before_failed = !r.error.empty();
       return r;
     });
-  // The replay after the causes needs only the named effects: started as
-  // soon as they are final, beside the diagnosis's last reports (not
-  // where the replay before them has failed already: it would too).
+  // The replay after the causes needs only the named effects. It is
+  // started on those named so far at each step after the first (a guess:
+  // they are final unless the step names more), and again once they are
+  // final where the guess was wrong; with one thread only then. Not where
+  // the replay before them has failed already: it would too.
+  nlohmann::json guessed;
+  std::vector<std::future<ReplayResult>> spent;  ///< wrong guesses, joined before return
+  std::future<ReplayResult> guess;
+  const auto replay_with = [&](const nlohmann::json& effects) {
+    const PlantEffects pe = plant_effects(effects, base.drive.mass_kg);
+    return run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
+  };
   DiagnoseOptions with_replay = opt;
-  if (c && run)
+  if (c && run) {
+    with_replay.on_effects_provisional = [&](const std::vector<NamedEffect>& named) {
+      if (opt.on_effects_provisional) opt.on_effects_provisional(named);
+      if (before_failed || opt.threads == 1) return;
+      if (guess.valid()) spent.push_back(std::move(guess));
+      guessed = named_effects_json(named);
+      guess = replay_with(guessed);
+    };
     with_replay.on_effects_final = [&](const DiagnoseResult& d) {
       if (opt.on_effects_final) opt.on_effects_final(d);
-      PlantEffects pe = plant_effects(named_effects_json(d.effects), base.drive.mass_kg);
-      g.plant = pe.list;
-      if (!before_failed)
-        after = run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
+      const nlohmann::json effects = named_effects_json(d.effects);
+      g.plant = plant_effects(effects, base.drive.mass_kg).list;
+      if (guess.valid() && effects == guessed) {
+        after = std::move(guess);
+        return;
+      }
+      if (guess.valid()) spent.push_back(std::move(guess));
+      if (!before_failed) after = replay_with(effects);
     };
+  }
   g.diagnosis = diagnose(trace, with_replay);
   g.error = g.diagnosis.error;
   if (!g.error.empty() || !c || !run) return g;
