@@ -723,7 +723,7 @@ struct Evaluation {
   Model model;  ///< current + this effect, vs free (its columns not yet in the bank)
   bool plausible = false;  ///< fitted, physical, and not a combination of the model's terms
   bool eligible = false;
-  Mat columns;  ///< where plausible: the effect's columns at p and size, on every observation
+  Mat columns;  ///< kept where plausible and asked for (keep_columns): the effect's columns at p and size, on every observation
 };
 
 /// `keep_columns`: a plausible evaluation keeps its columns for adopt()

@@ -59,9 +59,10 @@ ModelFile replay_base(const ModelFile& model) {
   return base;
 }
 
-/// The replay after the named causes (`after`, started when the diagnosis's
-/// effects were final) and the held-out figures of both; g.before, the
-/// base's replay, set.
+/// The replay after the named causes (`after`: started on the effects named
+/// so far and kept because they were the final ones, or started once they
+/// were final) and the held-out figures of both; g.before, the base's
+/// replay, set.
 void replay_after(const DiagnoseOptions& opt, const LoggedRun& run, std::future<ReplayResult> after, ModelGap& g) {
   g.error = g.before.error;
   if (!g.error.empty()) return;  // the same loop fails with the effects too
