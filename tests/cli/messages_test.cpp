@@ -16,29 +16,19 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_run.hpp"
+
+using feedid::test::CliRun;
+using feedid::test::run_feedid;
+
 namespace {
 
-struct Outcome {
-  int rc = -1;
-  std::string err;
-};
-
-/// feedid with `args`, its stderr kept (in a file of the running test's
-/// own: ctest runs the tests of this file in parallel processes).
-Outcome feedid(const std::string& args) {
-  const std::string err =
-      ::testing::TempDir() + "feedid_messages_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".err";
-  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >/dev/null 2>" + err).c_str());
-  std::ifstream f(err);
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1,
-          std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>())};
-}
 
 /// A simulated 30 s log with lines 501 and 901 (1-based, the header is 1) made unreadable.
 std::string log_with_two_bad_rows() {
   const std::string clean = ::testing::TempDir() + "feedid_messages_clean.csv";
   const std::string bad = ::testing::TempDir() + "feedid_messages_bad.csv";
-  EXPECT_EQ(feedid("simulate --duration 30 --out " + clean).rc, 0);
+  EXPECT_EQ(run_feedid("simulate --duration 30 --out " + clean).exit_code, 0);
   std::ifstream in(clean);
   std::ofstream out(bad);
   std::string line;
@@ -51,7 +41,7 @@ std::string log_with_two_bad_rows() {
 TEST(Messages, EveryReaderNamesTheRowsItSkipped) {
   const std::string in = log_with_two_bad_rows();
   for (const std::string cmd : {"identify --in ", "identify --stream --in ", "monitor --in "}) {
-    const Outcome r = feedid(cmd + in);
+    const CliRun r = run_feedid(cmd + in);
     EXPECT_NE(r.err.find("skipped 2 bad rows"), std::string::npos) << cmd << r.err;
     EXPECT_NE(r.err.find("feedid_messages_bad.csv:501: "), std::string::npos) << cmd << r.err;
     EXPECT_NE(r.err.find("feedid_messages_bad.csv:901: "), std::string::npos) << cmd << r.err;
@@ -78,27 +68,27 @@ template <typename F> std::string rewrite(const std::string& from, const std::st
 TEST(Formats, GermanLogWithPreambleAndHeaderlessLogFromTheCommandLine) {
   const std::string dir = ::testing::TempDir();
   const std::string clean = dir + "feedid_formats_clean.csv";
-  ASSERT_EQ(feedid("simulate --duration 30 --out " + clean).rc, 0);
+  ASSERT_EQ(run_feedid("simulate --duration 30 --out " + clean).exit_code, 0);
   const std::string german = rewrite(clean, "feedid_formats_de.csv", "# DriveLog 2.1\nAchse: X\nt;x;v;u\n", [](std::string l) {
     for (char& c : l) c = c == ',' ? ';' : c == '.' ? ',' : c;
     return l;
   });
-  ASSERT_EQ(feedid("identify --in " + clean + " --json " + dir + "feedid_formats_clean.json").rc, 0);
-  const Outcome de = feedid("identify --in " + german + " --json " + dir + "feedid_formats_de.json");
-  ASSERT_EQ(de.rc, 0) << de.err;
+  ASSERT_EQ(run_feedid("identify --in " + clean + " --json " + dir + "feedid_formats_clean.json").exit_code, 0);
+  const CliRun de = run_feedid("identify --in " + german + " --json " + dir + "feedid_formats_de.json");
+  ASSERT_EQ(de.exit_code, 0) << de.err;
   EXPECT_EQ(mass_of(dir + "feedid_formats_de.json"), mass_of(dir + "feedid_formats_clean.json"));
   for (const std::string cmd : {"identify --in ", "identify --stream --in ", "monitor --in "})
-    EXPECT_NE(feedid(cmd + german).err.find("feedid_formats_de.csv: 2 lines before the header (line 3) left out"),
+    EXPECT_NE(run_feedid(cmd + german).err.find("feedid_formats_de.csv: 2 lines before the header (line 3) left out"),
               std::string::npos)
         << cmd;
 
   const std::string bare = rewrite(clean, "feedid_formats_bare.csv", "", [](std::string l) { return l; });
-  const Outcome refused = feedid("identify --in " + bare);
-  EXPECT_EQ(refused.rc, 2);
+  const CliRun refused = run_feedid("identify --in " + bare);
+  EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("feedid_formats_bare.csv:1: no header row names the columns"), std::string::npos) << refused.err;
   EXPECT_NE(refused.err.find("--columns"), std::string::npos) << refused.err;
-  const Outcome named = feedid("identify --columns t,x,v,u --in " + bare + " --json " + dir + "feedid_formats_bare.json");
-  ASSERT_EQ(named.rc, 0) << named.err;
+  const CliRun named = run_feedid("identify --columns t,x,v,u --in " + bare + " --json " + dir + "feedid_formats_bare.json");
+  ASSERT_EQ(named.exit_code, 0) << named.err;
   EXPECT_EQ(mass_of(dir + "feedid_formats_bare.json"), mass_of(dir + "feedid_formats_clean.json"));
 }
 
@@ -112,10 +102,10 @@ TEST(Messages, SimulatesTruthFileIsAModelFile) {
   const std::string dir = ::testing::TempDir();
   for (const std::string fx : {"", " --ripple-amplitude 3"}) {
     const std::string trace = dir + "feedid_truth_trace.csv", truth = dir + "feedid_truth.json";
-    ASSERT_EQ(feedid("simulate --duration 20" + fx + " --out " + trace + " --truth " + truth).rc, 0) << fx;
-    const Outcome v = feedid("validate --model " + truth + " --in " + trace);
-    EXPECT_EQ(v.rc, 0) << fx << v.err;
-    EXPECT_EQ(feedid("compensate --max-speed 0.15 --model " + truth).rc, 0) << fx;  // a truth has no speed range
+    ASSERT_EQ(run_feedid("simulate --duration 20" + fx + " --out " + trace + " --truth " + truth).exit_code, 0) << fx;
+    const CliRun v = run_feedid("validate --model " + truth + " --in " + trace);
+    EXPECT_EQ(v.exit_code, 0) << fx << v.err;
+    EXPECT_EQ(run_feedid("compensate --max-speed 0.15 --model " + truth).exit_code, 0) << fx;  // a truth has no speed range
     EXPECT_EQ(v.err.find("simulated_effects") != std::string::npos, !fx.empty()) << fx << v.err;
   }
 }
@@ -125,10 +115,10 @@ TEST(Messages, SimulatesTruthFileIsAModelFile) {
 TEST(Messages, CompensateRefusesATopSpeedThatIsNotPositive) {
   const std::string dir = ::testing::TempDir();
   const std::string trace = dir + "feedid_comp_trace.csv", truth = dir + "feedid_comp_truth.json";
-  ASSERT_EQ(feedid("simulate --duration 5 --out " + trace + " --truth " + truth).rc, 0);
+  ASSERT_EQ(run_feedid("simulate --duration 5 --out " + trace + " --truth " + truth).exit_code, 0);
   for (const std::string v : {"-1", "0", "nan"}) {
-    const Outcome r = feedid("compensate --model " + truth + " --max-speed " + v);
-    EXPECT_EQ(r.rc, 2) << v;
+    const CliRun r = run_feedid("compensate --model " + truth + " --max-speed " + v);
+    EXPECT_EQ(r.exit_code, 2) << v;
     EXPECT_NE(r.err.find("--max-speed: " + v + " m/s: must be > 0"), std::string::npos) << r.err;
   }
 }
@@ -141,16 +131,16 @@ TEST(Messages, NoOutputReplacesAnInputOrAnotherOutput) {
   const std::string dir = ::testing::TempDir() + "feedid_report_clash";
   std::filesystem::create_directories(dir);
   const std::string trace = dir + "/report.html", json = dir + "/o.json";
-  ASSERT_EQ(feedid("simulate --duration 20 --out " + trace).rc, 0);
-  const Outcome over = feedid("diagnose --in " + trace + " --report " + dir);
-  EXPECT_EQ(over.rc, 2);
+  ASSERT_EQ(run_feedid("simulate --duration 20 --out " + trace).exit_code, 0);
+  const CliRun over = run_feedid("diagnose --in " + trace + " --report " + dir);
+  EXPECT_EQ(over.exit_code, 2);
   EXPECT_NE(over.err.find("refusing to write the report over the input"), std::string::npos) << over.err;
   std::ifstream kept(trace);
   std::string header;
   std::getline(kept, header);
   EXPECT_EQ(header, "t,x,v,u") << "the input was replaced";
-  const Outcome twice = feedid("diagnose --in " + trace + " --json " + json + " --model-out " + json);
-  EXPECT_EQ(twice.rc, 2);
+  const CliRun twice = run_feedid("diagnose --in " + trace + " --json " + json + " --model-out " + json);
+  EXPECT_EQ(twice.exit_code, 2);
   EXPECT_NE(twice.err.find("another output is written to this file too"), std::string::npos) << twice.err;
 }
 // GIVEN a result at --json, WHEN a later run fails after reading (too little
@@ -161,18 +151,18 @@ TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
   std::filesystem::create_directories(dir);
   const std::string good = dir + "/good.csv", still = dir + "/still.csv", json = dir + "/axis.json";
   std::filesystem::remove(dir + "/axis.prev.json");
-  ASSERT_EQ(feedid("simulate --duration 20 --out " + good).rc, 0);
+  ASSERT_EQ(run_feedid("simulate --duration 20 --out " + good).exit_code, 0);
   {
     std::ofstream out(still);
     out << "t,x,u\n";
     for (int k = 0; k < 500; ++k) out << k * 1e-3 << ",0," << (k % 7) << "\n";
   }
-  ASSERT_EQ(feedid("identify --in " + good + " --json " + json).rc, 0);
+  ASSERT_EQ(run_feedid("identify --in " + good + " --json " + json).exit_code, 0);
   std::ifstream first(json);
   const std::string earlier((std::istreambuf_iterator<char>(first)), std::istreambuf_iterator<char>());
   for (int failure = 0; failure < 2; ++failure) {
-    const Outcome failed = feedid("identify --in " + still + " --json " + json);
-    EXPECT_EQ(failed.rc, 2) << failed.err;
+    const CliRun failed = run_feedid("identify --in " + still + " --json " + json);
+    EXPECT_EQ(failed.exit_code, 2) << failed.err;
     std::ifstream now(json), prev(dir + "/axis.prev.json");
     const nlohmann::json report = nlohmann::json::parse(now, nullptr, false);
     EXPECT_TRUE(report.is_object() && report.contains("error")) << "the failed run's report is not at --json";
@@ -181,18 +171,18 @@ TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
   }
   // Where the earlier result cannot be kept (a folder in the way), nothing
   // is replaced, and the run still says its own error and exits with it.
-  ASSERT_EQ(feedid("identify --in " + good + " --json " + json).rc, 0);
+  ASSERT_EQ(run_feedid("identify --in " + good + " --json " + json).exit_code, 0);
   std::filesystem::remove(dir + "/axis.prev.json");
   std::filesystem::create_directory(dir + "/axis.prev.json");
-  const Outcome blocked = feedid("identify --in " + still + " --json " + json);
-  EXPECT_EQ(blocked.rc, 2) << blocked.err;
+  const CliRun blocked = run_feedid("identify --in " + still + " --json " + json);
+  EXPECT_EQ(blocked.exit_code, 2) << blocked.err;
   EXPECT_NE(blocked.err.find("not enough motion"), std::string::npos) << blocked.err;
   EXPECT_NE(blocked.err.find("left as it was"), std::string::npos) << blocked.err;
   std::ifstream left(json);
   EXPECT_EQ(std::string((std::istreambuf_iterator<char>(left)), std::istreambuf_iterator<char>()), earlier);
   std::filesystem::remove(dir + "/axis.prev.json");
   // An output named where the earlier result would be kept is refused before anything runs.
-  const Outcome clash = feedid("identify --in " + good + " --json " + json + " --friction-plot " + dir + "/axis.prev.json");
-  EXPECT_EQ(clash.rc, 2) << clash.err;
+  const CliRun clash = run_feedid("identify --in " + good + " --json " + json + " --friction-plot " + dir + "/axis.prev.json");
+  EXPECT_EQ(clash.exit_code, 2) << clash.err;
 }
 }  // namespace

@@ -23,6 +23,11 @@
 #include "test_support.hpp"
 
 namespace feedid::test {
+#include "cli_run.hpp"
+
+using feedid::test::CliRun;
+using feedid::test::run_feedid;
+
 namespace {
 
 using host::ForceLog;
@@ -294,21 +299,11 @@ TEST(DiagnoseGivenModel, ReportPageShowsReplayResidualWindowsAndTheGapStepByStep
 // The command line's errors.
 // ---------------------------------------------------------------------------
 
-struct Outcome {
-  int exit_code = -1;
-  std::string err;
-};
 
 std::string own(const std::string& name) {
   return ::testing::TempDir() + "given_model_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name;
 }
 
-Outcome feedid(const std::string& args) {
-  const std::string err = own("stderr");
-  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >/dev/null 2>" + err).c_str());
-  std::ifstream f(err);
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>())};
-}
 
 /// A run with a reference column r; a model with a misspelt key.
 std::string diagnose_args(const std::string& controller_text) {
@@ -322,7 +317,7 @@ std::string diagnose_args(const std::string& controller_text) {
 }
 
 TEST(DiagnoseGivenModelCli, MissingControllerKeyIsNamedAndUnknownModelKeyWarned) {
-  const Outcome o = feedid(diagnose_args(R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1],
+  const CliRun o = run_feedid(diagnose_args(R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1],
                                              "delay_samples": 1, "reference": "r"})"));
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("missing key 'drive_gain'"), std::string::npos) << o.err;
@@ -330,7 +325,7 @@ TEST(DiagnoseGivenModelCli, MissingControllerKeyIsNamedAndUnknownModelKeyWarned)
 }
 
 TEST(DiagnoseGivenModelCli, MissingReferenceColumnIsNamed) {
-  const Outcome o = feedid(diagnose_args(R"({"kp": 50, "kv": 100, "drive_gain": 10, "saturation": 10,
+  const CliRun o = run_feedid(diagnose_args(R"({"kp": 50, "kv": 100, "drive_gain": 10, "saturation": 10,
                                              "position_fir": [1], "delay_samples": 1, "reference": "qg_m"})"));
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
@@ -350,7 +345,7 @@ TEST(DiagnoseGivenModelCli, ModelOutWritesTheNamedEffectsAndReplayRunsThem) {
   }
   const std::string in = " --controller " + c + " --in " + run + " --time t --position x --force u";
   // WHEN diagnosed with --model-out
-  const Outcome d = feedid("diagnose --model " + m + in + " --model-out " + fx);
+  const CliRun d = run_feedid("diagnose --model " + m + in + " --model-out " + fx);
   ASSERT_EQ(d.exit_code, 0) << d.err;
   // THEN the file holds the base model with the ripple, and replay simulates it
   const host::ModelFile written = host::read_model_file(fx);
@@ -358,8 +353,8 @@ TEST(DiagnoseGivenModelCli, ModelOutWritesTheNamedEffectsAndReplayRunsThem) {
   EXPECT_EQ(written.effects[0]["kind"], "position_ripple");
   EXPECT_DOUBLE_EQ(written.drive.mass_kg, l.cfg.drive.mass_kg);
   const std::string bare_json = own("bare.json"), fx_json = own("fx_replay.json");
-  ASSERT_EQ(feedid("replay --model " + m + in + " --json " + bare_json).exit_code, 0);
-  const Outcome r = feedid("replay --model " + fx + in + " --json " + fx_json);
+  ASSERT_EQ(run_feedid("replay --model " + m + in + " --json " + bare_json).exit_code, 0);
+  const CliRun r = run_feedid("replay --model " + fx + in + " --json " + fx_json);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto force_pct = [](const std::string& path) {
     std::ifstream f(path);
@@ -367,7 +362,7 @@ TEST(DiagnoseGivenModelCli, ModelOutWritesTheNamedEffectsAndReplayRunsThem) {
   };
   EXPECT_LT(force_pct(fx_json), 0.5 * force_pct(bare_json));
   // AND an output that names an input is refused before anything runs (exit 2, as the README says), the input kept
-  EXPECT_EQ(feedid("diagnose --model " + m + in + " --model-out " + m).exit_code, 2);
+  EXPECT_EQ(run_feedid("diagnose --model " + m + in + " --model-out " + m).exit_code, 2);
   EXPECT_EQ(host::read_model_file(m).error, "");
 }
 

@@ -7,30 +7,21 @@
 #include <iterator>
 #include <string>
 
+#include "cli_run.hpp"
+
+using feedid::test::CliRun;
+using feedid::test::run_feedid;
+
 namespace {
 
 const std::string dir = ::testing::TempDir();
 
-struct Outcome {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string read_all(const std::string& path) {
-  std::ifstream f(path);
-  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-}
 
 /// A file name of this test's own (ctest runs the tests in parallel).
 std::string own(const std::string& name) {
   return dir + "replay_cli_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name;
 }
 
-Outcome feedid(const std::string& args) {
-  const std::string out = own("stdout"), err = own("stderr");
-  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid " + args + " >" + out + " 2>" + err).c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, read_all(out), read_all(err)};
-}
 
 void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
@@ -51,7 +42,7 @@ TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
   const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, kController);
   write(m, R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}, "ofset_N": 1})");
-  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_NE(o.err.find("warning: " + m + ": unknown key 'ofset_N'"), std::string::npos) << o.err;
   EXPECT_NE(o.out.find("relative error"), std::string::npos) << o.out;
@@ -64,17 +55,17 @@ TEST(ReplayCli, AModelInOtherUnitsThanTheLogIsRefused) {
   write(m, R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2},
               "units": {"position": "rad", "force": "N m"}})");
   // THEN replaying it on a log read as linear is exit 2, naming both units; read as rotary it runs
-  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("rad"), std::string::npos) << o.err;
-  EXPECT_EQ(feedid("replay --model " + m + " --controller " + c + " --in " + run + " --axis rotary").exit_code, 0);
+  EXPECT_EQ(run_feedid("replay --model " + m + " --controller " + c + " --in " + run + " --axis rotary").exit_code, 0);
 }
 
 TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
   const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, R"({"kp": 50, "kv": 100, "saturation": 10, "position_fir": [1], "delay_samples": 1, "reference": "r"})");
   write(m, kModel);
-  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("missing key 'drive_gain'"), std::string::npos) << o.err;
 }
@@ -85,7 +76,7 @@ TEST(ReplayCli, MissingReferenceColumnIsNamed) {
   text.replace(text.find("\"r\""), 3, "\"qg_m\"");
   write(c, text);
   write(m, kModel);
-  const Outcome o = feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
 }
