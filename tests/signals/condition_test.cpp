@@ -14,7 +14,7 @@ namespace {
 
 /// A reciprocating axis x = A sin(2 pi 0.5 t), u = m a, sampled at the
 /// times `sampled` and stamped at `stamped`.
-Trace reciprocating(const std::vector<double>& sampled, const std::vector<double>& stamped) {
+Trace reciprocating_at(const std::vector<double>& sampled, const std::vector<double>& stamped) {
   Trace tr;
   tr.source = "reciprocating";
   tr.has_velocity = false;
@@ -33,7 +33,7 @@ TEST(Condition, ALogInMsReadAsSecondsIsRefusedUnlessItsUnitIsStated) {
     clock.push_back(1e-3 * k);
     stamps.push_back(static_cast<double>(k));
   }
-  Trace tr = reciprocating(clock, stamps);
+  Trace tr = reciprocating_at(clock, stamps);
   // WHEN conditioned  THEN it is refused, naming the step and the option that fixes it
   const std::string e = condition(tr, ConditionOptions{}).error;
   EXPECT_FALSE(e.empty()) << "a 1 Hz log with an unstated time unit was taken";
@@ -45,7 +45,7 @@ TEST(Condition, ALogInMsReadAsSecondsIsRefusedUnlessItsUnitIsStated) {
   // AND a 200 Hz log (the slowest drive logs seen) is taken without a stated unit
   std::vector<double> slow;
   for (int k = 0; k < 4000; ++k) slow.push_back(5e-3 * k);
-  EXPECT_EQ(condition(reciprocating(slow, slow), ConditionOptions{}).error, "");
+  EXPECT_EQ(condition(reciprocating_at(slow, slow), ConditionOptions{}).error, "");
 }
 
 TEST(Condition, JitteredStampsOfAClockedLogAreTakenToTheClock) {
@@ -58,7 +58,7 @@ TEST(Condition, JitteredStampsOfAClockedLogAreTakenToTheClock) {
     stamps.push_back(clock.back() + jitter(rng));
   }
   // WHEN conditioned
-  const Signals s = condition(reciprocating(clock, stamps), ConditionOptions{});
+  const Signals s = condition(reciprocating_at(clock, stamps), ConditionOptions{});
   // THEN its times are the clock's, to a tenth of the jitter (the clock's
   // phase and period fitted to 4000 stamps of 0.12 ms standard deviation
   // are good to a few microseconds at the ends)
@@ -75,7 +75,7 @@ TEST(Condition, UnevenStampsOfALogSampledWhenReadAreKept) {
   std::vector<double> times{0.0};
   while (times.size() < 4000) times.push_back(times.back() + step(rng));
   // WHEN conditioned
-  const Signals s = condition(reciprocating(times, times), ConditionOptions{});
+  const Signals s = condition(reciprocating_at(times, times), ConditionOptions{});
   // THEN the stamps stay: on them the motion is smoother than on any clock's slots
   EXPECT_EQ(s.stretches_on_clock_slots, 0u);
   for (std::size_t k = 0; k < times.size(); ++k) ASSERT_EQ(s.t[k], times[k]);

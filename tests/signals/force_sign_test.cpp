@@ -14,7 +14,7 @@ namespace {
 struct Motion {
   std::vector<double> t, x, u;
 };
-Motion reciprocating(double seconds, double coulomb_N, double offset_N, double drift_m_s = 0.0) {
+Motion reciprocating_with_force(double seconds, double coulomb_N, double offset_N, double drift_m_s = 0.0) {
   Motion m;
   const double A = 0.05, w = 2.0 * M_PI * 0.5, mass = 20.0;
   for (int k = 0; k <= static_cast<int>(seconds * 1000.0); ++k) {
@@ -35,7 +35,7 @@ Motion negated(Motion m) {
 // logged pushes with the motion both ways (ratio 1) and is kept; negated,
 // it is found reversed.
 TEST(ForceSign, FrictionBothWaysGivesTheSign) {
-  const Motion m = reciprocating(10.0, 10.0, 0.0);
+  const Motion m = reciprocating_with_force(10.0, 10.0, 0.0);
   const ForceSign kept = find_force_sign(m.t, m.x, m.u, 0.01);
   EXPECT_EQ(kept.sign, 1);
   EXPECT_TRUE(kept.both_directions);
@@ -52,12 +52,12 @@ TEST(ForceSign, FrictionBothWaysGivesTheSign) {
 // (ratio Fc / offset = 1/3); at ten times it is inside the margin, and the
 // force is left as logged with a word that its sign is unconfirmed.
 TEST(ForceSign, AnOffsetCancelsBetweenTheDirections) {
-  const Motion three = reciprocating(10.0, 10.0, -30.0);
+  const Motion three = reciprocating_with_force(10.0, 10.0, -30.0);
   const ForceSign kept = find_force_sign(three.t, three.x, three.u, 0.01);
   EXPECT_EQ(kept.sign, 1);
   EXPECT_NEAR(kept.ratio, 1.0 / 3.0, 0.03);
   EXPECT_EQ(find_force_sign(three.t, three.x, negated(three).u, 0.01).sign, -1);
-  const Motion ten = reciprocating(10.0, 10.0, -100.0);
+  const Motion ten = reciprocating_with_force(10.0, 10.0, -100.0);
   for (const Motion& m : {ten, negated(ten)}) {
     const ForceSign f = find_force_sign(m.t, m.x, m.u, 0.01);
     EXPECT_FALSE(f.conclusive) << f.ratio;
@@ -93,7 +93,7 @@ TEST(ForceSign, OneWayTravelIsJudgedByItsWork) {
 // between them, THEN the jump is no travel: the steps over max_step_s are
 // left out (a huge force on the far side of the gap would otherwise decide).
 TEST(ForceSign, AJumpAcrossAGapIsNoMotion) {
-  Motion m = reciprocating(4.0, 10.0, 0.0);
+  Motion m = reciprocating_with_force(4.0, 10.0, 0.0);
   const std::size_t n = m.t.size();
   for (std::size_t k = 0; k < n; ++k) {  // a second run, 10 s later and 5 m away
     m.t.push_back(m.t[k] + m.t[n - 1] + 10.0);
@@ -111,7 +111,7 @@ TEST(ForceSign, AJumpAcrossAGapIsNoMotion) {
 // one direction's samples replaced by 1e6 of the wrong sign cannot turn it
 // either.
 TEST(ForceSign, NoOutlierRowTurnsTheSign) {
-  const Motion clean = reciprocating(10.0, 10.0, 0.0);
+  const Motion clean = reciprocating_with_force(10.0, 10.0, 0.0);
   const double ratio = find_force_sign(clean.t, clean.x, clean.u, 0.01).ratio;
   for (const std::size_t k : {std::size_t{400}, std::size_t{1400}})  // moving positive, negative
     for (const double outlier : {1e12, -1e12}) {
