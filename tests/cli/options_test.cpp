@@ -3,9 +3,6 @@
 // (exit 2) naming the option, never taken as "from the data".
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <fstream>
-#include <iterator>
 #include <string>
 
 #include "cli_run.hpp"
@@ -35,15 +32,10 @@ TEST(Options, TheDefaultsStillParse) {
 
 TEST(Options, AFileGivenTwiceIsPooledWithAWarning) {
   const std::string in = ::testing::TempDir() + "feedid_options_twice.csv";
-  const std::string err = ::testing::TempDir() + "feedid_options_twice.err";
   ASSERT_EQ(exit_code("simulate --duration 30 --out " + in), 0);
-  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid identify --in " + in + " --in " + in + " >/dev/null 2>" +
-                              err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 0);
-  std::ifstream f(err);
-  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("is given twice"), std::string::npos) << text;
+  const feedid::test::CliRun twice = feedid::test::run_feedid("identify --in " + in + " --in " + in);
+  EXPECT_EQ(twice.exit_code, 0);
+  EXPECT_NE(twice.err.find("is given twice"), std::string::npos) << twice.err;
 }
 
 TEST(Options, ARotaryModelIsNotValidatedOnALinearLog) {

@@ -21,13 +21,9 @@
 #include "model/constants.hpp"
 #include "sim/drive_sim.hpp"
 #include "test_support.hpp"
-
-namespace feedid::test {
 #include "cli_run.hpp"
 
-using feedid::test::CliRun;
-using feedid::test::run_feedid;
-
+namespace feedid::test {
 namespace {
 
 using host::ForceLog;
