@@ -150,8 +150,7 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
   nlohmann::json guessed;
   std::vector<std::future<ReplayResult>> spent;  ///< wrong guesses, joined before return
   std::future<ReplayResult> guess;
-  const auto replay_with = [&](const nlohmann::json& effects) {
-    const PlantEffects pe = plant_effects(effects, base.drive.mass_kg);
+  const auto replay_with = [&](const PlantEffects& pe) {
     return run_beside(opt.threads != 1, [&, with = with_plant_effects(ropt, pe)] { return replay(base, *c, *run, with); });
   };
   DiagnoseOptions with_replay = opt;
@@ -161,18 +160,19 @@ ModelGap model_gap(const Trace& trace, const DiagnoseOptions& opt, const Control
       if (before_failed || opt.threads == 1) return;
       if (guess.valid()) spent.push_back(std::move(guess));
       guessed = named_effects_json(named);
-      guess = replay_with(guessed);
+      guess = replay_with(plant_effects(guessed, base.drive.mass_kg));
     };
     with_replay.on_effects_final = [&](const DiagnoseResult& d) {
       if (opt.on_effects_final) opt.on_effects_final(d);
       const nlohmann::json effects = named_effects_json(d.effects);
-      g.plant = plant_effects(effects, base.drive.mass_kg).list;
+      const PlantEffects pe = plant_effects(effects, base.drive.mass_kg);
+      g.plant = pe.list;
       if (guess.valid() && effects == guessed) {
         after = std::move(guess);
         return;
       }
       if (guess.valid()) spent.push_back(std::move(guess));
-      if (!before_failed) after = replay_with(effects);
+      if (!before_failed) after = replay_with(pe);
     };
   }
   g.diagnosis = diagnose(trace, with_replay);
