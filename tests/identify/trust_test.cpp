@@ -4,7 +4,6 @@
 // identify, refused by compensate, and no relative error is NaN.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 
 #include <array>
 #include <cmath>
@@ -14,6 +13,7 @@
 
 #include "compensate/compensate.hpp"
 #include "identify/identify.hpp"
+#include "cli_run.hpp"
 #include "test_support.hpp"
 #include "validate/validate.hpp"
 
@@ -145,11 +145,7 @@ TEST(Trust, ANonPhysicalModelIsSaidAndRefused) {
   const std::string model = (dir / "id.json").string(), table = (dir / "table.json").string();
   std::filesystem::remove(table);
   // compensate as a user runs it: the exit code is the command line's.
-  const auto compensate = [&] {
-    const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid compensate --model " + model + " --out " + table +
-                                " >/dev/null 2>&1").c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  };
+  const auto compensate = [&] { return test::run_feedid("compensate --model " + model + " --out " + table).exit_code; };
   std::ofstream(model) << j.dump();
   EXPECT_EQ(compensate(), 2);
   EXPECT_FALSE(std::filesystem::exists(table));

@@ -3,12 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include "cli_run.hpp"
 #include "io/output_file.hpp"
 
 namespace fs = std::filesystem;
@@ -58,10 +58,9 @@ TEST(OutputFile, ALinkIsWrittenThroughAndStaysALink) {
   EXPECT_TRUE(fs::is_symlink(fs::symlink_status(link)));
   EXPECT_EQ(slurp(target), "new\n");
   EXPECT_EQ(entries(d), 2u) << "no temporary left";
-  const std::string out = (d / "stdout.txt").string();
-  const int rc = std::system((std::string(FEEDID_BIN_DIR) + "/feedid simulate --duration 1 --out /dev/stdout > " + out).c_str());
-  EXPECT_EQ(rc, 0);
-  EXPECT_EQ(slurp(out).rfind("t,x,v,u\n", 0), 0u) << "the trace reached the redirected stdout";
+  const feedid::test::CliRun to_stdout = feedid::test::run_feedid("simulate --duration 1 --out /dev/stdout");
+  EXPECT_EQ(to_stdout.exit_code, 0);
+  EXPECT_EQ(to_stdout.out.rfind("t,x,v,u\n", 0), 0u) << "the trace reached the redirected stdout";
   EXPECT_TRUE(fs::is_symlink(fs::symlink_status("/dev/stdout")) || !fs::is_regular_file(fs::symlink_status("/dev/stdout")));
   fs::remove_all(d);
 }
@@ -104,26 +103,18 @@ TEST(OutputFile, AnOutputOverAnInputIsRefusedAndTheInputKept) {
 
 TEST(OutputFile, TheCliRefusesAJsonOverItsInputWithExit2) {
   const fs::path d = fresh_dir("cli");
-  const std::string bin = std::string(FEEDID_BIN_DIR) + "/feedid";
   const std::string trace = (d / "t.csv").string();
-  ASSERT_EQ(std::system((bin + " simulate --duration 5 --out " + trace + " >/dev/null").c_str()), 0);
+  ASSERT_EQ(feedid::test::run_feedid("simulate --duration 5 --out " + trace).exit_code, 0);
   const std::string before = slurp(trace);
-  const int rc = std::system((bin + " identify --in " + trace + " --json " + trace + " >/dev/null 2>&1").c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  EXPECT_EQ(feedid::test::run_feedid("identify --in " + trace + " --json " + trace).exit_code, 2);
   EXPECT_EQ(slurp(trace), before);
-  const int full = std::system((bin + " simulate --duration 1 --out /dev/full >/dev/null 2>&1").c_str());
-  ASSERT_TRUE(WIFEXITED(full));
-  EXPECT_EQ(WEXITSTATUS(full), 1) << "a write that fails is exit 1";
+  EXPECT_EQ(feedid::test::run_feedid("simulate --duration 1 --out /dev/full").exit_code, 1) << "a write that fails is exit 1";
   fs::remove_all(d);
 }
 
 TEST(OutputFile, UsageErrorsExit2AndVersionExits0) {
-  const std::string bin = std::string(FEEDID_BIN_DIR) + "/feedid";
-  const int bad = std::system((bin + " identify --no-such-option >/dev/null 2>&1").c_str());
-  ASSERT_TRUE(WIFEXITED(bad));
-  EXPECT_EQ(WEXITSTATUS(bad), 2);
-  EXPECT_EQ(std::system((bin + " --version >/dev/null").c_str()), 0);
+  EXPECT_EQ(feedid::test::run_feedid("identify --no-such-option").exit_code, 2);
+  EXPECT_EQ(feedid::test::run_feedid("--version").exit_code, 0);
 }
 
 }  // namespace
