@@ -595,14 +595,29 @@ void brent_minimum(double a, double b, double x0, double f0, double width, F f) 
   }
 }
 
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Grid cells either side of a first size's best in which a larger size's
+/// search looks again (EffectModel::SearchAgain::near_first).
+constexpr int kResearchCells = 2;
+
+/// The grid points within kResearchCells of the one nearest p, in order.
+std::vector<double> cells_around(const std::vector<double>& grid, double p) {
+  const int i = nearest(grid, p), n = static_cast<int>(grid.size());
+  return std::vector<double>(grid.begin() + std::max(0, i - kResearchCells), grid.begin() + std::min(n, i + kResearchCells + 1));
+}
+
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
 /// discrete refinement or Brent's steps in log on fine ones. Only the
 /// identification observations' SSR is read, so only they are drawn.
-double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size) {
+/// `near`: only the grid points within kResearchCells of it
+/// (EffectModel::SearchAgain::near_first).
+double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size,
+                        double near = kNaN) {
   using Res = Observations::Resolution;
   using Rows = Observations::Rows;
-  const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : em.grid;
+  const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : std::isnan(near) ? em.grid : cells_around(em.grid, near);
   const ColumnBank::Held held = st.bank.hold(with);
   const auto ssrs = [&](const std::vector<double>& ps, Res r) { return ssrs_beside(st, held, em, ps, size, {r, Rows::identification}); };
   auto cost = [&](double p, Res r) { return ssrs({p}, r).front(); };
@@ -742,7 +757,9 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect, b
   // A larger size can move the parameter (a compliance's frequency with
   // its damping): searched again at the size chosen.
   const double p_searched = e.p;
-  if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size) e.p = search_parameter(st, with, em, e.size);
+  using Again = EffectModel::SearchAgain;
+  if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size != Again::no)
+    e.p = search_parameter(st, with, em, e.size, em.search_again_at_size == Again::near_first ? e.p : kNaN);
   ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
                                        all_columns(st.base, current));
   e.model = current;

@@ -160,7 +160,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
   m.continuous = true;
   m.sizes = {1, 2, 3};
   m.columns_per_size = 2;  // HarmonicMeans: harmonic h's pair the same for any count
-  m.search_again_at_size = false;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
+  m.search_again_at_size = EffectModel::SearchAgain::no;  // at two harmonics 2P fits as P does: found with pooled runs in one order, not the other
   m.keep_columns = EffectModel::Keep::from_first_draw;
   // Several periods in one pass over the segments (the grid's), each its
   // own phasors.
@@ -620,6 +620,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
   m.keep_columns = EffectModel::Keep::from_first_draw;
   m.sizes = {1, 2};
   m.columns_per_size = 1;  // each damping's filter its own (LoadFilters)
+  m.search_again_at_size = EffectModel::SearchAgain::near_first;  // the second damping shapes the same resonance
   // Each frequency's dampings, frequency by frequency: the columns of
   // several frequencies filtered in one pass.
   auto columns_at = [&obs](const std::vector<double>& fs, int dampings, Observations::Draw r) {
