@@ -515,6 +515,12 @@ constexpr double kGridTieRelative = 1e-9;
 /// Width in log(p) at which a continuous parameter's search stops.
 constexpr double kParameterLogTolerance = 1e-3;
 
+/// Share of the noise variance within which a continuous parameter's SSR
+/// is resolved: an SSR within 0.01 sigma^2 of the least lies within 0.14
+/// of the parameter's standard error (the SSR rises by sigma^2 at one
+/// standard error, where it is quadratic in the parameter).
+constexpr double kResolvedNoiseShare = 0.01;
+
 /// The golden section's smaller share of a bracket, (3 - sqrt 5) / 2.
 constexpr double kGoldenShare = 0.3819660112501051;
 
@@ -546,19 +552,31 @@ std::vector<double> ssrs_beside(const Stage& st, const ColumnBank::Held& held, c
   return out;
 }
 
+/// How far below fx the parabola through (x, fx), (w, fw), (v, fv) goes:
+/// what a step to its vertex could gain; infinite where it opens downward
+/// or the points do not define it.
+double parabola_decrease(double x, double fx, double w, double fw, double v, double fv) {
+  const double dw = w - x, dv = v - x, det = dw * dv * (dw - dv);
+  if (det == 0.0) return kInf;
+  const double a = ((fw - fx) * dv - (fv - fx) * dw) / det, b = ((fv - fx) * dw * dw - (fw - fx) * dv * dv) / det;
+  return a > 0.0 ? b * b / (4.0 * a) : kInf;
+}
+
 /// Brent's minimisation (Brent 1973, ch. 5; Numerical Recipes 10.3) of f
 /// on [a, b] from x0 inside it, where f(x0) = f0 is known, until the
-/// bracket is within `width`: parabolic steps through the three best
+/// bracket is within `width`, or until the parabola through the three best
+/// points promises no more than `resolved`: parabolic steps through the three best
 /// points where they fall well inside, golden sections where not. On the
 /// smooth minima of a family's SSR it takes 4-7 values of f where golden
 /// sections alone took 11 from the grid's bracket.
 template <class F>
-void brent_minimum(double a, double b, double x0, double f0, double width, F f) {
+void brent_minimum(double a, double b, double x0, double f0, double width, double resolved, F f) {
   const double tol = 0.25 * width;  // stops once |x - mid| <= 2 tol - (b - a) / 2: b - a <= 4 tol
   double x = x0, w = x0, v = x0, fx = f0, fw = f0, fv = f0, d = 0.0, e = 0.0;
   for (int it = 0; it < 40; ++it) {
     const double mid = 0.5 * (a + b);
     if (std::fabs(x - mid) <= 2.0 * tol - 0.5 * (b - a)) return;
+    if (v != w && w != x && v != x && parabola_decrease(x, fx, w, fw, v, fv) <= resolved) return;
     bool golden = true;
     if (std::fabs(e) > tol) {
       const double r = (x - w) * (fx - fv);
@@ -671,7 +689,13 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
     // point inside it, as the golden sections started.
     double x0 = std::log(best_p), f0 = best_ssr;
     if (!(x0 > a && x0 < b)) x0 = a + kGoldenShare * (b - a), f0 = f(x0);
-    brent_minimum(a, b, x0, f0, kParameterLogTolerance, f);
+    // Done where a step could lower the SSR by no more than
+    // kResolvedNoiseShare of the noise variance (the least SSR over the
+    // observations, an upper bound): the best point is then within a tenth
+    // of the parameter's standard error of the minimum, where the SSR is
+    // quadratic, and the data tell the points apart no further.
+    const double resolved = kResolvedNoiseShare * best_ssr / static_cast<double>(std::max<std::size_t>(1, st.bank.identification_count()));
+    brent_minimum(a, b, x0, f0, kParameterLogTolerance, resolved, f);
   }
   return best_p;
 }
