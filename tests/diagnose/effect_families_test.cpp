@@ -39,6 +39,8 @@ TEST(DiagnoseFamilies, LightlyDampedComplianceIsNamedWithItsDamping) {
   ASSERT_TRUE(p.contains("damping_ratio")) << "the lightly damped form was kept: " << p.dump();
   EXPECT_LT(p["damping_ratio"].get<double>(), 0.03) << p.dump();  // 0.015 simulated; the fixed form says 0.05
   EXPECT_NEAR(p.value("load_mass_kg", 0.0), 0.3 * cfg.drive.mass_kg, 0.3 * 0.3 * cfg.drive.mass_kg) << p.dump();
+  // Searched again at two dampings near the first's best (SearchAgain::near_first).
+  EXPECT_NEAR(p.value("frequency_hz", 0.0), 30.0, 0.3) << p.dump();  // 29.95 Hz; a grid cell is 10 %
   EXPECT_FALSE(r.gap_remains) << host::summary(r);
 }
 
