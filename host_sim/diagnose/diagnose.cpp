@@ -292,13 +292,6 @@ LinearFit fit_vs_free(const ColumnBank& bank, const BaseColumns& b, Model& m, co
   return best;
 }
 
-int nearest(const std::vector<double>& grid, double v) {
-  std::size_t best = 0;
-  for (std::size_t g = 0; g < grid.size(); ++g)
-    if (std::fabs(std::log(grid[g] / v)) < std::fabs(std::log(grid[best] / v))) best = g;
-  return static_cast<int>(best);
-}
-
 void refit(const ColumnBank& bank, const BaseColumns& b, Model& m) {
   m.fit = fit_vs_free(bank, b, m, nullptr);
   m.residual = bank.residual(model_columns(b, m), nullptr, m.fit.theta);
@@ -306,8 +299,8 @@ void refit(const ColumnBank& bank, const BaseColumns& b, Model& m) {
 
 Model fit_base(const ColumnBank& bank, const BaseColumns& b, const IdentifyResult& base) {
   Model m;
-  if (b.stribeck[0]) m.g[0] = nearest(b.vs_grid, base.estimate.pos.stribeck_velocity_m_s);
-  if (b.stribeck[1]) m.g[1] = nearest(b.vs_grid, base.estimate.neg.stribeck_velocity_m_s);
+  if (b.stribeck[0]) m.g[0] = static_cast<int>(diag::nearest_in_log(b.vs_grid, base.estimate.pos.stribeck_velocity_m_s));
+  if (b.stribeck[1]) m.g[1] = static_cast<int>(diag::nearest_in_log(b.vs_grid, base.estimate.neg.stribeck_velocity_m_s));
   refit(bank, b, m);
   return m;
 }
@@ -516,8 +509,8 @@ constexpr double kGridTieRelative = 1e-9;
 constexpr double kParameterLogTolerance = 1e-3;
 
 /// Share of the noise variance within which a continuous parameter's SSR
-/// is resolved: an SSR within 0.01 sigma^2 of the least lies within 0.14
-/// of the parameter's standard error (the SSR rises by sigma^2 at one
+/// is resolved: an SSR within 0.01 sigma^2 of the least lies within a
+/// tenth of the parameter's standard error (the SSR rises by sigma^2 at one
 /// standard error, where it is quadratic in the parameter).
 constexpr double kResolvedNoiseShare = 0.01;
 
@@ -558,7 +551,9 @@ std::vector<double> ssrs_beside(const Stage& st, const ColumnBank::Held& held, c
 /// grid); infinite where the points do not define a parabola.
 double parabola_decrease(double x, double fx, double w, double fw, double v, double fv, double lo, double hi) {
   const double dw = w - x, dv = v - x, det = dw * dv * (dw - dv);
-  if (det == 0.0) return kInf;
+  // A failed fit's infinite SSR among the points defines no parabola: its
+  // gains would be NaN, which must not read as resolved.
+  if (det == 0.0 || !(std::isfinite(fx) && std::isfinite(fw) && std::isfinite(fv))) return kInf;
   const double a = ((fw - fx) * dv - (fv - fx) * dw) / det, b = ((fv - fx) * dw * dw - (fw - fx) * dv * dv) / det;
   const auto gain = [&](double t) { return -(a * t + b) * t; };
   double best = std::max({0.0, gain(lo - x), gain(hi - x)});
@@ -566,7 +561,7 @@ double parabola_decrease(double x, double fx, double w, double fw, double v, dou
     const double t = -b / (2.0 * a);
     if (x + t > lo && x + t < hi) best = std::max(best, gain(t));
   }
-  return best;
+  return std::isnan(best) ? kInf : best;
 }
 
 /// Brent's minimisation (Brent 1973, ch. 5; Numerical Recipes 10.3) of f
@@ -622,27 +617,22 @@ void brent_minimum(double a, double b, double x0, double f0, double width, doubl
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-/// Grid cells either side of a first size's best in which a larger size's
-/// search looks again (EffectModel::SearchAgain::near_first).
-constexpr int kResearchCells = 2;
+/// Grid points either side of the one nearest a first size's best among
+/// which a larger size's search looks again (EffectModel::SearchAgain::near_first).
+constexpr std::size_t kResearchCells = 2;
 
-/// The grid points within kResearchCells of the one nearest p, in order.
-std::vector<double> cells_around(const std::vector<double>& grid, double p) {
-  const int i = nearest(grid, p), n = static_cast<int>(grid.size());
-  return std::vector<double>(grid.begin() + std::max(0, i - kResearchCells), grid.begin() + std::min(n, i + kResearchCells + 1));
-}
 
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
 /// discrete refinement or Brent's steps in log on fine ones. Only the
 /// identification observations' SSR is read, so only they are drawn.
-/// `near`: only the grid points within kResearchCells of it
+/// `near`: only the grid points within kResearchCells places of the one nearest it
 /// (EffectModel::SearchAgain::near_first).
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size,
                         double near = kNaN) {
   using Res = Observations::Resolution;
   using Rows = Observations::Rows;
-  const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : std::isnan(near) ? em.grid : cells_around(em.grid, near);
+  const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : std::isnan(near) ? em.grid : diag::grid_window(em.grid, near, kResearchCells);
   const ColumnBank::Held held = st.bank.hold(with);
   const auto ssrs = [&](const std::vector<double>& ps, Res r) { return ssrs_beside(st, held, em, ps, size, {r, Rows::identification}); };
   auto cost = [&](double p, Res r) { return ssrs({p}, r).front(); };
@@ -700,11 +690,11 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
       x0 = a + kGoldenShare * (b - a), f0 = f(x0);
       // The least may lie beyond the search range (a compliance above the
       // grid's top, a ripple longer than three travels): where the golden
-      // point is no better than the grid's end, the SSR falls toward that
-      // end, which stays the best. On EMPS PULSES such searches took 7-10
-      // of Brent's steps toward it; all but one found nothing better, and
-      // that one a point 0.4 % inside it (a compliance at the top of its
-      // range, not physical there).
+      // point is no better than the grid's end, the end is kept (a dip
+      // inside the last cell nearer the end than that point is missed).
+      // On EMPS PULSES such searches took 7-10 of Brent's steps toward the
+      // end; all but one found nothing better, and that one a point 0.4 %
+      // inside it (a compliance at the top of its range, not physical there).
       if (!(f0 < at_end)) return best_p;
     }
     // Done where a step could lower the SSR by no more than
@@ -800,8 +790,13 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect, b
   // its damping): searched again at the size chosen.
   const double p_searched = e.p;
   using Again = EffectModel::SearchAgain;
-  if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size != Again::no)
-    e.p = search_parameter(st, with, em, e.size, em.search_again_at_size == Again::near_first ? e.p : kNaN);
+  if (e.size != em.sizes.front() && em.continuous && em.search_again_at_size != Again::no) {
+    const bool near = em.search_again_at_size == Again::near_first;
+    e.p = search_parameter(st, with, em, e.size, near ? p_searched : kNaN);
+    // Best on the window's edge (not the grid's): the least may lie
+    // beyond the window, so the whole grid is searched after all.
+    if (near && diag::on_window_edge(em.grid, p_searched, kResearchCells, e.p)) e.p = search_parameter(st, with, em, e.size);
+  }
   ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
                                        all_columns(st.base, current));
   e.model = current;

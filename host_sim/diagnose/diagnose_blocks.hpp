@@ -27,6 +27,31 @@ inline std::vector<double> log_grid(double lo, double hi, int n) {
   return g;
 }
 
+/// Index of the grid value nearest v in log (positive values; 0 for an empty grid).
+inline std::size_t nearest_in_log(const std::vector<double>& grid, double v) {
+  std::size_t best = 0;
+  for (std::size_t g = 0; g < grid.size(); ++g)
+    if (std::fabs(std::log(grid[g] / v)) < std::fabs(std::log(grid[best] / v))) best = g;
+  return best;
+}
+
+/// The grid values within `cells` places of the one nearest p, in grid
+/// order: where a search looks again near an earlier best.
+inline std::vector<double> grid_window(const std::vector<double>& grid, double p, std::size_t cells) {
+  if (grid.empty()) return {};
+  const std::size_t i = nearest_in_log(grid, p);
+  return std::vector<double>(grid.begin() + static_cast<std::ptrdiff_t>(i - std::min(i, cells)),
+                             grid.begin() + static_cast<std::ptrdiff_t>(std::min(grid.size(), i + cells + 1)));
+}
+
+/// Whether p, a search's result within grid_window(grid, first, cells), is
+/// an edge of that window that is not an end of the grid: the least may
+/// then lie beyond the window.
+inline bool on_window_edge(const std::vector<double>& grid, double first, std::size_t cells, double p) {
+  const std::vector<double> w = grid_window(grid, first, cells);
+  return !w.empty() && ((p == w.front() && w.front() != grid.front()) || (p == w.back() && w.back() != grid.back()));
+}
+
 /// Time folds. Folds of fixed length alias with periodic motion (0.75 s
 /// folds over a ladder whose strokes alternate every 0.75 s put every
 /// positive stroke in the identification half), so each fold spans at

@@ -35,9 +35,11 @@ struct EffectModel {
   /// not, where the larger size aliases it (a ripple's harmonics fit a
   /// multiple of its period alike); near the first size's best, where the
   /// larger size shapes the same term (a compliance's second damping moves
-  /// its frequency within the basin the first found: 2 grid cells either
-  /// side, not 50, took 8 % of `diagnose --model` on EMPS PULSES with the
-  /// same result); over the whole grid, where it is another term whose
+  /// its frequency within the basin the first found: the 2 grid points
+  /// either side of the one nearest the first's best, not all 50, saved
+  /// 8 % of the work of `diagnose --model` on EMPS PULSES with the same
+  /// result; a best on the window's edge searches the whole grid after
+  /// all); over the whole grid, where it is another term whose
   /// parameter can lie anywhere (a drift split by direction: one side's
   /// 12 s drift fitted shared at 2.9 s).
   enum class SearchAgain { no, near_first, whole_grid };

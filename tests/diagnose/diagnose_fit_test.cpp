@@ -202,3 +202,48 @@ TEST(DiagnoseFit, NearTheLeastDifferencesAreScoredFromTheirColumns) {
 
 }  // namespace
 }  // namespace feedid::test
+
+namespace feedid::test {
+namespace {
+
+using host::diag::grid_window;
+using host::diag::log_grid;
+using host::diag::on_window_edge;
+
+// GIVEN a log grid and a value between two of its points, WHEN a search
+// looks again near it, THEN it gets the two places either side of the
+// nearest point, fewer at the grid's ends, and only a result on the
+// window's inner edge (not the grid's end) sends it to the whole grid.
+TEST(DiagnoseGridWindow, TwoPlacesEitherSideOfTheNearestClippedAtTheEnds) {
+  const std::vector<double> grid = log_grid(1.0, 1000.0, 31);  // 10 ** 0.1 a step
+  const std::vector<double> mid = grid_window(grid, 1.1 * grid[10], 2);  // nearer grid[10] than grid[11]
+  ASSERT_EQ(mid.size(), 5u);
+  EXPECT_EQ(mid.front(), grid[8]);
+  EXPECT_EQ(mid.back(), grid[12]);
+  const std::vector<double> low = grid_window(grid, 0.5, 2);  // below the grid: its first point is nearest
+  ASSERT_EQ(low.size(), 3u);
+  EXPECT_EQ(low.front(), grid[0]);
+  const std::vector<double> high = grid_window(grid, grid[29], 2);
+  ASSERT_EQ(high.size(), 4u);
+  EXPECT_EQ(high.back(), grid[30]);
+  EXPECT_EQ(grid_window({5.0}, 3.0, 2), std::vector<double>{5.0});
+  EXPECT_TRUE(grid_window({}, 3.0, 2).empty());
+
+  EXPECT_TRUE(on_window_edge(grid, grid[10], 2, grid[8]));
+  EXPECT_TRUE(on_window_edge(grid, grid[10], 2, grid[12]));
+  EXPECT_FALSE(on_window_edge(grid, grid[10], 2, grid[10]));
+  EXPECT_FALSE(on_window_edge(grid, grid[10], 2, 1.05 * grid[8]));  // Brent's step inside the window
+  EXPECT_FALSE(on_window_edge(grid, grid[29], 2, grid[30]));        // the grid's own end
+  EXPECT_TRUE(on_window_edge(grid, grid[29], 2, grid[27]));
+  EXPECT_FALSE(on_window_edge(grid, grid[1], 2, grid[0]));
+
+  // A descending grid (a ripple's on a short travel) keeps its order.
+  const std::vector<double> down(grid.rbegin(), grid.rend());
+  const std::vector<double> w = grid_window(down, grid[10], 1);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_EQ(w.front(), grid[11]);
+  EXPECT_EQ(w.back(), grid[9]);
+}
+
+}  // namespace
+}  // namespace feedid::test
