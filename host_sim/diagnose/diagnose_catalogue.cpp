@@ -63,6 +63,7 @@ std::vector<Mat> split_columns(const Mat& all, std::size_t n, Eigen::Index q) {
 EffectModel offset_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::offset);
+  m.keep_columns = EffectModel::Keep::from_first_draw;  // one column, the same at every step
   m.columns = [&obs](double, int, Observations::Draw r) {
     return obs.segment_columns(1, false, r, [](std::size_t, const Segment&, double* out) { out[0] = 1.0; });
   };
@@ -462,6 +463,7 @@ EffectModel quadratic_viscous_model(const Observations& obs) {
   EffectModel m;
   m.kind = effect_name(Effect::quadratic_viscous);
   m.friction_with_speed_or_time = true;
+  m.keep_columns = EffectModel::Keep::from_first_draw;  // one column, the same at every step
   m.columns = [&obs](double, int, Observations::Draw r) {
     const Vec c = obs.sample_column([&obs](std::size_t j) {
       const double v = obs.interval_v(j);
@@ -494,17 +496,26 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
   m.columns_per_size = 1;  // each element's decay its own
   const std::size_t n = m.grid.size();
   for (std::size_t i = 0; i < n; ++i) m.grid.push_back(-m.grid[i]);
-  m.columns = [&obs](double p, int elements, Observations::Draw r) {
-    const double d = std::fabs(p);
-    const bool from_reversal = p > 0;
-    return obs.segment_columns(elements, false, r, [=](std::size_t, const Segment& sg, double* out) {
-      for (int k = 0; k < elements; ++k) {
-        const double dk = d * kPreslidingElements[k];
-        const double decay = from_reversal ? mean_decay(sg.rev0, sg.rev1, dk) : mean_decay(sg.start0, sg.start1, dk);
-        out[k] = -sign_of(sg) * decay;
-      }
-    });
+  // Several distances in one pass over the segments (the grid's): a
+  // segment far from its reversal adds nothing to any of them, and its
+  // visit was most of a single distance's pass.
+  auto columns_at = [&obs](const std::vector<double>& ps, int elements, Observations::Draw r) {
+    const auto q = static_cast<std::size_t>(elements);
+    return split_columns(
+        obs.segment_columns(static_cast<int>(ps.size() * q), false, r,
+                            [&ps, q](std::size_t, const Segment& sg, double* out) {
+                              for (std::size_t j = 0; j < ps.size(); ++j)
+                                for (std::size_t k = 0; k < q; ++k) {
+                                  const double dk = std::fabs(ps[j]) * kPreslidingElements[k];
+                                  const double decay = ps[j] > 0 ? mean_decay(sg.rev0, sg.rev1, dk)
+                                                                 : mean_decay(sg.start0, sg.start1, dk);
+                                  out[j * q + k] = -sign_of(sg) * decay;
+                                }
+                            }),
+        ps.size(), elements);
   };
+  m.columns = [columns_at](double p, int elements, Observations::Draw r) { return columns_at({p}, elements, r).front(); };
+  m.columns_at_many = columns_at;
   m.parameters = [](double p, int elements, const Vec& c, double) {
     nlohmann::json j{{"distance_m", std::fabs(p)}, {"force_N", 0.5 * c(0)},
                      {"resets", p > 0 ? "at reversals" : "at reversals and starts from rest"}};
@@ -676,14 +687,20 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
     std::vector<double>& at = (*unshifted)[r == Observations::Resolution::fine ? 0 : 1];
     for (const Segment& sg : obs.segments(r)) at.push_back(obs.lowpass_force_mean(sg.t_start + h, sg.t_start + sg.dt + h, sg.j0));
   }
-  m.columns = [&obs, h, unshifted = std::shared_ptr<const std::array<std::vector<double>, 2>>(unshifted)](
-                  double d, int, Observations::Draw r) {
+  // Several shifts in one pass over the segments (the grid's).
+  auto columns_at = [&obs, h, unshifted = std::shared_ptr<const std::array<std::vector<double>, 2>>(unshifted)](
+                        const std::vector<double>& ds, int, Observations::Draw r) {
     const std::vector<double>& at = (*unshifted)[r.resolution == Observations::Resolution::fine ? 0 : 1];
-    return obs.segment_columns(1, false, r, [&obs, &at, d, h](std::size_t i, const Segment& sg, double* out) {
-      const double a = sg.t_start + h, b = sg.t_start + sg.dt + h;
-      out[0] = obs.lowpass_force_mean(a + d, b + d, sg.j0) - at[i];
-    });
+    return split_columns(obs.segment_columns(static_cast<int>(ds.size()), false, r,
+                                             [&obs, &at, &ds, h](std::size_t i, const Segment& sg, double* out) {
+                                               const double a = sg.t_start + h, b = sg.t_start + sg.dt + h;
+                                               for (std::size_t j = 0; j < ds.size(); ++j)
+                                                 out[j] = obs.lowpass_force_mean(a + ds[j], b + ds[j], sg.j0) - at[i];
+                                             }),
+                         ds.size(), 1);
   };
+  m.columns = [columns_at](double d, int size, Observations::Draw r) { return columns_at({d}, size, r).front(); };
+  m.columns_at_many = columns_at;
   // For a force smooth on the scale of d only c*d is identified (c d du/dt): -c*d is the delay.
   m.parameters = [](double d, int, const Vec& c, double) {
     return nlohmann::json{{"delay_s", -c(0) * d}, {"shift_s", d}, {"coefficient", c(0)}};
