@@ -567,7 +567,7 @@ double parabola_decrease(double x, double fx, double w, double fw, double v, dou
 /// Brent's minimisation (Brent 1973, ch. 5; Numerical Recipes 10.3) of f
 /// on [a, b] from x0 inside it, where f(x0) = f0 is known, until the
 /// bracket is within `width`, or until the parabola through the three best
-/// points promises no more than `resolved`: parabolic steps through the three best
+/// points promises no more than `resolved`: parabolic steps through those
 /// points where they fall well inside, golden sections where not. On the
 /// smooth minima of a family's SSR it takes 4-7 values of f where golden
 /// sections alone took 11 from the grid's bracket.
@@ -621,18 +621,19 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// which a larger size's search looks again (EffectModel::SearchAgain::near_first).
 constexpr std::size_t kResearchCells = 2;
 
-
 /// The effect's nonlinear parameter by least squares with the current
 /// model's terms (vs held): grid on coarse segments (the basin), then
 /// discrete refinement or Brent's steps in log on fine ones. Only the
 /// identification observations' SSR is read, so only they are drawn.
-/// `near`: only the grid points within kResearchCells places of the one nearest it
-/// (EffectModel::SearchAgain::near_first).
+/// `near`: only the grid points within kResearchCells places of the one
+/// nearest it (EffectModel::SearchAgain::near_first).
 double search_parameter(const Stage& st, const std::vector<int>& with, const EffectModel& em, int size,
                         double near = kNaN) {
   using Res = Observations::Resolution;
   using Rows = Observations::Rows;
-  const std::vector<double> grid = em.grid.empty() ? std::vector<double>{0.0} : std::isnan(near) ? em.grid : diag::grid_window(em.grid, near, kResearchCells);
+  const std::vector<double> grid = em.grid.empty()   ? std::vector<double>{0.0}
+                                   : std::isnan(near) ? em.grid
+                                                      : diag::grid_window(em.grid, near, kResearchCells);
   const ColumnBank::Held held = st.bank.hold(with);
   const auto ssrs = [&](const std::vector<double>& ps, Res r) { return ssrs_beside(st, held, em, ps, size, {r, Rows::identification}); };
   auto cost = [&](double p, Res r) { return ssrs({p}, r).front(); };
@@ -702,7 +703,8 @@ double search_parameter(const Stage& st, const std::vector<int>& with, const Eff
     // observations, an upper bound): the best point is then within a tenth
     // of the parameter's standard error of the minimum, where the SSR is
     // quadratic, and the data tell the points apart no further.
-    const double resolved = kResolvedNoiseShare * best_ssr / static_cast<double>(std::max<std::size_t>(1, st.bank.identification_count()));
+    const auto n_id = static_cast<double>(std::max<std::size_t>(1, st.bank.identification_count()));
+    const double resolved = kResolvedNoiseShare * best_ssr / n_id;
     brent_minimum(a, b, x0, f0, kParameterLogTolerance, resolved, f);
   }
   return best_p;
@@ -795,7 +797,8 @@ Evaluation evaluate(const Stage& st, const Model& current, std::size_t effect, b
     e.p = search_parameter(st, with, em, e.size, near ? p_searched : kNaN);
     // Best on the window's edge (not the grid's): the least may lie
     // beyond the window, so the whole grid is searched after all.
-    if (near && diag::on_window_edge(em.grid, p_searched, kResearchCells, e.p)) e.p = search_parameter(st, with, em, e.size);
+    if (near && diag::on_window_edge(em.grid, p_searched, kResearchCells, e.p))
+      e.p = search_parameter(st, with, em, e.size);
   }
   ColumnBank::Extra ex = st.bank.extra(e.p == p_searched ? sized.at(e.size) : em.columns(e.p, e.size, {}),
                                        all_columns(st.base, current));
