@@ -7,8 +7,10 @@
 #include <cmath>
 #include <array>
 #include <complex>
+#include <functional>
 #include <memory>
 #include <limits>
+#include <utility>
 
 namespace feedid::host::diag {
 
@@ -58,6 +60,13 @@ std::vector<Mat> split_columns(const Mat& all, std::size_t n, Eigen::Index q) {
   std::vector<Mat> out;
   for (std::size_t j = 0; j < n; ++j) out.push_back(all.middleCols(static_cast<Eigen::Index>(j) * q, q));
   return out;
+}
+
+/// m's columns drawn several parameter values to a pass by `at`, and one
+/// value as the one-element case of the same pass.
+void draw_together(EffectModel& m, std::function<std::vector<Mat>(const std::vector<double>&, int, Observations::Draw)> at) {
+  m.columns = [at](double p, int size, Observations::Draw r) { return at({p}, size, r).front(); };
+  m.columns_at_many = std::move(at);
 }
 
 EffectModel offset_model(const Observations& obs) {
@@ -174,8 +183,7 @@ EffectModel ripple_model(const Observations& obs, const TraceExtent& e) {
                                         [&means](std::size_t, const Segment& sg, double* out) { means(sg, out); });
     return split_columns(all, ps.size(), q);
   };
-  m.columns = [columns_at](double p, int harmonics, Observations::Draw r) { return columns_at({p}, harmonics, r).front(); };
-  m.columns_at_many = columns_at;
+  draw_together(m, columns_at);
   m.parameters = [travel = e.travel](double p, int harmonics, const Vec& c, double) {
     nlohmann::json j{{"period_m", p}, {"amplitude_N", std::hypot(c(0), c(1))}, {"phase_rad", std::atan2(c(1), c(0))}};
     if (harmonics > 1) {
@@ -514,8 +522,7 @@ EffectModel presliding_model(const Observations& obs, const TraceExtent& e) {
                             }),
         ps.size(), elements);
   };
-  m.columns = [columns_at](double p, int elements, Observations::Draw r) { return columns_at({p}, elements, r).front(); };
-  m.columns_at_many = columns_at;
+  draw_together(m, columns_at);
   m.parameters = [](double p, int elements, const Vec& c, double) {
     nlohmann::json j{{"distance_m", std::fabs(p)}, {"force_N", 0.5 * c(0)},
                      {"resets", p > 0 ? "at reversals" : "at reversals and starts from rest"}};
@@ -643,8 +650,7 @@ EffectModel compliance_model(const Observations& obs, const TraceExtent& e) {
                                         [&filters](std::size_t, const Segment& sg, double* out) { filters.next(sg, out); });
     return split_columns(all, fs.size(), dampings);
   };
-  m.columns = [columns_at](double f, int dampings, Observations::Draw r) { return columns_at({f}, dampings, r).front(); };
-  m.columns_at_many = columns_at;
+  draw_together(m, columns_at);
   // c = load mass m2 (summed over the dampings); free resonance
   // sqrt(k (m1 + m2) / (m1 m2)) with k = m2 w^2; the damping the mix
   // draws, as its coefficient-weighted ratio.
@@ -699,8 +705,7 @@ EffectModel delay_model(const Observations& obs, const TraceExtent& e, double la
                                              }),
                          ds.size(), 1);
   };
-  m.columns = [columns_at](double d, int size, Observations::Draw r) { return columns_at({d}, size, r).front(); };
-  m.columns_at_many = columns_at;
+  draw_together(m, columns_at);
   // For a force smooth on the scale of d only c*d is identified (c d du/dt): -c*d is the delay.
   m.parameters = [](double d, int, const Vec& c, double) {
     return nlohmann::json{{"delay_s", -c(0) * d}, {"shift_s", d}, {"coefficient", c(0)}};
