@@ -45,16 +45,26 @@ double keep_within_conventions(Signals& s, double lag, double velocity_lag) {
   return kept;
 }
 
+/// How align_force finds a lag it is not told. `found`: a search already
+/// run on these signals with another velocity cut-off (a zero-phase filter
+/// moves no timing), taken instead of a new one. `held`: the friction
+/// shared between lag searches (estimate_force_lag). `cfg`: the
+/// configuration a new search measures with, where the caller has it
+/// already; none: auto_config of the signals.
+struct LagSearch {
+  const LagEstimate* found = nullptr;
+  HeldFriction* held = nullptr;
+  const feedid::Config<double>* cfg = nullptr;
+};
+
 /// Finds (or takes from the options) the force lag and applies it.
 /// velocity_lag: the core velocity's lag behind the motion (periods, NaN
 /// unknown); column_lag: the logged velocity column's lag behind the core's
 /// velocity, in which stated lags are given and the lag is reported.
-/// `found`: a search already run on these signals with another velocity
-/// cut-off (a zero-phase filter moves no timing), taken instead of a new one.
-/// `held`: the friction shared between lag searches (estimate_force_lag).
+/// `search`: how a lag not stated is found (LagSearch).
 /// s.error where the lag lies beyond any logging's.
 void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, double column_lag,
-                 const LagEstimate* found = nullptr, HeldFriction* held = nullptr) {
+                 const LagSearch& search = {}) {
   const double dt = s.period_s();
   double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
@@ -63,7 +73,8 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
     se = opt.force_lag_se_s > 0 ? opt.force_lag_se_s / dt : 0.0;
     s.force_lag_origin = Signals::LagOrigin::option;
   } else if (!std::isfinite(lag)) {
-    const LagEstimate e = found ? *found : estimate_force_lag(s, auto_config(s, opt), held);
+    const LagEstimate e = search.found ? *search.found
+                                       : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
     s.lag_search = e;
     if (e.ok) {
       lag = e.lag_samples;
@@ -373,6 +384,30 @@ void derive_rival_velocities(Signals& s) {
 }
 
 namespace {
+/// The velocity bands' edges as opt states them or s's velocity gives them
+/// (m/s), and the velocity's top (its 0.999 quantile of |v|).
+struct VelocityEdges {
+  double resolution = 0.0, lowest = 0.0, highest = 0.0, top = 0.0;
+};
+
+VelocityEdges velocity_edges(const Signals& s, const IdentifyOptions& opt) {
+  const double dt = s.period_s();
+  VelocityEdges e;
+  // Velocity resolution: the encoder quantum per sample period, or the white
+  // noise of the velocity (second differences), whichever is larger; a
+  // velocity column that was integrated and derived again keeps its own.
+  e.top = quantile_abs(s.v, 0.999);
+  if (opt.velocity_resolution_m_s > 0) {
+    e.resolution = opt.velocity_resolution_m_s;
+  } else {
+    const double v_noise = std::max(velocity_noise(s.v, s.t, dt), s.column_velocity_noise_m_s);
+    e.resolution = std::max(s.position_quantum_m / dt, v_noise);
+  }
+  e.lowest = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s : std::max({2.0 * e.resolution, 1e-4 * e.top, 1e-6});
+  e.highest = opt.velocity_max_m_s > 0 ? opt.velocity_max_m_s : std::max(1.05 * e.top, 5.0 * e.lowest);
+  return e;
+}
+
 /// What identify's options tell the conditioning (condition.hpp).
 ConditionOptions conditioning(const IdentifyOptions& opt) {
   ConditionOptions c;
@@ -410,10 +445,9 @@ VelocityTiming time_velocity_column(Signals& s, const Trace& trace, const Identi
 }
 
 /// The core's velocity at cut-off fc_hz (`derived`: that velocity, already
-/// derived from raw's position), then the force lag on it.
-Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
-                         double fc_hz, const LagEstimate* found = nullptr, HeldFriction* held = nullptr,
-                         std::vector<double>* derived = nullptr) {
+/// derived from raw's position), its force not yet aligned.
+Signals derived_at(const Signals& raw, const Trace& trace, const VelocityTiming& timing, double fc_hz,
+                   std::vector<double>* derived = nullptr) {
   Signals s = raw;
   if (derived && derived->size() == s.t.size()) {
     s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
@@ -432,7 +466,14 @@ Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyO
       << " times the derivative of position (another unit, the other sign, or the motor side of a gear), is left out";
   s.velocity_origin = o.str();
   s.core_velocity_lag = timing.core;
-  align_force(s, opt, timing.core, timing.column, found, held);
+  return s;
+}
+
+/// derived_at, then the force lag on it.
+Signals derive_and_align(const Signals& raw, const Trace& trace, const IdentifyOptions& opt, const VelocityTiming& timing,
+                         double fc_hz, const LagSearch& lag = {}, std::vector<double>* derived = nullptr) {
+  Signals s = derived_at(raw, trace, timing, fc_hz, derived);
+  align_force(s, opt, timing.core, timing.column, lag);
   return s;
 }
 
@@ -444,7 +485,7 @@ constexpr double kFilteredVelocityLag = 0.6;
 /// VelocitySource::column: the column if it is a position difference, else
 /// the backward difference of position (a filter's rounding of quantised
 /// counts wrecked Fs, +3000 % on a 100 nm, 4 kHz drive).
-Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing, HeldFriction* held = nullptr) {
+Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming timing, const LagSearch& lag = {}) {
   if (timing.column > kFilteredVelocityLag) {
     for (std::size_t k = s.v.size(); k-- > 1;) {
       const double h = s.t[k] - s.t[k - 1];
@@ -465,7 +506,7 @@ Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming t
   }
   timing.column -= timing.core;
   s.core_velocity_lag = timing.core;
-  align_force(s, opt, timing.core, timing.column, nullptr, held);
+  align_force(s, opt, timing.core, timing.column, lag);
   return s;
 }
 
@@ -479,11 +520,11 @@ Signals column_and_align(Signals s, const IdentifyOptions& opt, VelocityTiming t
 IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions& opt) {
   Signals smooth = raw;
   derive_velocity(smooth, lowest_velocity_filter_hz(raw));
-  const feedid::Config<double> c = auto_config(smooth, opt);
+  const VelocityEdges e = velocity_edges(smooth, opt);
   IdentifyOptions o = opt;
-  o.velocity_min_m_s = c.velocity_min_m_s;
-  o.velocity_resolution_m_s = c.velocity_resolution_m_s;
-  o.velocity_max_m_s = c.velocity_max_m_s;
+  o.velocity_min_m_s = e.lowest;
+  o.velocity_resolution_m_s = e.resolution;
+  o.velocity_max_m_s = e.highest;
   return o;
 }
 }  // namespace
@@ -516,11 +557,13 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   raw.velocity_filter_origin = stated ? "stated" : "provisional";
   // The friction the derived velocity's lag search holds serves the
   // column's search too: one identification for both (issue 29).
+  // The lag search measures with the band edges the cut-off scan holds
+  // for all its candidates: the provisional velocity's configuration.
   HeldFriction held;
-  Signals s = derive_and_align(raw, trace, search, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz,
-                               nullptr, &held);
-  if (stated || !s.error.empty()) return s;
+  Signals s = derived_at(raw, trace, timing, stated ? opt.velocity_filter_hz : kProvisionalVelocityFilter_hz);
   const feedid::Config<double> edges = auto_config(s, search);
+  align_force(s, search, timing.core, timing.column, LagSearch{nullptr, &held, &edges});
+  if (stated || !s.error.empty()) return s;
   // On a long log the scan runs on stretches spread over it (scan_selection);
   // the column is scored on the same samples.
   const bool whole = s.t.size() <= kScanSamplesMax;
@@ -531,7 +574,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   const bool reuse = whole && s.velocity_delay_samples == 0 && s.lag_search.ok;
   FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges, reuse);
   if (raw.has_velocity_column && trace.has_position) {
-    Signals column = column_and_align(raw, search, timing, &held);
+    Signals column = column_and_align(raw, search, timing, LagSearch{nullptr, &held});
     if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       return column;
@@ -542,8 +585,8 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     << " within a standard error of the least block residual";
   raw.velocity_filter_origin = o.str();
   std::vector<double>* at_choice = choice.velocities.empty() ? nullptr : &choice.velocities.front();
-  Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz, s.lag_search.ok ? &s.lag_search : nullptr,
-                                    nullptr, at_choice);
+  Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz,
+                                    LagSearch{s.lag_search.ok ? &s.lag_search : nullptr}, at_choice);
   chosen.velocity_filter_rivals_hz = choice.rivals_hz;
   if (reuse && chosen.velocity_delay_samples == 0 && choice.velocities.size() == choice.rivals_hz.size() + 1) {
     chosen.rival_velocities.assign(std::make_move_iterator(choice.velocities.begin() + 1),
@@ -572,20 +615,15 @@ IdentifyOptions with_conventions_of(const Signals& found, IdentifyOptions o) {
   return o;
 }
 
+
 feedid::Config<double> auto_config(const Signals& s, const IdentifyOptions& opt) {
   feedid::Config<double> c;
   const double dt = s.period_s();
-  // Velocity resolution: the encoder quantum per sample period, or the white
-  // noise of the velocity (second differences), whichever is larger; a
-  // velocity column that was integrated and derived again keeps its own.
-  const double v_noise = std::max(velocity_noise(s.v, s.t, dt), s.column_velocity_noise_m_s);
-  const double v_res = std::max(s.position_quantum_m / dt, v_noise);
-  const double v_top = quantile_abs(s.v, 0.999);
-  c.velocity_resolution_m_s = opt.velocity_resolution_m_s > 0 ? opt.velocity_resolution_m_s : v_res;
-  c.velocity_min_m_s = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s
-                                                : std::max({2.0 * c.velocity_resolution_m_s, 1e-4 * v_top, 1e-6});
-  c.velocity_max_m_s = opt.velocity_max_m_s > 0 ? opt.velocity_max_m_s
-                                                : std::max(1.05 * v_top, 5.0 * c.velocity_min_m_s);
+  const VelocityEdges edges = velocity_edges(s, opt);
+  const double v_top = edges.top;
+  c.velocity_resolution_m_s = edges.resolution;
+  c.velocity_min_m_s = edges.lowest;
+  c.velocity_max_m_s = edges.highest;
   // Jumps beyond several times the largest acceleration in the trace are absurd.
   std::vector<double> acc;
   acc.reserve(s.v.size());
