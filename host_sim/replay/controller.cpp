@@ -28,10 +28,15 @@ double required_number(const nlohmann::json& j, const char* key, Controller& c) 
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-std::optional<double> optional_gain(const nlohmann::json& j, const char* key, Controller& c) {
+/// A gain the file states, or none (to be fitted from the logged command).
+/// `why_positive`: for kp and kv, why 0 is no loop (a replay with it ran
+/// and reported nonsense figures); empty for ki, where 0 is no integral.
+std::optional<double> optional_gain(const nlohmann::json& j, const char* key, Controller& c,
+                                    const char* why_positive = "") {
   if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
   const double g = required_number(j, key, c);
-  if (g < 0.0) refuse(c, std::string("'") + key + "' must be >= 0");
+  if (*why_positive && !(g > 0.0)) refuse(c, std::string("'") + key + "' must be > 0 (" + why_positive + ")");
+  else if (g < 0.0) refuse(c, std::string("'") + key + "' must be >= 0");
   return g;
 }
 
@@ -89,8 +94,8 @@ Controller controller_from_json(const nlohmann::json& j, const std::string& sour
     else if (l == "p_pi") c.law = ControlLaw::p_pi;
     else refuse(c, "'law' must be \"pd\" or \"p_pi\", not " + l.dump());
   }
-  c.kp = optional_gain(j, "kp", c);
-  c.kv = optional_gain(j, "kv", c);
+  c.kp = optional_gain(j, "kp", c, "with kp 0 the loop does not hold the position");
+  c.kv = optional_gain(j, "kv", c, "with kv 0 the loop commands no force");
   c.ki = optional_gain(j, "ki", c);
   c.drive_gain = required_number(j, "drive_gain", c);
   if (!(c.drive_gain > 0.0)) refuse(c, "'drive_gain' must be > 0 (force per command unit)");
@@ -107,6 +112,8 @@ Controller controller_from_json(const nlohmann::json& j, const std::string& sour
                                               "delay_samples", "reference", "extra_command", "comment"};
   for (const auto& [key, value] : j.items())
     if (!known.count(key)) c.warnings.push_back(source + ": unknown key '" + key + "' (ignored)");
+  if (c.law == ControlLaw::pd && c.ki && *c.ki != 0.0)
+    c.warnings.push_back(source + ": 'ki' is ignored under law \"pd\" (\"p_pi\" has an integral gain)");
   return c;
 }
 

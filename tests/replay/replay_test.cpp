@@ -65,6 +65,34 @@ TEST(ReplayController, BadValuesAreNamed) {
   EXPECT_NE(controller_from_json(j, "c").error.find("'saturation'"), std::string::npos);
 }
 
+// GIVEN a controller file whose kp or kv is 0 (a loop that holds no
+// position or commands no force: a replay with it ran and reported
+// position errors of thousands of percent as a result)
+// THEN the file is refused, naming the gain; a ki of 0 is no integral and
+// is kept, and a ki under law "pd", where it plays no part, is warned of
+TEST(ReplayController, ZeroLoopGainsAreRefusedAZeroIntegralIsKept) {
+  for (const char* key : {"kp", "kv"}) {
+    json j = minimal_controller();
+    j[key] = 0.0;
+    const std::string e = controller_from_json(j, "c.json").error;
+    EXPECT_NE(e.find(std::string("'") + key + "' must be > 0"), std::string::npos) << key << ": " << e;
+  }
+  json pi = minimal_controller();
+  pi["law"] = "p_pi";
+  pi["ki"] = 0.0;
+  const Controller kept = controller_from_json(pi, "c.json");
+  EXPECT_EQ(kept.error, "");
+  ASSERT_TRUE(kept.ki.has_value());
+  EXPECT_EQ(*kept.ki, 0.0);
+  EXPECT_TRUE(kept.warnings.empty());
+  json pd = minimal_controller();
+  pd["ki"] = 3.0;
+  const Controller ignored = controller_from_json(pd, "c.json");
+  EXPECT_EQ(ignored.error, "");
+  ASSERT_EQ(ignored.warnings.size(), 1u);
+  EXPECT_NE(ignored.warnings[0].find("'ki' is ignored"), std::string::npos) << ignored.warnings[0];
+}
+
 TEST(ReplayController, VelocityEstimateIsTheFirDifference) {
   // qf(k) = 0.5 q(k) + 0.5 q(k-1), dq = (qf(k) - qf(k-1)) / dt, at rest before the first sample
   VelocityEstimate v({0.5, 0.5}, 0.001);
