@@ -374,6 +374,15 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
                 "': a replay compares the simulated position with the measured one (--position)";
     return run;
   }
+  // A row the trace reader skipped (a bad position, force or time) is a
+  // hole in the loop's run; the reference read keeps it, and its
+  // complaint about the rows then blamed the reference column.
+  if (main.trace.rows_skipped > 0) {
+    run.error = path + ": " + std::to_string(main.trace.rows_skipped) + " row(s) could not be used" +
+                (main.trace.skipped_rows.empty() ? "" : ", the first: " + main.trace.skipped_rows.front()) +
+                "; a replay runs the drive's loop at every period and needs every row";
+    return run;
+  }
   for (const TraceSample& s : main.trace.samples) {
     run.t.push_back(s.t_s);
     run.x.push_back(s.x_m);

@@ -217,6 +217,23 @@ TEST(ReplayRun, ReferenceAndExtraCommandAreReadWithTheTrace) {
   EXPECT_NE(bare.notes[0].find("no extra command column 'e'"), std::string::npos);
 }
 
+// GIVEN a run whose position is bad on one row (the reference there is fine)
+// THEN the replay's refusal names the position's row and why, not the
+// reference column (which kept that row and used to take the blame)
+TEST(ReplayRun, ARowTheTraceSkipsIsNamedNotBlamedOnTheReference) {
+  const std::string path = ::testing::TempDir() + "replay_run_bad_position.csv";
+  {
+    std::ofstream f(path);
+    f << "t,x,u,r\n";
+    for (int k = 0; k < 200; ++k) f << k * 1e-3 << "," << (k == 30 ? std::string("abc") : std::to_string(2.0 * k)) << ",1.5," << 3.0 * k << "\n";
+  }
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  const std::string e = read_logged_run(path, CsvColumns{}, c).error;
+  EXPECT_NE(e.find(":32: column 'x'"), std::string::npos) << e;
+  EXPECT_NE(e.find("needs every row"), std::string::npos) << e;
+  EXPECT_EQ(e.find("reference"), std::string::npos) << e;
+}
+
 TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   // GIVEN a run logged from the simulator's loop, pulses included
   const LoggedRun run = simulated_run(true_drive(), 7.0);
