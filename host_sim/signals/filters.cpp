@@ -145,6 +145,17 @@ std::vector<double> resample(const std::vector<double>& t, const std::vector<dou
   return out;
 }
 
+std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz) {
+  if (uniform_grid(t, rate_hz).empty()) return {};
+  const double span = t.back() - t.front();
+  const double slots = std::max(1.0, std::round(span * rate_hz));
+  const double h = span / slots;
+  std::vector<double> tg(static_cast<std::size_t>(slots) + 1);
+  for (std::size_t k = 0; k < tg.size(); ++k) tg[k] = t.front() + static_cast<double>(k) * h;
+  tg.back() = t.back();
+  return tg;
+}
+
 std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz) {
   bool uniform = true;
   for (std::size_t k = 1; k < t.size() && uniform; ++k) uniform = std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01;

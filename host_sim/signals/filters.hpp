@@ -32,6 +32,16 @@ std::vector<double> central_difference(const std::vector<double>& y, const std::
 /// 1/rate_hz (or t has fewer than 3 samples): the samples are the grid.
 std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz);
 
+/// The same stretch's own clock: from t.front() through t.back() in the
+/// whole number of steps nearest 1/rate_hz, so that where the stamps sit
+/// on a clock the grid's points sit on them and a dropped row is the one
+/// slot interpolated. uniform_grid's steps of exactly 1/rate_hz drift off
+/// the stamps where the clock's period is not the median step: on EMPS
+/// (steps of 0.99997 and 1.000008 ms, mean 1 ms) by 0.2 periods over the
+/// run, and validate's error moved by 4.7 % for one dropped row. Empty
+/// where uniform_grid is.
+std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz);
+
 /// y (sampled at increasing t) at time q, linear between the samples and
 /// held beyond the ends.
 double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q);

@@ -12,9 +12,9 @@ namespace feedid::host {
 namespace {
 
 /// One stretch between gaps on the grid the protocol runs on: its own
-/// samples when evenly logged, else the uniform grid at its own median
-/// rate with every column read onto it, as zero_phase_velocity filters an
-/// uneven stretch (filters.hpp, uniform_grid).
+/// samples when evenly logged, else its own clock at its median rate with
+/// every column read onto it (filters.hpp, clock_grid): the force is
+/// compared at the samples, so the grid must not drift off them.
 struct ProtocolStretch {
   std::vector<double> t, x, v_column, u;
   double rate_hz = 0.0;
@@ -27,7 +27,7 @@ ProtocolStretch stretch_on_grid(const Signals& s, std::size_t first, std::size_t
   };
   ProtocolStretch p{part(s.t), part(s.x), part(s.v), part(s.u), 0.0, false};
   p.rate_hz = 1.0 / median_step(p.t);
-  const std::vector<double> grid = uniform_grid(p.t, p.rate_hz);
+  const std::vector<double> grid = clock_grid(p.t, p.rate_hz);
   if (grid.empty()) return p;
   p.x = resample(p.t, p.x, grid);
   p.v_column = resample(p.t, p.v_column, grid);

@@ -149,6 +149,24 @@ TEST_F(Emps, ValidateOnARunWithTwoSecondsCutOutStaysNearTheWholeRun) {
   EXPECT_EQ(r.stretches_scored, 2u);
 }
 
+TEST_F(Emps, ValidateWithOneRowDroppedGivesTheWholeRunsErrors) {
+  // GIVEN the cross-test run with one row dropped, near its start or its end
+  const ValidateResult whole = validate(emps_model(), read_emps("DATA_EMPS_PULSES.csv"), ValidateOptions{});
+  ASSERT_EQ(whole.error, "");
+  for (const std::size_t row : {std::size_t{100}, std::size_t{24000}}) {
+    // WHEN validated (the uneven stretch is read onto its own clock, which
+    // the run's stamps sit on: the steps are 0.99997 and 1.000008 ms, the
+    // mean 1 ms, and a grid of median steps drifted 0.2 periods off them)
+    const ValidateResult r = validate(emps_model(), pulses_without([&](double, std::size_t k) { return k == row; }),
+                                      ValidateOptions{});
+    ASSERT_EQ(r.error, "");
+    EXPECT_EQ(r.stretches_resampled, 1u);
+    // THEN both errors are the whole run's to 0.1 % of themselves (they moved by 4.7 % and 0.35 %)
+    EXPECT_NEAR(r.relative_error_full_pct, whole.relative_error_full_pct, 1e-3 * whole.relative_error_full_pct) << row;
+    EXPECT_NEAR(r.relative_error_pct, whole.relative_error_pct, 1e-3 * whole.relative_error_pct) << row;
+  }
+}
+
 TEST_F(Emps, ValidateWithThirtyPercentOfRowsDroppedStaysNearTheWholeRun) {
   // GIVEN the cross-test run with 30 % of its rows dropped at random
   std::mt19937 rng(29);
