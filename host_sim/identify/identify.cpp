@@ -1062,30 +1062,8 @@ std::string status_word(const IdentifyResult& r) {
 }
 
 std::vector<std::string> implausible_magnitudes(const IdentifyResult& r) {
-  std::vector<std::string> out;
-  const bool linear = r.units.linear_si(), rotary = r.units.force == "N m" && r.units.position == "rad";
-  if (r.status != feedid::Status::ok || !(linear || rotary)) return out;
-  const double m_lo = linear ? 0.01 : 1e-8, m_hi = linear ? 1e5 : 1e4, v_hi = linear ? 20.0 : 2000.0;
-  const double m = r.estimate.mass_kg, v = r.config.velocity_max_m_s;
-  const double fc = std::max(std::fabs(r.estimate.pos.coulomb_N), std::fabs(r.estimate.neg.coulomb_N));
-  char buf[320];
-  if (m > 0 && (m < m_lo || m > m_hi)) {
-    std::snprintf(buf, sizeof buf, "a %s of %.3g %s is implausible for a feed drive (%.0e to %.0e): a position in "
-                  "counts (--position-scale, m or rad per count) or a force in amps (--force-scale, N per A) left unscaled?",
-                  linear ? "mass" : "inertia", m, r.units.mass().c_str(), m_lo, m_hi);
-    out.push_back(buf);
-  }
-  if (v > v_hi) {
-    std::snprintf(buf, sizeof buf, "a top speed of %.3g %s is implausible for a feed drive: a position in counts or "
-                  "in mm or um (--position-scale) left unscaled?", v, r.units.velocity().c_str());
-    out.push_back(buf);
-  }
-  if (fc > 1e6) {
-    std::snprintf(buf, sizeof buf, "a Coulomb force of %.3g %s is implausible for a feed drive: a force in another "
-                  "unit (--force-scale, or --force-unit to label it) left unscaled?", fc, r.units.force.c_str());
-    out.push_back(buf);
-  }
-  return out;
+  if (r.status != feedid::Status::ok) return {};
+  return implausible_parameters(to_drive_params(r.estimate), r.units, r.config.velocity_max_m_s);
 }
 
 SysIdGains sysid_gains(const IdentifyResult& r) {

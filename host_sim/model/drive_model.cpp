@@ -1,6 +1,8 @@
 // The drive model's parameters, F(v) and their JSON form (drive_model.hpp).
 #include "drive_model.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -89,6 +91,32 @@ std::string non_physical_parameters(const DriveParams& p, const Units& units) {
     const std::string s = d == 0 ? "+" : "-";
     check(f.coulomb_N >= 0.0, "Fc" + s, f.coulomb_N, units.force);
     check(f.viscous_Ns_m >= 0.0, "sigma" + s, f.viscous_Ns_m, units.viscous());
+  }
+  return out;
+}
+
+std::vector<std::string> implausible_parameters(const DriveParams& p, const Units& units, double top_speed) {
+  std::vector<std::string> out;
+  const bool linear = units.linear_si(), rotary = units.force == "N m" && units.position == "rad";
+  if (!(linear || rotary)) return out;
+  const double m_lo = linear ? 0.01 : 1e-8, m_hi = linear ? 1e5 : 1e4, v_hi = linear ? 20.0 : 2000.0;
+  const double m = p.mass_kg, fc = std::max(std::fabs(p.pos.coulomb_N), std::fabs(p.neg.coulomb_N));
+  char buf[320];
+  if (m > 0 && (m < m_lo || m > m_hi)) {
+    std::snprintf(buf, sizeof buf, "a %s of %.3g %s is implausible for a feed drive (%.0e to %.0e): a position in "
+                  "counts (--position-scale, m or rad per count) or a force in amps (--force-scale, N per A) left unscaled?",
+                  linear ? "mass" : "inertia", m, units.mass().c_str(), m_lo, m_hi);
+    out.push_back(buf);
+  }
+  if (top_speed > v_hi) {
+    std::snprintf(buf, sizeof buf, "a top speed of %.3g %s is implausible for a feed drive: a position in counts or "
+                  "in mm or um (--position-scale) left unscaled?", top_speed, units.velocity().c_str());
+    out.push_back(buf);
+  }
+  if (fc > 1e6) {
+    std::snprintf(buf, sizeof buf, "a Coulomb force of %.3g %s is implausible for a feed drive: a force in another "
+                  "unit (--force-scale, or --force-unit to label it) left unscaled?", fc, units.force.c_str());
+    out.push_back(buf);
   }
   return out;
 }

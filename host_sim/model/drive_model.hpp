@@ -4,6 +4,7 @@
 // validate, diagnose, compensate and the reports read it. Host only.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,14 @@ feedid::Estimate<double> to_estimate(const DriveParams& p);
 /// "m = -95.2 kg, Fc+ = -20.1 N"; empty for a physical model. Such a model
 /// pushes with the motion, and a friction feedforward from it would too.
 std::string non_physical_parameters(const DriveParams& p, const Units& units = {});
+
+/// Warnings for a mass, a top speed (where known; NaN: not) or a Coulomb
+/// force no feed drive has, in `units` (SI linear or rotary; none for other
+/// units): a position in counts or a force in amps left unscaled. The one
+/// rule for identify's result and a model file (a hand-written m of 1e-9
+/// kg replayed to an acceleration error of 8e13 % without a word).
+std::vector<std::string> implausible_parameters(const DriveParams& p, const Units& units,
+                                                double top_speed = std::numeric_limits<double>::quiet_NaN());
 
 /// A load that does not reverse with the motion, beside m a + F(v): a
 /// constant force F0 (an inclined axis, cable drag, a sensor offset; the

@@ -139,6 +139,7 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
     return out;
   }
   if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "simulated_effects", "units", "comment"}, "", out);
+  for (const std::string& w : implausible_parameters(out.drive, stated_units(j))) out.warnings.push_back(out.source + ": " + w);
   return out;
 }
 

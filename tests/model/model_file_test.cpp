@@ -58,6 +58,29 @@ TEST(ModelFile, UnknownKeyIsAWarningNotAnError) {
   EXPECT_EQ(m.load.offset_N, 0.0);
 }
 
+// GIVEN a hand-written model whose mass is in grams or far beyond any
+// feed drive (a review replayed m = 1e-9 kg to an acceleration error of
+// 8e13 % without a word), or in rotary units
+// THEN it is read and warned of, as identify warns of its own result
+// (drive_model.hpp, implausible_parameters); a plausible one is not
+TEST(ModelFile, AnImplausibleMassIsWarnedOfAsIdentifyDoes) {
+  for (const double m : {1e-9, 1e12}) {
+    json j = emps_reference();
+    j["m"] = m;
+    const ModelFile f = model_file_from_json(j, "ref.json");
+    EXPECT_EQ(f.error, "");
+    ASSERT_EQ(f.warnings.size(), 1u) << m;
+    EXPECT_NE(f.warnings[0].find("mass of"), std::string::npos) << f.warnings[0];
+    EXPECT_NE(f.warnings[0].find("ref.json"), std::string::npos) << f.warnings[0];
+  }
+  json rotary = emps_reference();
+  rotary["m"] = 1e-6;  // kg m^2: a small motor's inertia, plausible
+  rotary["units"] = {{"position", "rad"}, {"force", "N m"}};
+  EXPECT_TRUE(model_file_from_json(rotary, "rot.json").warnings.empty());
+  rotary["m"] = 1e-12;
+  EXPECT_EQ(model_file_from_json(rotary, "rot.json").warnings.size(), 1u);
+}
+
 TEST(ModelFile, StribeckNeedsBothFsAndVs) {
   json j = emps_reference();
   j["pos"]["vs"] = 1e-3;
