@@ -199,14 +199,19 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   const std::string top_speed = key_in_units("velocity_max_m_s", stated_units(mj));
   if (opt.max_speed_m_s <= 0 && mj.contains("config") && mj["config"].contains(top_speed))
     opt.max_speed_m_s = mj["config"][top_speed].get<double>();
-  if (!(opt.force_scale != 0.0) || !std::isfinite(opt.force_scale)) {
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "--force-scale %g: must be finite and non-zero", opt.force_scale);
+  // The table's forces are magnitudes the drive adds along the motion: a
+  // negative scale made them negative, and loaded so they doubled the
+  // friction instead of cancelling it (exit 0, no word).
+  if (!(opt.force_scale > 0.0) || !std::isfinite(opt.force_scale)) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "--force-scale %g: must be finite and > 0 (N per drive unit; the table's forces are "
+                  "magnitudes, and a drive whose command has the other sign takes them negated)", opt.force_scale);
     c.error = buf;
     return c;
   }
   if (opt.max_speed_m_s <= 0) {
-    c.error = source + " has no config." + top_speed + " (a truth file?): give --max-speed";
+    c.error = source + " states no top speed (config." + top_speed + ", which identify writes; a model written by hand "
+              "or by diagnose --model-out has none): give --max-speed";
     return c;
   }
   c.table = make_compensation_table(file.drive, opt.max_speed_m_s, opt.points);
@@ -216,6 +221,9 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   if (file.load.any())
     c.warnings.push_back(source + ": the model's load (a constant force or an arm's weight) is not friction and is not "
                          "in the table: feed it forward on its own");
+  if (!file.effects.empty())
+    c.warnings.push_back(source + ": the model's " + std::to_string(file.effects.size()) + " effect(s) (diagnose "
+                         "--model-out) are not in the table, which holds the friction F(v) alone");
   c.json = to_json(c.table, opt);
   if (mj.contains("units")) c.json["units"] = mj["units"];  // the table's speeds and forces are in these (its keys are named in them)
   c.force_negated = mj.contains("input") && mj["input"].value("force_sign", 1) < 0;

@@ -94,6 +94,33 @@ TEST(CompensationTable, DriveUnitsDivideByTheForceScale) {
   EXPECT_EQ(j["force_unit"], "A");
 }
 
+// GIVEN a model file and a negative or zero --force-scale (a review loaded
+// -2 and got negative magnitudes, exit 0: friction doubled, not cancelled),
+// or a diagnose --model-out file without --max-speed, or one with effects
+// THEN the scale is refused naming the rule, the missing top speed is named
+// without calling the file a truth file, and the effects left out are said
+TEST(CompensationTable, ANonPositiveScaleIsRefusedAndWhatIsLeftOutIsSaid) {
+  const nlohmann::json model = {{"m", 95.0}, {"pos", {{"sigma", 200.0}, {"fc", 20.0}}},
+                                {"neg", {{"sigma", 210.0}, {"fc", 21.0}}},
+                                {"effects", nlohmann::json::array({{{"kind", "offset"}, {"parameters", {{"force_N", 1.0}}}}})}};
+  CompensateOptions o;
+  o.max_speed_m_s = 0.2;
+  for (const double scale : {-2.0, 0.0}) {
+    o.force_scale = scale;
+    EXPECT_NE(compensate_model(model, o, "m.json").error.find("must be finite and > 0"), std::string::npos) << scale;
+  }
+  o.force_scale = 2.0;
+  const ModelCompensation c = compensate_model(model, o, "m.json");
+  ASSERT_EQ(c.error, "");
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("effect(s)"), std::string::npos) << c.warnings[0];
+  EXPECT_GT(c.json["pos"][1]["force"].get<double>(), 0.0);
+  o.max_speed_m_s = 0.0;
+  const std::string e = compensate_model(model, o, "m.json").error;
+  EXPECT_NE(e.find("give --max-speed"), std::string::npos) << e;
+  EXPECT_EQ(e.find("truth file"), std::string::npos) << e;
+}
+
 // The bar, on drives the tests simulate: a table from `identify`
 // matches the TRUE friction within 3 % or 0.5 N above twice vs, and within
 // 10 % in the Stribeck region.
