@@ -1164,7 +1164,9 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["warnings"] = implausible_magnitudes(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
-              {"rms_force_residual_N", r.residual_rms_N}, {"residual_block_s", r.residual_block_s},
+              // null where not computed (streamed): a 0 read as a perfect fit
+              {"rms_force_residual_N", r.streamed ? nlohmann::json() : nlohmann::json(r.residual_rms_N)},
+              {"residual_block_s", r.streamed ? nlohmann::json() : nlohmann::json(r.residual_block_s)},
               {"force_noise_N", e.force_noise_N}};
   nlohmann::json rej = nlohmann::json::array();
   for (const auto& x : r.first_rejections) rej.push_back({{"sample", x.sample}, {"status", feedid::status_name(x.status)}});
@@ -1245,8 +1247,10 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["mass_from_windows_kg"] = r.mass_from_windows_kg;
   j["standard_errors"] = {{"order", {"m", "pos.sigma", "pos.fc", "pos.fs", "pos.vs", "neg.sigma", "neg.fc", "neg.fs", "neg.vs"}},
                            {"jackknife_chunks", r.jackknife_chunks}, {"core", r.se_model},
-                           {"jackknife", r.se_jackknife}, {"timing", r.se_timing},
-                           {"velocity_cutoff", r.se_cutoff}};
+                           // null where none was formed: no chunks (the core's own serve), no cut-off scan (streamed)
+                           {"jackknife", r.jackknife_chunks > 0 ? nlohmann::json(r.se_jackknife) : nlohmann::json()},
+                           {"timing", r.se_timing},
+                           {"velocity_cutoff", r.streamed ? nlohmann::json() : nlohmann::json(r.se_cutoff)}};
   j["units"] = units_json(r.units);
   return j;
 }

@@ -155,6 +155,7 @@ void finish(IdentifyResult& r, StreamedCores& cores, const CsvStream& in, const 
   if (r.status == feedid::Status::ok && opt.honest_standard_errors) apply_streamed_standard_errors(r, cores, opt);
   fill_friction_curve(cores.core, r);
   r.streamed = true;
+  r.mass_from_windows_kg = r.estimate.mass_kg;  // the stream refits no block mass: its mass is the windows
   if (r.status == feedid::Status::insufficient_data) {
     std::ostringstream o;
     o << source << ": not enough motion to identify in " << r.duration_s << " s";

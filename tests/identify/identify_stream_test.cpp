@@ -136,6 +136,14 @@ TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
   EXPECT_EQ(r.jackknife_chunks, 0);
   EXPECT_GT(r.estimate.pos.coulomb_se, 0.0);
   EXPECT_GT(r.estimate.mass_se_kg, 0.0);
+  // AND what the stream does not compute is null in the JSON, not a 0 that
+  // reads as a perfect fit (a review found rms_force_residual_N 0 and a
+  // window mass of 0 kg beside m); the windows' mass is the mass it reports
+  const nlohmann::json j = to_json(r);
+  EXPECT_TRUE(j.at("fit").at("rms_force_residual_N").is_null());
+  EXPECT_TRUE(j.at("standard_errors").at("jackknife").is_null());
+  EXPECT_TRUE(j.at("standard_errors").at("velocity_cutoff").is_null());
+  EXPECT_EQ(j.at("mass_from_windows_kg").get<double>(), r.estimate.mass_kg);
 }
 
 // GIVEN band edges the core rejects (lowest above highest), WHEN the
