@@ -139,6 +139,7 @@ void apply_streamed_standard_errors(IdentifyResult& r, StreamedCores& cores, con
   r.jackknife_chunks = u.chunks_used;
   r.se_model = u.model_se;
   r.se_jackknife = u.jackknife_se;
+  r.se_timing = u.timing_se;  // in the *_se fields above; the JSON's `timing` said 0
 }
 
 /// Solve, model selection, standard errors and the friction curve.

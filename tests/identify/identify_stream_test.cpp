@@ -144,6 +144,12 @@ TEST(IdentifyStream, ShortLogKeepsTheCoresStandardErrors) {
   EXPECT_TRUE(j.at("standard_errors").at("jackknife").is_null());
   EXPECT_TRUE(j.at("standard_errors").at("velocity_cutoff").is_null());
   EXPECT_EQ(j.at("mass_from_windows_kg").get<double>(), r.estimate.mass_kg);
+  // AND the timing term it folds into the standard errors is the one reported
+  // (the JSON said 0 while m's standard error held it)
+  const double core_m = j.at("standard_errors").at("core").at(0).get<double>();
+  const double timing_m = j.at("standard_errors").at("timing").at(0).get<double>();
+  EXPECT_GT(timing_m, 0.0);
+  EXPECT_NEAR(r.estimate.mass_se_kg, std::hypot(core_m, timing_m), 1e-12 * r.estimate.mass_se_kg);
 }
 
 // GIVEN band edges the core rejects (lowest above highest), WHEN the
