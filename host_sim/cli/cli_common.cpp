@@ -409,9 +409,15 @@ int report_identify(const IdentifyResult& r, const std::string& json_path, const
 /// Whether identify streams: asked, or one CSV above 512 MB (loading it
 /// would take several times its size in memory).
 bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool asked) {
-  if (paths.size() != 1 || !in.in_list.empty()) return false;
+  // Said where --stream was asked for and cannot be had: the run reads the
+  // input whole instead (a .mat run did so without a word).
+  const auto read_whole = [asked](const std::string& why) {
+    if (asked) std::fprintf(stderr, "note: --stream is not used: %s; the input is read whole\n", why.c_str());
+    return false;
+  };
+  if (paths.size() != 1 || !in.in_list.empty()) return read_whole("it reads one CSV file row by row, and this run pools several inputs");
   const std::string& p = paths.front();
-  if (is_mat_file(p)) return false;
+  if (is_mat_file(p)) return read_whole("it reads one CSV file row by row, and " + p + " is a .mat file");
   std::error_code ec;
   const auto size = std::filesystem::file_size(p, ec);
   return asked || (!ec && size > (512ull << 20));

@@ -110,6 +110,18 @@ TEST(Messages, SimulatesTruthFileIsAModelFile) {
   }
 }
 
+// GIVEN --stream asked for on pooled inputs, THEN the run says it reads
+// them whole instead (a .mat run did so without a word) and still succeeds
+TEST(Messages, AStreamThatCannotBeHadIsSaid) {
+  const std::string trace = ::testing::TempDir() + "feedid_stream_pooled.csv";
+  ASSERT_EQ(run_feedid("simulate --duration 10 --out " + trace).exit_code, 0);
+  const CliRun r = run_feedid("identify --stream --in " + trace + " --in " + trace);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("--stream is not used: it reads one CSV file row by row, and this run pools several inputs"),
+            std::string::npos) << r.err;
+  EXPECT_EQ(run_feedid("identify --in " + trace + " --in " + trace).err.find("--stream"), std::string::npos);
+}
+
 // GIVEN a top speed of 0 or less, THEN compensate refuses it by name
 // (it was read as "not given" and replaced by the model's).
 TEST(Messages, CompensateRefusesATopSpeedThatIsNotPositive) {
