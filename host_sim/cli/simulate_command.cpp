@@ -29,6 +29,7 @@ struct SimulateCommand : Command {
     const Outcome<Trace> simulated = run_simulation(sim);
     if (!simulated.ok()) return bad_input(simulated.error);
     const Trace& t = simulated.value;
+    if (const std::string why = saturated_command(t, sim); !why.empty()) std::fprintf(stderr, "warning: %s\n", why.c_str());
     std::string err;
     const ServiceChange& ch = sim.change;
     const ExtraColumn temperature{"temperature_C", [&ch](double t_s) { return ch.temperature_C(t_s); }};

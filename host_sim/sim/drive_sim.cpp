@@ -10,6 +10,8 @@
 //      side), the sim-to-real effects of Effects included.
 #include "drive_sim.hpp"
 
+#include <iomanip>
+
 #include "model/constants.hpp"
 
 #include "open_loop_plant.hpp"
@@ -202,6 +204,21 @@ std::string sim_config_error(const SimConfig& c) {
   ConfigCheck ck;
   validate(c, ck);
   return ck.error;
+}
+
+std::string saturated_command(const Trace& t, const SimConfig& c) {
+  const double limit = c.controller.force_limit_N;
+  std::size_t at_limit = 0;
+  for (const TraceSample& s : t.samples)
+    if (std::fabs(s.u_N) >= 0.99 * limit) ++at_limit;
+  if (t.samples.empty() || 100 * at_limit <= t.samples.size()) return "";
+  std::ostringstream o;
+  o << "the simulated command sat at its limit (+-" << limit << " N) on " << std::setprecision(3)
+    << 100.0 * static_cast<double>(at_limit) / static_cast<double>(t.samples.size()) << std::setprecision(6)
+    << " % of the samples: at " << c.controller.servo_rate_hz << " Hz with a " << c.controller.velocity_bandwidth_hz << " Hz velocity loop and a "
+    << c.sensors.encoder_resolution_m << " m encoder the loop is not stable, or the motion asks for more force than "
+    << "the drive has; the trace is no drive's (raise --rate, lower --velocity-bandwidth or --accel, or refine --encoder)";
+  return o.str();
 }
 
 bool effect_on(const Effects& e, Effect which) {
