@@ -15,6 +15,7 @@
 #include <optional>
 #include <utility>
 #include <cmath>
+#include <initializer_list>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -236,12 +237,24 @@ std::string run(Command command, const CsvResult& read, const CallOptions& o, co
   return json_as_written(to_json(r, file.drive, with_offset.validate)).dump();
 }
 
+/// Refuses a call whose required signals have no samples, naming each
+/// (two empty arrays were refused as "t and u are required").
+void require_samples(std::initializer_list<std::pair<const char*, const std::vector<double>*>> required) {
+  std::string empty;
+  int n = 0;
+  for (const auto& [name, column] : required)
+    if (column->empty()) empty += std::string(n++ ? ", " : "") + name;
+  if (n > 0)
+    throw py::value_error(empty + (n == 1 ? " has" : " have") + " no samples (None or empty): t is the time (s), x the "
+                          "position, u the force, one value per row");
+}
+
 std::string run_arrays(const std::string& name, const py::object& t, const py::object& x, const py::object& v,
                        const py::object& u, const py::dict& kw, const std::string& model_text) {
   const Command command = command_named(name);
   const CallOptions o = call_options(kw, command);
   TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
-  if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
+  require_samples({{"t", &c.t}, {"u", &c.u}});
   py::gil_scoped_release release;
   return run(command, trace_from_columns(c, o.columns, "arrays", 0), o, model_text);
 }
@@ -331,7 +344,7 @@ JsonAndWarnings model_gap_arrays(const py::object& t, const py::object& x, const
                                  const py::dict& kw, const GivenFiles& g, const py::dict& columns) {
   const CallOptions o = call_options(kw, Command::diagnose);
   TraceColumns c{to_vector(t), to_vector(x), to_vector(v), to_vector(u)};
-  if (c.t.empty() || c.u.empty()) throw py::value_error("t and u are required (time in s and force)");
+  require_samples({{"t", &c.t}, {"u", &c.u}});
   std::map<std::string, std::vector<double>> named;
   for (const auto& [k, a] : columns) named[py::cast<std::string>(k)] = to_vector(py::reinterpret_borrow<py::object>(a));
   py::gil_scoped_release release;
@@ -371,7 +384,7 @@ JsonAndWarnings replay_arrays(const py::object& t, const py::object& x, const py
                               const GivenFiles& g, const py::dict& columns) {
   const CallOptions o = call_options(kw, Command::replay);
   TraceColumns c{to_vector(t), to_vector(x), {}, to_vector(u)};
-  if (c.t.empty() || c.x.empty() || c.u.empty()) throw py::value_error("t, x and u are required (time in s, position and force)");
+  require_samples({{"t", &c.t}, {"x", &c.x}, {"u", &c.u}});
   std::map<std::string, std::vector<double>> named;
   for (const auto& [k, a] : columns) named[py::cast<std::string>(k)] = to_vector(py::reinterpret_borrow<py::object>(a));
   py::gil_scoped_release release;

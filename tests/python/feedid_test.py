@@ -229,6 +229,32 @@ class Errors(unittest.TestCase):
         with self.assertRaisesRegex(TypeError, "folds: 1000000000000 is not a whole number"):
             feedid.diagnose(t, t, t, folds=10**12)
 
+    def test_model_dicts_take_numpy_values_and_name_what_is_wrong(self):
+        # A review found: np.float32 in a model dict refused as "not JSON
+        # serializable"; a NaN refused with a column of JSON text; a model
+        # file that is not JSON unnamed; empty arrays "required" though given.
+        t = np.arange(2000) * 1e-3
+        x = 0.01 * np.sin(2 * np.pi * t)
+        u = 100.0 * np.cos(2 * np.pi * t)
+        model = {"m": np.float32(95.0), "pos": {"sigma": np.int64(200), "fc": 20.0},
+                 "neg": {"sigma": 200.0, "fc": np.array(20.0)}}
+        self.assertIn("relative_error_pct", feedid.validate(model, t, x, u))
+        with self.assertRaisesRegex(ValueError, "model: 'pos.fc' must be a finite number, not nan"):
+            feedid.validate({**model, "pos": {"sigma": 200.0, "fc": float("nan")}}, t, x, u)
+        with tempfile.TemporaryDirectory() as tmp:
+            bad = os.path.join(tmp, "bad.json")
+            with open(bad, "w") as f:
+                f.write("{\"m\": ")
+            with self.assertRaisesRegex(ValueError, "bad.json: not valid JSON"):
+                feedid.validate(bad, t, x, u)
+            good = os.path.join(tmp, "model.json")
+            with open(good, "w") as f:
+                json.dump({"m": 95.0, "pos": {"sigma": 200.0, "fc": 20.0}, "neg": {"sigma": 200.0, "fc": 20.0}}, f)
+            self.assertEqual(feedid.validate(good, t, x, u)["relative_error_pct"],
+                             feedid.validate(model, t, x, u)["relative_error_pct"])
+        with self.assertRaisesRegex(ValueError, "t, u have no samples"):
+            feedid.identify(np.array([]), np.array([]), np.array([]))
+
     def test_a_missing_file_is_the_readers_message(self):
         with self.assertRaises(ValueError) as e:
             feedid.identify_files("/nonexistent/log.csv")

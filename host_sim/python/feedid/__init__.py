@@ -8,6 +8,7 @@ the host's message. docs/python.md has examples; ``feedid.fleet`` runs many
 logs on a dask cluster.
 """
 import json
+import math
 import os
 import warnings
 
@@ -81,15 +82,42 @@ def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **opt
     return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
 
 
+def _plain(value, name, key=""):
+    """value with numpy scalars and arrays as Python numbers and lists (a
+    np.float32 'm' was refused as not JSON serializable); ValueError naming
+    the key of a NaN or Inf (json.dumps wrote NaN, which the host's parser
+    refused with a column of JSON text)."""
+    if isinstance(value, dict):
+        return {k: _plain(v, name, "%s.%s" % (key, k) if key else str(k)) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, name, "%s[%d]" % (key, i)) for i, v in enumerate(value)]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return _plain(value.tolist(), name, key)
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError("%s: '%s' must be a finite number, not %r" % (name, key, value))
+    return value
+
+
+def _dumps(value, name):
+    """A model or controller dict as the host's JSON text (_plain)."""
+    return json.dumps(_plain(value, name), allow_nan=False)
+
+
 def _json_given(value, name):
     """A model or controller as a dict (the keys of the CLI's JSON file) or
-    a path to that file: (its JSON text, the name messages use)."""
+    a path to that file: (its JSON text, the name messages use). A file that
+    is not JSON is refused naming it, as the CLI does."""
     if value is None:
         return "", ""
     if isinstance(value, (str, os.PathLike)):
         with open(value) as f:
-            return f.read(), os.fspath(value)
-    return json.dumps(value), name
+            text = f.read()
+        try:
+            json.loads(text)
+        except ValueError as e:
+            raise ValueError("%s: not valid JSON: %s" % (os.fspath(value), e)) from None
+        return text, os.fspath(value)
+    return _dumps(value, name), name
 
 
 def _given(model, controller):
@@ -129,13 +157,13 @@ def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, model
 
 
 def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
-    """``feedid validate``: model (identify's dict, or a truth dict) predicts
+    """``feedid validate``: model (identify's dict, or a truth dict, or a path to its JSON file) predicts
     the force of these signals (as identify()'s). options: filter (Hz),
     decimate, drop_first and the input options. The dict of ``validate
     --json``; a model in other units than axis and force_unit give is a
     ValueError."""
     options.update(axis=axis, force_unit=force_unit)
-    return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, json.dumps(model)))
+    return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, _json_given(model, "model")[0]))
 
 
 def replay(model, controller, t, x, u, *, columns=None, axis="linear", force_unit=None, **options):
@@ -191,7 +219,7 @@ def diagnose_files(paths, axis="linear", force_unit=None, model=None, controller
 def validate_files(model, paths, axis="linear", force_unit=None, **options):
     """validate() on trace files (as identify_files())."""
     options.update(axis=axis, force_unit=force_unit)
-    return json.loads(_feedid.run_files("validate", _paths(paths), options, json.dumps(model)))
+    return json.loads(_feedid.run_files("validate", _paths(paths), options, _json_given(model, "model")[0]))
 
 
 def monitor(path, axis="linear", force_unit=None, **options):
@@ -207,11 +235,11 @@ def monitor(path, axis="linear", force_unit=None, **options):
 
 def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None, format="json"):
     """``feedid compensate``: the speed -> friction table per direction a
-    drive can load, from identify's dict. max_speed 0: the model's
+    drive can load, from identify's dict (or a path to its JSON file). max_speed 0: the model's
     config.velocity_max_m_s. The table's dict (``--format json``), or its
     CSV text with format="csv". A model that cannot be compensated with
     (not ok, not physical) is a ValueError with the CLI's message."""
-    text = _feedid.compensate(json.dumps(model), dict(points=points, max_speed=max_speed, force_scale=force_scale,
+    text = _feedid.compensate(_json_given(model, "model")[0], dict(points=points, max_speed=max_speed, force_scale=force_scale,
                                                       force_unit=force_unit, format=format))
     return text if format == "csv" else json.loads(text)
 
