@@ -1096,9 +1096,10 @@ Model select_effects(const Stage& st, const Model& base, const DiagnoseOptions& 
       const PairStep pair = best_pair(st, evals, gap, opt);
       if (!pair.found) break;
       used[pair.first.effect] = used[pair.second.effect] = true;
-      out.effects.push_back({pair.first.c.kind, {}, pair.first.c.heldout_rms_N, 0.0, pair.first_z});
+      out.effects.push_back({pair.first.c.kind, {}, pair.first.c.heldout_rms_N, 0.0, pair.first_z, pair.second.c.kind});
       current = pair.model;
-      out.effects.push_back({pair.second.c.kind, {}, heldout_rms(current.residual, st.obs), 0.0, pair.second.c.z_statistic});
+      out.effects.push_back({pair.second.c.kind, {}, heldout_rms(current.residual, st.obs), 0.0, pair.second.c.z_statistic,
+                             pair.first.c.kind});
       ++step;
       continue;
     }
@@ -1610,7 +1611,8 @@ nlohmann::json effects_json(const DiagnoseResult& r) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& e : r.effects)
     list.push_back({{"kind", e.kind}, {"parameters", e.parameters}, {"heldout_rms_N", e.heldout_rms_N},
-                    {"closed_fraction", e.closed_fraction}, {"z_statistic", e.z_statistic}});
+                    {"closed_fraction", e.closed_fraction}, {"z_statistic", e.z_statistic},
+                    {"named_with", e.named_with.empty() ? nlohmann::json() : nlohmann::json(e.named_with)}});
   if (r.gap_remains) {
     nlohmann::json u = {{"kind", "unexplained"}, {"heldout_rms_N", r.rms_augmented_N}};
     const auto& where = r.effects.empty() ? r.where : r.where_left;
@@ -1718,9 +1720,17 @@ std::string summary(const DiagnoseResult& r) {
   const ForceSign& sign = r.base.signals.force_sign;
   if (sign.sign < 0 || !sign.conclusive) o << "force " << sign.describe() << "\n";
   o << "effect: " << r.effect << "\n";
-  for (const auto& e : r.effects) {
-    std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f)\n",
-                  e.kind.c_str(), e.heldout_rms_N, n, 100.0 * e.closed_fraction, e.z_statistic);
+  for (std::size_t i = 0; i < r.effects.size(); ++i) {
+    const NamedEffect& e = r.effects[i];
+    // A pair is said once, before its first member: the first step's table
+    // shows each member alone, not significant, with another z.
+    const bool pair_starts = !e.named_with.empty() && i + 1 < r.effects.size() && r.effects[i + 1].named_with == e.kind;
+    if (pair_starts)
+      o << "  (a pair: " << e.kind << " and " << e.named_with << " close the gap only together; neither passes the "
+        << "z test alone, and each z below is given the other)\n";
+    std::snprintf(buf, sizeof buf, "  + %-22s held-out RMS -> %.3g %s, closes %.0f %% of the excess (z %.1f%s%s)\n",
+                  e.kind.c_str(), e.heldout_rms_N, n, 100.0 * e.closed_fraction, e.z_statistic,
+                  e.named_with.empty() ? "" : " given ", e.named_with.c_str());
     // A position-friction profile is 120 numbers: the JSON has it, the summary says so.
     nlohmann::json shown = e.parameters;
     if (shown.is_object() && shown.contains("profile")) shown["profile"] = "in the JSON";

@@ -81,7 +81,11 @@ struct NamedEffect {
   nlohmann::json parameters;      ///< from the joint fit with every named effect
   double heldout_rms_N = 0.0;     ///< held-out RMS with this and the effects before it
   double closed_fraction = 0.0;   ///< of the base model's excess gap, cumulative
-  double z_statistic = 0.0;       ///< at the step it was added
+  double z_statistic = 0.0;       ///< at the step it was added; a pair's member: given the other
+  /// The other member where it was named in a pair (neither passed the z
+  /// test alone; docs/diagnosis.md), else empty: the first step's table
+  /// then shows each alone, not significant, and its z there differs.
+  std::string named_with;
 };
 
 struct WhereEntry {

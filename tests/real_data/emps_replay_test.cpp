@@ -136,6 +136,12 @@ TEST_F(EmpsReplay, DiagnoseOfTheIdentifiedModelOnPulsesNamesACauseAndClosesTheAc
   // threads, the replay before the causes beside them: on one the
   // diagnosis and both replays are the same to the bit.
   ASSERT_GE(g.diagnosis.effects.size(), 2u) << summary(g);
+  // AND the two are named as a pair, each naming the other, and the summary
+  // says so (neither passes alone: the first step's table shows z 2.3 and
+  // 2.7, which a review read as the verdict contradicting its table)
+  EXPECT_EQ(g.diagnosis.effects[0].named_with, g.diagnosis.effects[1].kind) << summary(g);
+  EXPECT_EQ(g.diagnosis.effects[1].named_with, g.diagnosis.effects[0].kind) << summary(g);
+  EXPECT_NE(summary(g.diagnosis).find("close the gap only together"), std::string::npos) << summary(g.diagnosis);
   DiagnoseOptions one = opt;
   one.threads = 1;
   EXPECT_EQ(to_json(model_gap(pulses.trace, one, &c, &run, ReplayOptions{})).dump(), to_json(g).dump());
