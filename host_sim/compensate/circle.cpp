@@ -87,7 +87,9 @@ double median(std::vector<double> v) {
 /// Both axes around the circle with the given compensation models (null:
 /// none); the second full turn is measured (no figures where fewer than
 /// kMinTurnSamples sample it).
-CircleRun run_once(const CircleOptions& opt, const std::string& name, const std::array<DriveParams, 2>* comp) {
+/// One of the four runs, the run_index-th (progress: its share of all four).
+CircleRun run_once(const CircleOptions& opt, const std::string& name, const std::array<DriveParams, 2>* comp,
+                   int run_index) {
   const CirclePath path(opt.radius_m, opt.feed_m_s);
   const double dt = 1.0 / opt.rate_hz;
   std::array<ServoAxis, 2> axes = {ServoAxis(axis_config(opt.drives[0], opt.rate_hz)),
@@ -103,6 +105,7 @@ CircleRun run_once(const CircleOptions& opt, const std::string& name, const std:
     const double t = static_cast<double>(k) * dt;
     const double th = path.angle(t);
     if (th >= last) break;
+    if (opt.progress && k % 65536 == 0) opt.progress((run_index + th / last) / 4.0);
     if (th >= first) {
       const double ex = axes[0].position_m() + opt.radius_m, ey = axes[1].position_m();
       run.angle_rad.push_back(std::atan2(ey, ex));
@@ -194,10 +197,11 @@ CircleResult run_circle(const CircleOptions& opt) {
                                            scaled_friction(out.models[1], 1.0 + opt.wrong_fraction)};
   const std::array<DriveParams, 2> minus = {scaled_friction(out.models[0], 1.0 - opt.wrong_fraction),
                                             scaled_friction(out.models[1], 1.0 - opt.wrong_fraction)};
-  out.runs.push_back(run_once(opt, "none", nullptr));
-  out.runs.push_back(run_once(opt, "identified", &out.models));
-  out.runs.push_back(run_once(opt, "wrong_plus", &plus));
-  out.runs.push_back(run_once(opt, "wrong_minus", &minus));
+  out.runs.push_back(run_once(opt, "none", nullptr, 0));
+  out.runs.push_back(run_once(opt, "identified", &out.models, 1));
+  out.runs.push_back(run_once(opt, "wrong_plus", &plus, 2));
+  out.runs.push_back(run_once(opt, "wrong_minus", &minus, 3));
+  if (opt.progress) opt.progress(1.0);
   if (out.runs.front().angle_rad.size() < kMinTurnSamples) {
     out.error = "--rate " + std::to_string(opt.rate_hz) + " Hz samples the measured turn fewer than " +
                 std::to_string(kMinTurnSamples) + " times";

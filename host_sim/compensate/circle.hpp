@@ -4,6 +4,7 @@
 // reversals are measured. Host only.
 #pragma once
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,8 @@ struct CircleOptions {
   /// Compensation models given directly (X, Y); used before model_paths.
   std::vector<DriveParams> models;
   std::string json_path, plot_path;
+  /// Called with the share of the four runs done (0 to 1); none: silent.
+  std::function<void(double)> progress;
   CircleOptions();
 };
 
