@@ -173,7 +173,7 @@ std::size_t regularise_stamps(const Trace& trace, Signals& s) {
   for (const auto& [first, end] : stretches(s)) {
     const auto from = static_cast<std::ptrdiff_t>(first), to = static_cast<std::ptrdiff_t>(end);
     const std::vector<double> t(s.t.begin() + from, s.t.begin() + to), ys(y.begin() + from, y.begin() + to);
-    if (t.size() < 3 || uniform_grid(t, 1.0 / median_step(t)).empty()) continue;  // evenly stamped already
+    if (evenly_stamped(t, 1.0 / median_step(t))) continue;
     const std::vector<double> slot = clock_slots(t);
     if (slot.empty() || !(roughness(ys, slot, order) < kClearlySmoother * roughness(ys, t, order))) continue;
     std::copy(slot.begin(), slot.end(), s.t.begin() + from);

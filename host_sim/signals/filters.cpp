@@ -145,8 +145,15 @@ std::vector<double> resample(const std::vector<double>& t, const std::vector<dou
   return out;
 }
 
+bool evenly_stamped(const std::vector<double>& t, double rate_hz) {
+  if (t.size() < 3) return true;
+  for (std::size_t k = 1; k < t.size(); ++k)
+    if (!(std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01)) return false;
+  return true;
+}
+
 std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz) {
-  if (uniform_grid(t, rate_hz).empty()) return {};
+  if (evenly_stamped(t, rate_hz)) return {};
   const double span = t.back() - t.front();
   const double slots = std::max(1.0, std::round(span * rate_hz));
   const double h = span / slots;
@@ -157,9 +164,7 @@ std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz) {
 }
 
 std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz) {
-  bool uniform = true;
-  for (std::size_t k = 1; k < t.size() && uniform; ++k) uniform = std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01;
-  if (uniform || t.size() < 3) return {};
+  if (evenly_stamped(t, rate_hz)) return {};
   const double h = 1.0 / rate_hz;
   const auto n = static_cast<std::size_t>(std::floor((t.back() - t.front()) / h)) + 1;
   std::vector<double> tg(n);

@@ -32,6 +32,10 @@ std::vector<double> central_difference(const std::vector<double>& y, const std::
 /// 1/rate_hz (or t has fewer than 3 samples): the samples are the grid.
 std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz);
 
+/// Whether every step of t is within 1 % of 1/rate_hz (or t has fewer than
+/// 3 samples): the samples are their own grid (uniform_grid, clock_grid).
+bool evenly_stamped(const std::vector<double>& t, double rate_hz);
+
 /// The same stretch's own clock: from t.front() through t.back() in the
 /// whole number of steps nearest 1/rate_hz, so that where the stamps sit
 /// on a clock the grid's points sit on them and a dropped row is the one
