@@ -20,7 +20,7 @@ int run_circle_report(CircleOptions opt) {
   // Four runs of two turns and a quarter: seconds at the default 2 kHz,
   // minutes at 1 MHz, which ran silent for three.
   Progress p("circle");
-  if (2.25 * 2.0 * 3.14159265358979 * opt.radius_m / opt.feed_m_s * opt.rate_hz > 2e5) opt.progress = std::ref(p);
+  if (samples_per_turn(opt) > 1e5) opt.progress = std::ref(p);
   const CircleResult r = run_circle(opt);
   if (!r.error.empty()) return bad_input(r.error);
   std::printf("circle R %.4g mm at %.4g mm/s, %g Hz; models %s\n", opt.radius_m * 1e3, opt.feed_m_s * 1e3, opt.rate_hz,

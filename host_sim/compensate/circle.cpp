@@ -146,7 +146,10 @@ CircleOptions::CircleOptions() {
   drives[1].neg = {520.0, 19.5, 5.5, 2.2e-3};
 }
 
+double samples_per_turn(const CircleOptions& opt) { return 2.0 * kPi * opt.radius_m / opt.feed_m_s * opt.rate_hz; }
+
 namespace {
+
 /// Why the options describe no circle test, or empty.
 std::string circle_refusal(const CircleOptions& opt) {
   if (!(opt.radius_m > 0) || !(opt.feed_m_s > 0) || !(opt.rate_hz > 0) || !std::isfinite(opt.radius_m) ||
@@ -154,7 +157,7 @@ std::string circle_refusal(const CircleOptions& opt) {
     return "--radius, --feed and --rate must be positive and finite";
   // Each of the four runs goes about two turns and a quarter: a radius typed
   // in mm (100 for 0.1 m) ran for hours.
-  const double turn_samples = 2.0 * kPi * opt.radius_m / opt.feed_m_s * opt.rate_hz;
+  const double turn_samples = samples_per_turn(opt);
   if (turn_samples > kMaxTurnSamples) {
     char buf[200];
     std::snprintf(buf, sizeof buf, "--radius %g m at --feed %g m/s samples a turn %.3g times at --rate %g Hz, more than "

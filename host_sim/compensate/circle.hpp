@@ -49,6 +49,10 @@ struct CircleResult {
 
 /// Runs the four cases; `error` for bad options or a model file that cannot be read.
 CircleResult run_circle(const CircleOptions& opt);
+
+/// Servo samples in one turn of the circle (each of the four runs goes about
+/// two and a quarter): what the test's time grows with.
+double samples_per_turn(const CircleOptions& opt);
 nlohmann::json to_json(const CircleResult& r, const CircleOptions& opt);
 /// The radial error of every run on a polar plot (error magnified).
 PlotSpec circle_plot(const CircleResult& r, const CircleOptions& opt);
