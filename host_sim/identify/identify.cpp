@@ -375,7 +375,7 @@ std::vector<double> derived_velocity(const Signals& s, double fc_hz) {
 
 void derive_velocity(Signals& s, double fc_hz) {
   s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
-  s.v = derived_velocity(s, fc_hz);
+  zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, s.max_step_s(), s.v);  // into s.v's storage
 }
 
 void derive_rival_velocities(Signals& s) {
@@ -572,7 +572,11 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // them from the logged position itself: the whole log, not delayed by
   // the lag, which the choice then keeps (the found one).
   const bool reuse = whole && s.velocity_delay_samples == 0 && s.lag_search.ok;
-  FilterChoice choice = choose_velocity_filter(whole ? s : select_samples(s, scanned), edges, reuse);
+  const LagEstimate found = s.lag_search;
+  // The scan derives every candidate's velocity into its signals: s itself
+  // on a whole log, which nothing below reads again, rather than a copy of
+  // every column of it.
+  FilterChoice choice = choose_velocity_filter(whole ? std::move(s) : select_samples(s, scanned), edges, reuse);
   if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, LagSearch{nullptr, &held});
     if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
@@ -586,7 +590,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   raw.velocity_filter_origin = o.str();
   std::vector<double>* at_choice = choice.velocities.empty() ? nullptr : &choice.velocities.front();
   Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz,
-                                    LagSearch{s.lag_search.ok ? &s.lag_search : nullptr}, at_choice);
+                                    LagSearch{found.ok ? &found : nullptr}, at_choice);
   chosen.velocity_filter_rivals_hz = choice.rivals_hz;
   if (reuse && chosen.velocity_delay_samples == 0 && choice.velocities.size() == choice.rivals_hz.size() + 1) {
     chosen.rival_velocities.assign(std::make_move_iterator(choice.velocities.begin() + 1),

@@ -233,21 +233,20 @@ const LagCost& least_of(const std::vector<std::pair<double, LagCost>>& tried) {
 }
 }  // namespace
 
-FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg, bool keep_velocities) {
+FilterChoice choose_velocity_filter(Signals work, const feedid::Config<double>& cfg, bool keep_velocities) {
   FilterChoice best;
-  best.cutoff_hz = s.velocity_filter_hz;
-  Signals work = s;
+  best.cutoff_hz = work.velocity_filter_hz;
   // Octave halves from lowest_velocity_filter_hz to 0.4 of the rate (where the filter all but
   // passes the position difference through), lowest first.
   // Past the least residual, each half octave passes more of the count
   // noise into the bands, so the residual only grows: the scan stops when
   // two cut-offs in a row have risen, each beyond a standard error of the
   // least so far (neither can be chosen or a rival, nor can any above them).
-  const double top = 0.4 * s.sample_rate_hz;
+  const double top = 0.4 * work.sample_rate_hz;
   std::vector<std::pair<double, LagCost>> tried;
   std::vector<std::vector<double>> held;  // each tried cut-off's velocity while it can still be chosen or a rival
   int risen = 0;
-  for (double fc = lowest_velocity_filter_hz(s); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
+  for (double fc = lowest_velocity_filter_hz(work); fc <= top * (1.0 + 1e-9) && risen < 2; fc *= std::sqrt(2.0)) {
     derive_velocity(work, fc);
     const LagCost cost = fit_cost(work, cfg);
     const bool rose = !tried.empty() && cost.ssr > tried.back().second.ssr && !within_one_se(cost, least_of(tried));

@@ -87,7 +87,9 @@ struct FilterChoice {
 /// keep_velocities: hand the chosen and the rival cut-offs' velocities back
 /// (FilterChoice::velocities) instead of dropping them; only the
 /// candidates still within a standard error of the least are held.
-FilterChoice choose_velocity_filter(const Signals& s, const feedid::Config<double>& cfg, bool keep_velocities = false);
+/// `s` is the scan's own: each candidate's velocity is derived into it
+/// (pass a copy, or move in a signal set not needed after).
+FilterChoice choose_velocity_filter(Signals s, const feedid::Config<double>& cfg, bool keep_velocities = false);
 
 /// Most samples the cut-off scan identifies on: 2^20, 131 s at 8 kHz,
 /// more than any trace the method's coverage, the blind benchmark and the

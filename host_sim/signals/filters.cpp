@@ -57,31 +57,58 @@ void run(std::vector<double>& y, double cutoff_hz, double rate_hz, bool backward
 
 }  // namespace
 
-std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz, double rate_hz) {
-  if (!(cutoff_hz > 0.0) || !(rate_hz > 2.0 * cutoff_hz))
-    throw std::invalid_argument("filter cut-off must be > 0 Hz and below half the sample rate");
-  const std::size_t n = x.size();
-  if (n < 3) return x;
-  const std::size_t pad = std::min<std::size_t>(n - 1, static_cast<std::size_t>(3.0 * rate_hz / cutoff_hz) + 12);
-  std::vector<double> y;
-  y.reserve(n + 2 * pad);
-  for (std::size_t i = pad; i >= 1; --i) y.push_back(2.0 * x.front() - x[i]);
-  y.insert(y.end(), x.begin(), x.end());
-  for (std::size_t i = 1; i <= pad; ++i) y.push_back(2.0 * x.back() - x[n - 1 - i]);
+namespace {
+/// Samples of reflected padding either end of a filtfilt over n samples.
+std::size_t filtfilt_pad(std::size_t n, double cutoff_hz, double rate_hz) {
+  return std::min<std::size_t>(n - 1, static_cast<std::size_t>(3.0 * rate_hz / cutoff_hz) + 12);
+}
+
+/// x[0, n) reflected about its ends, filtered forwards and backwards, into
+/// y[0, n + 2 pad): the filtered samples are y[pad, pad + n). y's storage
+/// is reused from call to call (the cut-off scan filters the whole log
+/// at every candidate; fresh buffers cost more than the filter).
+void filtfilt_padded(const double* x, std::size_t n, std::size_t pad, double cutoff_hz, double rate_hz,
+                     std::vector<double>& y) {
+  if (y.capacity() < n + 2 * pad) y.clear();  // nothing in it to keep: growing copies nothing
+  y.resize(n + 2 * pad);
+  for (std::size_t i = pad, j = 0; i >= 1; --i, ++j) y[j] = 2.0 * x[0] - x[i];
+  std::copy(x, x + n, y.begin() + static_cast<std::ptrdiff_t>(pad));
+  for (std::size_t i = 1; i <= pad; ++i) y[pad + n - 1 + i] = 2.0 * x[n - 1] - x[n - 1 - i];
   run(y, cutoff_hz, rate_hz);
   run(y, cutoff_hz, rate_hz, true);
-  y.erase(y.begin() + static_cast<std::ptrdiff_t>(pad + n), y.end());
-  y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(pad));  // in place: no second buffer
-  return y;
+}
+
+void check_cutoff(double cutoff_hz, double rate_hz) {
+  if (!(cutoff_hz > 0.0) || !(rate_hz > 2.0 * cutoff_hz))
+    throw std::invalid_argument("filter cut-off must be > 0 Hz and below half the sample rate");
+}
+
+/// d[k] = dy/dt at t[k] by central differences (one-sided at the ends),
+/// y and t n >= 2 samples long. d may be y itself shifted down (d <= y):
+/// the ends are read first, and each write lies below every later read.
+void central_difference_into(const double* y, const double* t, std::size_t n, double* d) {
+  const double first = (y[1] - y[0]) / (t[1] - t[0]);
+  const double last = (y[n - 1] - y[n - 2]) / (t[n - 1] - t[n - 2]);
+  d[0] = first;
+  for (std::size_t k = 1; k + 1 < n; ++k) d[k] = (y[k + 1] - y[k - 1]) / (t[k + 1] - t[k - 1]);
+  d[n - 1] = last;
+}
+}  // namespace
+
+std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz, double rate_hz) {
+  check_cutoff(cutoff_hz, rate_hz);
+  const std::size_t n = x.size();
+  if (n < 3) return x;
+  const std::size_t pad = filtfilt_pad(n, cutoff_hz, rate_hz);
+  std::vector<double> y;
+  filtfilt_padded(x.data(), n, pad, cutoff_hz, rate_hz, y);
+  return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(pad), y.begin() + static_cast<std::ptrdiff_t>(pad + n));
 }
 
 std::vector<double> central_difference(const std::vector<double>& y, const std::vector<double>& t) {
   const std::size_t n = y.size();
   std::vector<double> d(n, 0.0);
-  if (n < 2) return d;
-  d[0] = (y[1] - y[0]) / (t[1] - t[0]);
-  d[n - 1] = (y[n - 1] - y[n - 2]) / (t[n - 1] - t[n - 2]);
-  for (std::size_t k = 1; k + 1 < n; ++k) d[k] = (y[k + 1] - y[k - 1]) / (t[k + 1] - t[k - 1]);
+  if (n >= 2) central_difference_into(y.data(), t.data(), n, d.data());
   return d;
 }
 
@@ -99,35 +126,68 @@ void hold_rest(const std::vector<double>& x, std::size_t span, std::vector<doubl
     run_start = k;
   }
 }
-/// One stretch without gaps, on the uniform grid it is filtered on
-/// (uniform_grid), then read back at its own times.
-std::vector<double> stretch_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
-                                     double rate_hz) {
-  const std::vector<double> tg = uniform_grid(t, rate_hz);
-  if (tg.empty()) return central_difference(filtfilt_butter4(x, cutoff_hz, rate_hz), t);
-  const std::vector<double> vg = central_difference(filtfilt_butter4(resample(t, x, tg), cutoff_hz, rate_hz), tg);
-  return resample(tg, vg, t);
+/// The velocity of one stretch without gaps, x[0, n) at t[0, n), into
+/// v[0, n). An evenly stamped stretch is filtered in `scratch`; an uneven
+/// one on its uniform_grid, and read back at its own times.
+void stretch_velocity(const double* x, const double* t, std::size_t n, double cutoff_hz, double rate_hz, double* v,
+                      std::vector<double>& scratch) {
+  check_cutoff(cutoff_hz, rate_hz);
+  if (!evenly_stamped(t, n, rate_hz)) {
+    const std::vector<double> ts(t, t + n);
+    const std::vector<double> tg = uniform_grid(ts, rate_hz);
+    const std::vector<double> vg =
+        central_difference(filtfilt_butter4(resample(ts, std::vector<double>(x, x + n), tg), cutoff_hz, rate_hz), tg);
+    const std::vector<double> vs = resample(tg, vg, ts);
+    std::copy(vs.begin(), vs.end(), v);
+    return;
+  }
+  if (n < 3) {  // too short to filter: the differences of the samples themselves
+    if (n >= 2) central_difference_into(x, t, n, v);
+    else if (n == 1) v[0] = 0.0;
+    return;
+  }
+  const std::size_t pad = filtfilt_pad(n, cutoff_hz, rate_hz);
+  filtfilt_padded(x, n, pad, cutoff_hz, rate_hz, scratch);
+  central_difference_into(scratch.data() + pad, t, n, v);
 }
 }  // namespace
 
 std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
                                         double rate_hz, double max_step_s) {
-  std::vector<double> v(x.size(), 0.0);
-  for (std::size_t a = 0; a < x.size();) {
-    std::size_t b = a + 1;
-    while (b < x.size() && t[b] - t[b - 1] <= max_step_s) ++b;
-    if (a == 0 && b == x.size()) {  // one stretch: no copies of it
-      v = stretch_velocity(x, t, cutoff_hz, rate_hz);
-      break;
+  std::vector<double> v;
+  zero_phase_velocity(x, t, cutoff_hz, rate_hz, max_step_s, v);
+  return v;
+}
+
+namespace {
+bool one_stretch(const std::vector<double>& t, double max_step_s) {
+  for (std::size_t k = 1; k < t.size(); ++k)
+    if (!(t[k] - t[k - 1] <= max_step_s)) return false;
+  return true;
+}
+}  // namespace
+
+void zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz, double rate_hz,
+                         double max_step_s, std::vector<double>& v) {
+  const std::size_t n = x.size();
+  if (n >= 3 && one_stretch(t, max_step_s) && evenly_stamped(t, rate_hz)) {
+    // The commonest log: filtered in v itself and differenced in place.
+    check_cutoff(cutoff_hz, rate_hz);
+    const std::size_t pad = filtfilt_pad(n, cutoff_hz, rate_hz);
+    filtfilt_padded(x.data(), n, pad, cutoff_hz, rate_hz, v);
+    central_difference_into(v.data() + pad, t.data(), n, v.data());
+    v.resize(n);
+  } else {
+    v.resize(n);
+    std::vector<double> scratch;
+    for (std::size_t a = 0; a < n;) {
+      std::size_t b = a + 1;
+      while (b < n && t[b] - t[b - 1] <= max_step_s) ++b;
+      stretch_velocity(x.data() + a, t.data() + a, b - a, cutoff_hz, rate_hz, v.data() + a, scratch);
+      a = b;
     }
-    const std::vector<double> xs(x.begin() + static_cast<std::ptrdiff_t>(a), x.begin() + static_cast<std::ptrdiff_t>(b));
-    const std::vector<double> ts(t.begin() + static_cast<std::ptrdiff_t>(a), t.begin() + static_cast<std::ptrdiff_t>(b));
-    const std::vector<double> vs = stretch_velocity(xs, ts, cutoff_hz, rate_hz);
-    std::copy(vs.begin(), vs.end(), v.begin() + static_cast<std::ptrdiff_t>(a));
-    a = b;
   }
   hold_rest(x, static_cast<std::size_t>(std::ceil(rate_hz / cutoff_hz)), v);
-  return v;
 }
 
 double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q) {
@@ -145,12 +205,14 @@ std::vector<double> resample(const std::vector<double>& t, const std::vector<dou
   return out;
 }
 
-bool evenly_stamped(const std::vector<double>& t, double rate_hz) {
-  if (t.size() < 3) return true;
-  for (std::size_t k = 1; k < t.size(); ++k)
+bool evenly_stamped(const double* t, std::size_t n, double rate_hz) {
+  if (n < 3) return true;
+  for (std::size_t k = 1; k < n; ++k)
     if (!(std::fabs((t[k] - t[k - 1]) * rate_hz - 1.0) < 0.01)) return false;
   return true;
 }
+
+bool evenly_stamped(const std::vector<double>& t, double rate_hz) { return evenly_stamped(t.data(), t.size(), rate_hz); }
 
 std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz) {
   if (evenly_stamped(t, rate_hz)) return {};

@@ -35,6 +35,8 @@ std::vector<double> uniform_grid(const std::vector<double>& t, double rate_hz);
 /// Whether every step of t is within 1 % of 1/rate_hz (or t has fewer than
 /// 3 samples): the samples are their own grid (uniform_grid, clock_grid).
 bool evenly_stamped(const std::vector<double>& t, double rate_hz);
+/// The same on t[0, n).
+bool evenly_stamped(const double* t, std::size_t n, double rate_hz);
 
 /// The same stretch's own clock: from t.front() through t.back() in the
 /// whole number of steps nearest 1/rate_hz, so that where the stamps sit
@@ -59,6 +61,11 @@ std::vector<double> resample(const std::vector<double>& t, const std::vector<dou
 /// filtered on its uniform_grid and read back at its own times.
 std::vector<double> zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz,
                                         double rate_hz, double max_step_s);
+/// The same into v, whose storage is reused: the cut-off scan derives the
+/// whole log's velocity at every candidate, and fresh buffers of its length
+/// (first touched page by page) cost more than the filter.
+void zero_phase_velocity(const std::vector<double>& x, const std::vector<double>& t, double cutoff_hz, double rate_hz,
+                         double max_step_s, std::vector<double>& v);
 
 /// Position from a logged velocity, 0 at the start: x[k] = x[k-1] + v[k] (t[k] - t[k-1]),
 /// the inverse of the backward difference, so a position-difference log

@@ -135,6 +135,8 @@ Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const For
                                  double min_level) {
   found = ForceSaturation{};
   std::vector<double> u, t;
+  u.reserve(logged.samples.size());
+  t.reserve(logged.samples.size());
   for (const TraceSample& s : logged.samples) {
     u.push_back(s.u_N);
     t.push_back(s.t_s);
@@ -161,18 +163,20 @@ Trace leave_out_force_saturation(Trace logged, ForceSaturation& found, const For
     for (std::size_t k = lo; k <= hi; ++k) out[k] = true;
     a = hi + 1;
   }
-  Trace kept = logged;
+  const std::vector<TraceSample> all = std::move(logged.samples);  // logged is this call's own
+  Trace kept = std::move(logged);
   kept.samples.clear();
+  kept.samples.reserve(n);
   for (TraceRun& run : kept.runs) {
     const std::size_t first = run.first, last = run.first + run.samples;
     run.first = kept.samples.size();
     for (std::size_t k = first; k < last; ++k)
-      if (!out[k]) kept.samples.push_back(logged.samples[k]);
+      if (!out[k]) kept.samples.push_back(all[k]);
     run.samples = kept.samples.size() - run.first;
   }
   if (kept.runs.empty())
     for (std::size_t k = 0; k < n; ++k)
-      if (!out[k]) kept.samples.push_back(logged.samples[k]);
+      if (!out[k]) kept.samples.push_back(all[k]);
   found.rows_left_out = n - kept.samples.size();
   return kept;
 }
@@ -192,6 +196,8 @@ Trace bridge_position_spikes(Trace logged, PositionSpikes& found) {
   const std::size_t n = logged.samples.size();
   if (!logged.has_position || n < 3) return logged;
   std::vector<double> t, steps;
+  t.reserve(n);
+  steps.reserve(n - 1);
   for (const TraceSample& s : logged.samples) t.push_back(s.t_s);
   const double gap_s = max_step_s(median_step(t));
   for (std::size_t k = 1; k < n; ++k)
@@ -222,6 +228,8 @@ Trace bridge_force_outliers(const Trace& spiky, const std::string& force_unit, F
   ForceSaturation saturation;
   Trace out = leave_out_force_saturation(bridge_position_spikes(spiky, spikes), saturation);  // the one copy
   std::vector<double> u, t;
+  u.reserve(out.samples.size());
+  t.reserve(out.samples.size());
   for (const TraceSample& s : out.samples) {
     u.push_back(s.u_N);
     t.push_back(s.t_s);
