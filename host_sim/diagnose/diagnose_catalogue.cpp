@@ -7,6 +7,7 @@
 #include <cmath>
 #include <array>
 #include <complex>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <limits>
@@ -466,8 +467,34 @@ EffectModel thermal_drift_model(const Observations& obs, const TraceExtent& e, c
   return m;
 }
 
+/// Friction does not fall with speed above the Stribeck dip: with c2 added,
+/// the slope of the friction against the motion, the measured viscous
+/// coefficient plus 2 c2 |v|, must stay positive at every moving segment's
+/// speed. A negative c2 that turns it is a stand-in for something else (on
+/// EMPS PULSES, c2 = -1448 N s^2/m^2 took 58 N off at 0.2 m/s, where the
+/// viscous friction is 41 N): named, it would tell the user to model a
+/// drive whose friction falls as it speeds up.
+std::string quadratic_turns_friction_downward(const Observations& obs, const std::vector<double>& run_starts, double c2,
+                                              const MeasuredFriction& f) {
+  if (!(c2 < 0.0)) return std::string();
+  for (const Segment& sg : obs.segments(Observations::Resolution::fine)) {
+    if (sg.block == Segment::kNoBlock) continue;
+    const std::size_t k = run_direction(sg, run_starts);
+    const double speed = std::fabs(sg.v), slope = f.viscous_Ns_m[k] + 2.0 * c2 * speed;
+    if (slope < 0.0) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "friction would fall with speed against %s motion: the viscous slope %.3g N s/m plus 2 c2 v is "
+                    "%.3g N s/m at %.3g m/s",
+                    sg.v > 0 ? "positive" : "negative", f.viscous_Ns_m[k], slope, speed);
+      return buf;
+    }
+  }
+  return std::string();
+}
+
 /// c2 v|v|, at every interval (no grid, one pass).
-EffectModel quadratic_viscous_model(const Observations& obs) {
+EffectModel quadratic_viscous_model(const Observations& obs, const TraceExtent& e, const MeasuredFriction& friction) {
   EffectModel m;
   m.kind = effect_name(Effect::quadratic_viscous);
   m.friction_with_speed_or_time = true;
@@ -480,6 +507,9 @@ EffectModel quadratic_viscous_model(const Observations& obs) {
     return Mat(c);
   };
   m.parameters = [](double, int, const Vec& c, double) { return nlohmann::json{{"c2", c(0)}, {"c2_unit", "N s^2/m^2"}}; };
+  m.implausible = [&obs, starts = e.run_starts, friction](const nlohmann::json& p, double) {
+    return quadratic_turns_friction_downward(obs, starts, p.value("c2", 0.0), friction);
+  };
   return m;
 }
 
@@ -748,7 +778,7 @@ TraceExtent trace_extent(const Observations& obs, const std::vector<double>& run
 std::vector<EffectModel> effect_catalogue(const Observations& obs, const TraceExtent& e, double lag_beyond_conventions_s,
                                           const MeasuredFriction& friction) {
   return {offset_model(obs),          ripple_model(obs, e),    position_friction_model(obs, e),
-          thermal_drift_model(obs, e, friction), quadratic_viscous_model(obs), presliding_model(obs, e),
+          thermal_drift_model(obs, e, friction), quadratic_viscous_model(obs, e, friction), presliding_model(obs, e),
           compliance_model(obs, e),    delay_model(obs, e, lag_beyond_conventions_s)};
 }
 

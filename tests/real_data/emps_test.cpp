@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <random>
 
+#include "diagnose/diagnose.hpp"
 #include "io/csv_trace.hpp"
 #include "io/trace_files.hpp"
 #include "identify/identify.hpp"
@@ -278,6 +279,27 @@ TEST_F(Emps, APositionSpikeIsBridgedAndNamed) {
   EXPECT_EQ(r.force_outliers.position_spikes.rows, 1u);
   const auto want = key_parameters(base.estimate), got = key_parameters(r.estimate);
   for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / want[i], 1.0, 1e-3) << i;
+}
+
+// GIVEN the PULSES run diagnosed on its own (base identified on it)
+// THEN no effect is named that makes the friction fall with speed, and the
+// candidate that would is said not physical and not significant. Before, a
+// quadratic damping c2 = -1448 N s^2/m^2 was named first: 58 N taken off at
+// 0.2 m/s, where the viscous friction is 41 N.
+TEST_F(Emps, DiagnoseOnPulsesNamesNoFrictionThatFallsWithSpeed) {
+  const DiagnoseResult dg = diagnose(read_emps("DATA_EMPS_PULSES.csv"), DiagnoseOptions{});
+  ASSERT_TRUE(dg.error.empty()) << dg.error;
+  for (const NamedEffect& e : dg.effects)
+    if (e.kind == "quadratic_viscous") EXPECT_GE(e.parameters.value("c2", 0.0), 0.0) << e.parameters.dump();
+  int said = 0;
+  for (const std::vector<Candidate>& step : dg.steps)
+    for (const Candidate& c : step) {
+      if (c.kind != "quadratic_viscous" || c.note.find("friction would fall with speed") == std::string::npos) continue;
+      ++said;
+      EXPECT_LT(c.parameters.value("c2", 0.0), 0.0) << c.note;
+      EXPECT_FALSE(c.significant) << c.note;
+    }
+  EXPECT_GT(said, 0) << "the falling quadratic damping the run draws is no longer a candidate";
 }
 
 }  // namespace
