@@ -1075,13 +1075,25 @@ SysIdGains sysid_gains(const IdentifyResult& r) {
   const auto& p = e.pos;
   const auto& n = e.neg;
   SysIdGains g;
+  g.kA = e.mass_kg;
+  g.kA_se = e.mass_se_kg;
+  if (p.friction_identified() != n.friction_identified()) {
+    // One direction only (a SysId forward or backward test on its own):
+    // averaging in the other's zeros halved kS and kV, and kG needs both.
+    const auto& seen = p.friction_identified() ? p : n;
+    g.direction = p.friction_identified() ? "positive" : "negative";
+    g.kS = seen.coulomb_N;
+    g.kS_se = seen.coulomb_se;
+    g.kV = seen.viscous_Ns_m;
+    g.kV_se = seen.viscous_se;
+    g.kG = g.kG_se = std::numeric_limits<double>::quiet_NaN();
+    return g;
+  }
   g.kS = 0.5 * (p.coulomb_N + n.coulomb_N);
   g.kG = 0.5 * (p.coulomb_N - n.coulomb_N);
   g.kS_se = g.kG_se = 0.5 * std::hypot(p.coulomb_se, n.coulomb_se);
   g.kV = 0.5 * (p.viscous_Ns_m + n.viscous_Ns_m);
   g.kV_se = 0.5 * std::hypot(p.viscous_se, n.viscous_se);
-  g.kA = e.mass_kg;
-  g.kA_se = e.mass_se_kg;
   return g;
 }
 
@@ -1091,12 +1103,17 @@ nlohmann::json sysid_json(const IdentifyResult& r) {
   if (r.units.force != "V" || r.status != feedid::Status::ok) return nullptr;
   const SysIdGains g = sysid_gains(r);
   const Units& u = r.units;
-  return {{"kS", g.kS}, {"kS_se", g.kS_se}, {"kV", g.kV}, {"kV_se", g.kV_se}, {"kA", g.kA}, {"kA_se", g.kA_se},
-          {"kG", g.kG}, {"kG_se", g.kG_se},
-          {"units", {{"kS", u.force}, {"kV", u.viscous()}, {"kA", u.mass()}, {"kG", u.force}}},
-          {"rule", "V = kS sgn(v) + kV v + kA a + kG: kS and kV the means of the two directions' Coulomb and viscous "
-                   "terms, kG half the difference of the Coulomb terms (a constant load such as an elevator's gravity), "
-                   "kA the mass; the Stribeck terms have no SysId counterpart"}};
+  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  nlohmann::json j{{"kS", g.kS}, {"kS_se", g.kS_se}, {"kV", g.kV}, {"kV_se", g.kV_se}, {"kA", g.kA}, {"kA_se", g.kA_se},
+                   {"kG", number(g.kG)}, {"kG_se", number(g.kG_se)},
+                   {"units", {{"kS", u.force}, {"kV", u.viscous()}, {"kA", u.mass()}, {"kG", u.force}}},
+                   {"rule", "V = kS sgn(v) + kV v + kA a + kG: kS and kV the means of the two directions' Coulomb and "
+                            "viscous terms, kG half the difference of the Coulomb terms (a constant load such as an "
+                            "elevator's gravity), kA the mass; the Stribeck terms have no SysId counterpart"}};
+  if (!g.direction.empty())
+    j["note"] = "only the " + g.direction + " direction moved: kS and kV are its Coulomb and viscous terms, and kG, "
+                "which needs both directions, is not identifiable (null)";
+  return j;
 }
 }  // namespace
 
@@ -1330,8 +1347,11 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
     const Rounded ks = round_to_se(g.kS, g.kS_se), kv = round_to_se(g.kV, g.kV_se), ka = round_to_se(g.kA, g.kA_se),
                   kg = round_to_se(g.kG, g.kG_se);
     o << "  SysId gains: kS " << ks.value << " +- " << ks.se << " " << u.force << ", kV " << kv.value << " +- " << kv.se
-      << " " << u.viscous() << ", kA " << ka.value << " +- " << ka.se << " " << u.mass() << ", kG " << kg.value << " +- "
-      << kg.se << " " << u.force << "\n";
+      << " " << u.viscous() << ", kA " << ka.value << " +- " << ka.se << " " << u.mass();
+    if (g.direction.empty())
+      o << ", kG " << kg.value << " +- " << kg.se << " " << u.force << "\n";
+    else
+      o << " (the " << g.direction << " direction's alone: the only one that moved); kG not identifiable\n";
   }
   std::snprintf(buf, sizeof buf, "  friction curve R^2 %.5f (+) %.5f (-); ", e.pos.friction_r2, e.neg.friction_r2);
   o << buf;

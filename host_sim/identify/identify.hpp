@@ -468,9 +468,12 @@ std::string not_physical_cause(const IdentifyResult& r);
 /// directions, for a force in volts: kS the mean Coulomb force, kV the mean
 /// viscous coefficient, kA the mass, kG the constant load (half the
 /// difference of the Coulomb forces: an elevator's gravity). Standard
-/// errors from the directions' (independent sections).
+/// errors from the directions' (independent sections). Where only one
+/// direction's friction is identified (a SysId test that moves one way),
+/// kS and kV are that direction's and kG is NaN: it needs both.
 struct SysIdGains {
   double kS = 0.0, kS_se = 0.0, kV = 0.0, kV_se = 0.0, kA = 0.0, kA_se = 0.0, kG = 0.0, kG_se = 0.0;
+  std::string direction;  ///< "positive" or "negative" where only that one moved; empty for both
 };
 SysIdGains sysid_gains(const IdentifyResult& r);
 

@@ -183,4 +183,29 @@ INSTANTIATE_TEST_SUITE_P(Team581, SysId,
                                            Mechanism{"compbot_spu", 0.019184, 0.17836, 0.002161, false}),
                          [](const auto& info) { return std::string(info.param.prefix); });
 
+// GIVEN one SysId recording that moves one way only, identified with its
+// force in volts, THEN SysId's gains are that direction's: kS and kV its
+// Coulomb and viscous terms (they were the means with the unseen
+// direction's zeros: kV half of sigma+, 0.104 against SysId's 0.224), and kG,
+// which needs both directions, is null and said to be.
+TEST(SysIdLogs, OneDirectionGivesThatDirectionsGainsAndNoKg) {
+  if (!std::filesystem::exists(sysid_dir + "/compbot_drive_right_slow_fwd.csv"))
+    GTEST_SKIP() << "SysId data not found at " << sysid_dir;
+  const CsvResult in = read_trace_files({sysid_dir + "/compbot_drive_right_slow_fwd.csv"}, CsvColumns{});
+  ASSERT_TRUE(in.ok) << in.error;
+  IdentifyOptions volts;
+  volts.units = units_for(Axis::rotary, "V");
+  const IdentifyResult r = identify(in.trace, volts);
+  ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
+  ASSERT_TRUE(r.estimate.pos.friction_identified());
+  ASSERT_FALSE(r.estimate.neg.friction_identified());
+  const nlohmann::json j = to_json(r).at("sysid");
+  EXPECT_DOUBLE_EQ(j.at("kV").get<double>(), r.estimate.pos.viscous_Ns_m);
+  EXPECT_DOUBLE_EQ(j.at("kS").get<double>(), r.estimate.pos.coulomb_N);
+  EXPECT_TRUE(j.at("kG").is_null());
+  EXPECT_NE(j.value("note", "").find("only the positive direction moved"), std::string::npos) << j.dump();
+  EXPECT_NEAR(j.at("kV").get<double>(), 0.224, 0.3 * 0.224) << "SysId's kV from its four recordings";
+  EXPECT_NE(summary(r).find("kG not identifiable"), std::string::npos) << summary(r);
+}
+
 }  // namespace
