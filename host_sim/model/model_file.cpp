@@ -3,6 +3,7 @@
 
 #include "effects.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -58,6 +59,34 @@ DirectionFriction direction_from_json(const nlohmann::json& j, const char* name,
   if (!(f.stribeck_velocity_m_s > 0.0)) refuse(out, "'" + w + "vs' must be > 0 when '" + w + "fs' is given");
   if (!from_identify) warn_unknown(o, {"sigma", "fc", "fs", "vs"}, w, out);
   return f;
+}
+
+/// What identify flagged in a direction it wrote, as a warning; empty where
+/// nothing the model uses was flagged. A direction never seen (no_data)
+/// holds zero friction, and a parameter identify called not identifiable
+/// is a value the data did not settle: replayed, diagnosed against or
+/// loaded into a drive as a compensation table, either passes for the
+/// axis's without a word otherwise. fs and vs count only where the dip
+/// is in the model (fs > 0).
+std::string unidentified_in(const nlohmann::json& j, const char* name, const std::string& source) {
+  const nlohmann::json& o = j.at(name);
+  const nlohmann::json flags = o.value("flags", nlohmann::json::array());
+  const bool unseen = flags.is_array() && std::find(flags.begin(), flags.end(), "no_data") != flags.end();
+  if (unseen)
+    return source + ": identify never saw the " + (std::string(name) == "pos" ? "positive" : "negative") +
+           " direction (" + name + " flag no_data): its friction in the model is a placeholder, not the axis's";
+  if (!o.contains("identifiable") || !o.at("identifiable").is_object()) return "";
+  const nlohmann::json& id = o.at("identifiable");
+  const bool dip = o.value("fs", 0.0) > 0.0;
+  std::string list;
+  for (const char* key : {"sigma", "fc", "fs", "vs"}) {
+    if (!dip && (std::string(key) == "fs" || std::string(key) == "vs")) continue;
+    if (id.contains(key) && id.at(key).is_boolean() && !id.at(key).get<bool>())
+      list += std::string(list.empty() ? "" : ", ") + name + "." + key;
+  }
+  if (list.empty()) return "";
+  return source + ": identify flagged " + list + " not identifiable (" + name + " flags " + flags.dump() +
+         "): the data did not settle " + (list.find(',') == std::string::npos ? "it" : "them");
 }
 
 /// The gravity term as identify writes it ({"form": "constant"|"angle"|"none",
@@ -140,6 +169,9 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
   }
   if (!from_identify) warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "simulated_effects", "units", "comment"}, "", out);
   for (const std::string& w : implausible_parameters(out.drive, stated_units(j))) out.warnings.push_back(out.source + ": " + w);
+  if (from_identify)
+    for (const char* name : {"pos", "neg"})
+      if (const std::string w = unidentified_in(j, name, out.source); !w.empty()) out.warnings.push_back(w);
   return out;
 }
 

@@ -121,6 +121,31 @@ TEST(ModelFile, IdentifyReportKeysAreNotWarnedButAFailedStatusIsAnError) {
   EXPECT_NE(model_file_from_json(j, "id.json").error.find("status"), std::string::npos);
 }
 
+TEST(ModelFile, ADirectionIdentifyNeverSawOrFlaggedIsWarnedOf) {
+  // GIVEN identify's model of a trace that moved one way: neg no_data, its friction 0
+  json j = emps_reference();
+  j.erase("offset_N");
+  j["status"] = "ok";
+  j["standard_errors"] = json::object();
+  j["pos"]["fs"] = 0.0;
+  j["pos"]["identifiable"] = {{"sigma", true}, {"fc", true}, {"fs", false}, {"vs", false}};
+  j["pos"]["flags"] = json::array({"stribeck_uncertain"});
+  j["neg"] = {{"sigma", 0.0}, {"fc", 0.0}, {"fs", 0.0}, {"vs", 0.0}, {"flags", json::array({"no_data"})},
+              {"identifiable", {{"sigma", false}, {"fc", false}, {"fs", false}, {"vs", false}}}};
+  // THEN replay, diagnose --model, validate and compensate (all read it
+  // here) are told, once, that the negative friction is a placeholder; the
+  // positive direction's Stribeck flags are not warned of: no dip is in it
+  const ModelFile m = model_file_from_json(j, "onedir.json");
+  ASSERT_EQ(m.error, "");
+  ASSERT_EQ(m.warnings.size(), 1u);
+  EXPECT_NE(m.warnings[0].find("never saw the negative direction"), std::string::npos) << m.warnings[0];
+  // AND a hand-written file (no status) is not read for identify's flags
+  j.erase("status");
+  j.erase("standard_errors");
+  for (const char* d : {"pos", "neg"}) j[d].erase("identifiable"), j[d].erase("flags");
+  EXPECT_TRUE(model_file_from_json(j, "hand.json").warnings.empty());
+}
+
 TEST(ModelFile, AnOffsetByItsSINameIsReadInAnyUnits) {
   // GIVEN a hand-written rotary model in volts with the documented offset_N
   json j = emps_reference();
