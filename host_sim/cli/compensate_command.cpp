@@ -32,7 +32,7 @@ int run_compensate(const std::string& model_path, const std::string& out_path, c
     std::fprintf(stderr, "note: %s was identified with the logged force negated (input.force_sign -1: it opposed the "
                  "motion as logged); the table is friction along the logged position, so in the drive's own force "
                  "sign the feedforward is minus these values\n", model_path.c_str());
-  const std::string text = format == "csv" ? to_csv(t, opt) : json_as_written(c.json).dump(2) + "\n";
+  const std::string text = format == "csv" ? to_csv(t, opt, c.units) : json_as_written(c.json).dump(2) + "\n";
   if (out_path.empty()) {
     std::cout << text;
   } else {

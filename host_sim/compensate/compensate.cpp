@@ -166,12 +166,15 @@ nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt)
   return j;
 }
 
-std::string to_csv(const CompensationTable& t, const CompensateOptions& opt) {
+std::string to_csv(const CompensationTable& t, const CompensateOptions& opt, const Units& units) {
   const bool drive_units = opt.force_scale != 1.0 || !opt.force_unit.empty();
   const std::string unit = opt.force_unit.empty() ? "unit" : opt.force_unit;
   std::ostringstream o;
   o.precision(10);
-  o << "direction,speed_m_s,force_N" << (drive_units ? ",force_" + unit : "") << "\n";
+  // The header names the model's units, as the JSON's keys do (a SysId
+  // model's table is in rad/s and V, not m/s and N).
+  o << "direction," << key_in_units("speed_m_s", units) << "," << key_in_units("force_N", units)
+    << (drive_units ? ",force_" + unit : "") << "\n";
   for (int d = 0; d < 2; ++d)
     for (const auto& p : t.dir[d]) {
       o << (d == 0 ? "pos" : "neg") << "," << p.speed_m_s << "," << p.force_N;
@@ -187,6 +190,36 @@ std::string unusable_model(const nlohmann::json& mj) {
   const ModelFile file = model_file_from_json(mj, "model");
   return file.error.empty() ? "" : file.error + ": no compensation written";
 }
+
+namespace {
+/// Where --max-speed takes the table beyond what the model was identified
+/// on, or ends it inside the Stribeck dip (beyond its last point the drive
+/// continues the last segment, at a slope the model does not have there).
+std::vector<std::string> table_range_warnings(const nlohmann::json& mj, const DriveParams& m, double max_speed,
+                                              const std::string& top_speed_key, const Units& u) {
+  std::vector<std::string> out;
+  char buf[320];
+  const std::string speed = u.velocity();
+  if (mj.contains("config") && mj["config"].contains(top_speed_key) && mj["config"][top_speed_key].is_number()) {
+    const double identified = mj["config"][top_speed_key].get<double>();
+    if (identified > 0.0 && max_speed > 1.5 * identified) {
+      std::snprintf(buf, sizeof buf, "--max-speed %.4g %s is %.3g times the fastest speed the model was identified at "
+                    "(config.%s %.4g %s): the table above that extrapolates the model", max_speed, speed.c_str(),
+                    max_speed / identified, top_speed_key.c_str(), identified, speed.c_str());
+      out.push_back(buf);
+    }
+  }
+  for (const auto* d : {&m.pos, &m.neg}) {
+    if (!(d->breakaway_N > 0.0) || !(max_speed < 2.0 * d->stribeck_velocity_m_s)) continue;
+    std::snprintf(buf, sizeof buf, "--max-speed %.4g %s ends the table inside the Stribeck dip (%s vs %.4g %s): beyond "
+                  "it the last segment continues at a slope the model does not have", max_speed, speed.c_str(),
+                  d == &m.pos ? "pos" : "neg", d->stribeck_velocity_m_s, speed.c_str());
+    out.push_back(buf);
+    break;
+  }
+  return out;
+}
+}  // namespace
 
 ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions opt, const std::string& source) {
   ModelCompensation c;
@@ -209,6 +242,15 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
     c.error = buf;
     return c;
   }
+  // --force-scale converts N to a drive unit: a model identified in that
+  // unit already (identify --force-unit A) was divided by it a second time,
+  // 12.5 times too small, beside a force_A key holding the right values.
+  const Units units = stated_units(mj);
+  if (units.force != "N" && (opt.force_scale != 1.0 || (!opt.force_unit.empty() && opt.force_unit != units.force))) {
+    c.error = source + " is in " + units.force + " already (units.force): its table is in " + units.force +
+              "; --force-scale and --force-unit convert a model in N to a drive unit";
+    return c;
+  }
   if (opt.max_speed_m_s <= 0) {
     c.error = source + " states no top speed (config." + top_speed + ", which identify writes; a model written by hand "
               "or by diagnose --model-out has none): give --max-speed";
@@ -218,6 +260,12 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   c.error = c.table.error;
   if (!c.error.empty()) return c;
   c.warnings = file.warnings;
+  c.units = units;
+  if (units.force == "N" && !opt.force_unit.empty() && opt.force_scale == 1.0)
+    c.warnings.push_back("--force-unit " + opt.force_unit + " without --force-scale: the force_" + opt.force_unit +
+                         " values are the N values (1 N per " + opt.force_unit + ")");
+  for (const std::string& w : table_range_warnings(mj, file.drive, opt.max_speed_m_s, top_speed, units))
+    c.warnings.push_back(source + ": " + w);
   if (file.load.any())
     c.warnings.push_back(source + ": the model's load (a constant force or an arm's weight) is not friction and is not "
                          "in the table: feed it forward on its own");

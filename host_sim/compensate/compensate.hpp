@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/units.hpp"
 #include "model/drive_model.hpp"
 
 namespace feedid::host {
@@ -50,7 +51,7 @@ CompensationTable make_compensation_table(const DriveParams& model, double max_s
 double table_error(const CompensationTable& t, int dir, int n = 20000);
 
 nlohmann::json to_json(const CompensationTable& t, const CompensateOptions& opt);
-std::string to_csv(const CompensationTable& t, const CompensateOptions& opt);
+std::string to_csv(const CompensationTable& t, const CompensateOptions& opt, const Units& units = Units{});
 /// Why a model JSON cannot be compensated with: identify's status is not
 /// ok, the model reader (model/model_file.hpp) refuses it (a key missing,
 /// a parameter breaking the sign rule); empty when it can.
@@ -64,7 +65,8 @@ struct ModelCompensation {
   CompensationTable table;
   nlohmann::json json;
   bool force_negated = false;
-  std::vector<std::string> warnings;  ///< the model reader's (an unknown key in a hand-written file)
+  std::vector<std::string> warnings;  ///< the model reader's (an unknown key, a parameter identify flagged) and the table's range
+  Units units;                        ///< the model's (its units: m and N unless it states others)
   std::string error;                  ///< why there is no table, naming the source; empty when there is
 };
 

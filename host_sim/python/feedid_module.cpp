@@ -426,7 +426,7 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
   }
   const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
   raise_if(c.error);
-  return format == "csv" ? to_csv(c.table, opt) : json_as_written(c.json).dump();
+  return format == "csv" ? to_csv(c.table, opt, c.units) : json_as_written(c.json).dump();
 }
 
 /// The fleet page (report/report.hpp) from feedid.fleet's rows as JSON text;

@@ -122,6 +122,54 @@ TEST(CompensationTable, ANonPositiveScaleIsRefusedAndWhatIsLeftOutIsSaid) {
   EXPECT_EQ(e.find("truth file"), std::string::npos) << e;
 }
 
+// GIVEN a model identified with its force in A (identify --force-unit A)
+// WHEN a table is asked with --force-scale (meant for a model in N)
+// THEN it is refused: the scale divided the amperes again, 12.5 times too
+// small beside a force_A key holding the right values. Its CSV's header
+// names A, as the JSON's keys do, not force_N.
+TEST(CompensationTable, AModelInADriveUnitIsNotScaledAgainAndItsCsvSaysItsUnit) {
+  const nlohmann::json model = {{"m", 8.0}, {"pos", {{"sigma", 56.0}, {"fc", 2.0}}}, {"neg", {{"sigma", 57.0}, {"fc", 2.1}}},
+                                {"units", {{"position", "m"}, {"force", "A"}}}};
+  CompensateOptions o;
+  o.max_speed_m_s = 0.2;
+  o.force_scale = 12.5;
+  o.force_unit = "A";
+  const std::string e = compensate_model(model, o, "idA.json").error;
+  EXPECT_NE(e.find("is in A already"), std::string::npos) << e;
+  o.force_scale = 1.0;
+  o.force_unit = "";
+  const ModelCompensation c = compensate_model(model, o, "idA.json");
+  ASSERT_EQ(c.error, "");
+  const std::string csv = to_csv(c.table, o, c.units);
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "direction,speed_m_s,force_A") << csv;
+  EXPECT_EQ(to_csv(c.table, o).substr(0, 31), "direction,speed_m_s,force_N\npos") << "a model in N keeps N";
+}
+
+// GIVEN identify's model of a trace too short to settle the friction
+// (sigma and fc flagged not identifiable), or a --max-speed far above the
+// speeds it was identified at, THEN the table is written with a warning
+// that names the flagged parameters, and the extrapolation: a flat 31 N
+// table up to 0.15 m/s, where the friction is 130 N, went out without one.
+TEST(CompensationTable, FlaggedParametersAndExtrapolationAreWarnedOf) {
+  const nlohmann::json model = {
+      {"status", "ok"}, {"standard_errors", nlohmann::json::object()}, {"m", 100.0},
+      {"pos", {{"sigma", 0.0}, {"fc", 31.0}, {"fs", 0.0}, {"vs", 1.0},
+               {"identifiable", {{"sigma", false}, {"fc", false}, {"fs", false}, {"vs", false}}},
+               {"flags", {"friction_still_falling"}}}},
+      {"neg", {{"sigma", 700.0}, {"fc", 25.0}, {"fs", 0.0}, {"vs", 1.0},
+               {"identifiable", {{"sigma", true}, {"fc", true}, {"fs", false}, {"vs", false}}}, {"flags", nlohmann::json::array()}}},
+      {"config", {{"velocity_max_m_s", 0.005}}}};
+  CompensateOptions o;
+  ModelCompensation c = compensate_model(model, o, "id10.json");
+  ASSERT_EQ(c.error, "");
+  ASSERT_EQ(c.warnings.size(), 1u) << "fs and vs are not in a model without the dip: not warned of";
+  EXPECT_NE(c.warnings[0].find("pos.sigma, pos.fc not identifiable"), std::string::npos) << c.warnings[0];
+  o.max_speed_m_s = 0.15;
+  c = compensate_model(model, o, "id10.json");
+  ASSERT_EQ(c.warnings.size(), 2u);
+  EXPECT_NE(c.warnings[1].find("30 times the fastest speed"), std::string::npos) << c.warnings[1];
+}
+
 // The bar, on drives the tests simulate: a table from `identify`
 // matches the TRUE friction within 3 % or 0.5 N above twice vs, and within
 // 10 % in the Stribeck region.
