@@ -1146,6 +1146,19 @@ DriveParams drive_params(const BaseColumns& b, const Model& m) {
 /// separate them, so a large asymmetry is reported as that ambiguity, never
 /// as an `offset` (docs/diagnosis.md, "Offset").
 void report_offset_ambiguity(const Model& m, const DiagnoseOptions& opt, DiagnoseResult& out) {
+  // A direction the trace never moves in has no Coulomb force to compare:
+  // its zero made a 25 N "difference" and a 12.5 N "offset" of a
+  // one-way trace.
+  const bool pos_seen = out.base.estimate.pos.friction_identified(), neg_seen = out.base.estimate.neg.friction_identified();
+  if (pos_seen != neg_seen) {
+    out.ambiguities.push_back(
+        {{"kinds", {effect_name(Effect::offset), "coulomb_asymmetry"}},
+         {"note", std::string("the trace moves in the ") + (pos_seen ? "positive" : "negative") +
+                      " direction only: neither an offset nor a Coulomb force that differs by direction can be read "
+                      "from it (a run that moves both ways would compare them)"}});
+    return;
+  }
+  if (!pos_seen) return;
   const double fcp = m.fit.theta(1), fcn = m.fit.theta(2);
   const double asym = 0.5 * (fcp - fcn), mean_fc = 0.5 * (fcp + fcn);
   if (!(mean_fc > 0) || std::fabs(asym) <= opt.offset_asymmetry_ratio * mean_fc) return;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -128,6 +129,36 @@ TEST(DiagnoseBase, AnUnsettledFrictionLawIsSaidAndNothingStandsInForIt) {
   settled.duration_s = 30.0;
   const host::DiagnoseResult r = host::diagnose(host::simulate(sim_config(settled)), host::DiagnoseOptions{});
   for (const auto& a : r.ambiguities) EXPECT_NE(a["kinds"][0], "base_friction_unsettled") << host::summary(r);
+}
+
+// GIVEN a trace that moves one way only (the ladder's negative strokes
+// folded onto the positive: position unwound, force negated there)
+// WHEN diagnosed
+// THEN the base's negative direction has no data, and no offset or Coulomb
+// asymmetry is claimed against it (its zero made a "25 N difference, an
+// offset of 12.5 N"); the one-way motion is said instead.
+TEST(DiagnoseBase, AOneWayTraceClaimsNoOffsetAgainstTheDirectionItNeverSaw) {
+  SimSpec spec;
+  spec.duration_s = 30.0;
+  host::Trace tr = host::simulate(sim_config(spec));
+  double unwound = tr.samples.front().x_m;
+  for (std::size_t k = 1; k < tr.samples.size(); ++k) {
+    const double step = tr.samples[k].x_m - tr.samples[k - 1].x_m;
+    tr.samples[k - 1].x_m = unwound;
+    unwound += std::fabs(step);
+  }
+  tr.samples.back().x_m = unwound;
+  for (auto& smp : tr.samples)
+    if (smp.v_m_s < 0) smp.v_m_s = -smp.v_m_s, smp.u_N = -smp.u_N;
+  const host::DiagnoseResult r = host::diagnose(tr, host::DiagnoseOptions{});
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_FALSE(r.base.estimate.neg.friction_identified()) << host::summary(r);
+  bool said = false;
+  for (const auto& a : r.ambiguities) {
+    EXPECT_FALSE(a.contains("offset_N")) << a.dump();
+    said = said || a.value("note", "").find("positive direction only") != std::string::npos;
+  }
+  EXPECT_TRUE(said) << host::summary(r);
 }
 
 /// The kinds of r's ambiguity that names `kind` beside another, or empty.
