@@ -42,8 +42,8 @@ CsvResult trace_from_columns(const TraceColumns& c, const CsvColumns& columns, c
     rules.count_row();
     TraceSample s;
     s.t_s = c.t[k] * seconds_per_unit;
-    s.x_m = c.x.empty() ? 0.0 : c.x[k] * columns.position_scale;
-    s.v_m_s = c.v.empty() ? 0.0 : c.v[k] * columns.position_scale;
+    s.x_m = c.x.empty() ? 0.0 : c.x[k] * position_scale(columns);
+    s.v_m_s = c.v.empty() ? 0.0 : c.v[k] * position_scale(columns);
     s.u_N = c.u[k] * columns.force_scale;
     const std::size_t row = k + first_index;
     if (!std::isfinite(s.t_s) || !std::isfinite(s.x_m) || !std::isfinite(s.v_m_s) || !std::isfinite(s.u_N)) {

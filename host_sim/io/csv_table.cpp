@@ -115,6 +115,10 @@ bool layout_from_names(std::vector<std::string> names, const std::string& at, co
             " (velocity); need at least one" + has;
     return false;
   }
+  if (const std::string missing = named_column_missing(columns, wanted[1].index >= 0, wanted[2].index >= 0); !missing.empty()) {
+    error = at + missing + has;
+    return false;
+  }
   out.time_scale = time_scale(columns);
   out.has_position = wanted[1].index >= 0;
   out.has_velocity = wanted[2].index >= 0;
@@ -404,8 +408,8 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
       s.t_s = iso ? value : value * lay.time_scale;
       time_text = text;
     }
-    if (r & kPosition) s.x_m = value * columns.position_scale;
-    if (r & kVelocity) s.v_m_s = value * columns.position_scale;
+    if (r & kPosition) s.x_m = value * position_scale(columns);
+    if (r & kVelocity) s.v_m_s = value * position_scale(columns);
     if (r & kForce) s.u_N = value * columns.force_scale;
     if (r & kTemperature) lay.covariate[0] = value;
     if (r & kLoad) lay.covariate[1] = value;

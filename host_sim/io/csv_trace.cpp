@@ -108,16 +108,21 @@ CsvResult read_trace_csv(const std::string& path, const CsvColumns& columns) {
 }
 
 namespace {
-struct TimeUnit {
+struct NamedUnit {
   std::string_view suffix;
-  double seconds;
+  double si;  ///< SI units (s, m or rad) per unit
 };
-constexpr TimeUnit kTimeUnits[] = {{"ms", 1e-3}, {"us", 1e-6}, {"\xC2\xB5s", 1e-6}, {"\xCE\xBCs", 1e-6}, {"ns", 1e-9}, {"s", 1.0}};
+// Longer suffixes first: "min" before a bare "n", "ms" before "s".
+constexpr NamedUnit kTimeUnits[] = {{"min", 60.0}, {"ms", 1e-3}, {"us", 1e-6}, {"\xC2\xB5s", 1e-6}, {"\xCE\xBCs", 1e-6},
+                                    {"ns", 1e-9}, {"h", 3600.0}, {"s", 1.0}};
+constexpr NamedUnit kPositionUnits[] = {{"mm", 1e-3}, {"cm", 1e-2}, {"um", 1e-6}, {"\xC2\xB5m", 1e-6}, {"\xCE\xBCm", 1e-6},
+                                        {"nm", 1e-9}, {"deg", M_PI / 180.0}, {"rad", 1.0}, {"m", 1.0}};
 
-/// The unit ending a time column's name, after a non-letter or alone; null if none.
-const TimeUnit* unit_ending(std::string_view name) {
+/// The unit of `table` ending a column's name, after a non-letter or alone; null if none.
+template <std::size_t N>
+const NamedUnit* unit_ending(std::string_view name, const NamedUnit (&table)[N]) {
   while (!name.empty() && (name.back() == ']' || name.back() == ')' || name.back() == ' ')) name.remove_suffix(1);
-  for (const TimeUnit& u : kTimeUnits) {
+  for (const NamedUnit& u : table) {
     if (name.size() < u.suffix.size()) continue;
     std::string lower(name.substr(name.size() - u.suffix.size()));
     for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -129,13 +134,28 @@ const TimeUnit* unit_ending(std::string_view name) {
 }
 }  // namespace
 
+std::string named_column_missing(const CsvColumns& c, bool has_position, bool has_velocity) {
+  const CsvColumns defaults;
+  if (!c.named_columns_required) return "";
+  if (!has_position && !c.position.empty() && c.position != defaults.position)
+    return "missing column " + quoted_text(c.position) + " (position, as named by --position)";
+  if (!has_velocity && !c.velocity.empty() && c.velocity != defaults.velocity)
+    return "missing column " + quoted_text(c.velocity) + " (velocity, as named by --velocity)";
+  return "";
+}
+
 double time_unit_from_name(std::string_view name) {
-  const TimeUnit* u = unit_ending(name);
-  return u ? u->seconds : 1.0;
+  const NamedUnit* u = unit_ending(name, kTimeUnits);
+  return u ? u->si : 1.0;
+}
+
+double position_unit_from_name(std::string_view name) {
+  const NamedUnit* u = unit_ending(name, kPositionUnits);
+  return u ? u->si : 1.0;
 }
 
 bool time_unit_stated(const CsvColumns& c) {
-  return c.rate_hz > 0 || c.time_scale > 0 || (unit_ending(c.time) && c.time != "s");
+  return c.rate_hz > 0 || c.time_scale > 0 || (unit_ending(c.time, kTimeUnits) && c.time != "s");
 }
 
 namespace {

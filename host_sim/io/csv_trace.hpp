@@ -29,6 +29,15 @@ struct CsvColumns {
   /// position_scale (e.g. encoder counts to m), force times force_scale
   /// (e.g. A to N through torque constant, gear ratio and lead).
   double position_scale = 1.0;
+  /// Whether position_scale was given (--position-scale, an --in-list
+  /// entry, Python's position_scale): where not, a unit ending the
+  /// position column's name scales it (position_scale()).
+  bool position_scale_stated = false;
+  /// A position or velocity column named other than its default must be
+  /// there (named_column_missing); false for a read that names its own
+  /// column through a slot and says itself what is missing (replay's
+  /// reference and extra command).
+  bool named_columns_required = true;
   double force_scale = 1.0;
   /// Seconds per unit of the time column (--time-scale); 0: from a unit
   /// that ends the column's name (t_ms, "time [us]": time_unit_from_name),
@@ -44,6 +53,13 @@ struct CsvColumns {
   std::vector<std::string> names_by_position;
 };
 
+/// The position or velocity column a reader found missing, where the user
+/// named it (other than its default, "x" or "v", or empty: not read), as an error's words;
+/// empty where it is there or was not named. Either may be absent, but a
+/// typo in a name given (--position xx) silently integrated the velocity
+/// column instead, or left the logged velocity unread.
+std::string named_column_missing(const CsvColumns& c, bool has_position, bool has_velocity);
+
 /// Seconds per unit of a time column from the unit that ends its name,
 /// after a non-letter or alone: ms 1e-3, us or µs 1e-6, ns 1e-9; 1 when
 /// there is none (seconds), so "items" or "t_s" read as seconds.
@@ -51,6 +67,18 @@ double time_unit_from_name(std::string_view name);
 
 /// Seconds per unit of the time column as the readers apply it.
 inline double time_scale(const CsvColumns& c) { return c.time_scale > 0 ? c.time_scale : time_unit_from_name(c.time); }
+
+/// Metres (or radians) per unit of a position column from the unit that
+/// ends its name, as time_unit_from_name: mm 1e-3, cm 1e-2, um or µm 1e-6,
+/// nm 1e-9, deg pi/180; 1 for m, rad or none. x_mm taken as m made a
+/// 100 kg drive 0.1 kg with status ok.
+double position_unit_from_name(std::string_view name);
+
+/// Position (and velocity) units per SI unit as the readers apply them:
+/// position_scale where stated, else from the position column's name.
+inline double position_scale(const CsvColumns& c) {
+  return c.position_scale_stated || c.position_scale != 1.0 ? c.position_scale : position_unit_from_name(c.position);
+}
 
 /// Whether the time column's unit is stated: by --time-scale, or by a unit
 /// ending its name (s, ms, us, ns after a non-letter: t_s, "time [ms]").

@@ -304,6 +304,10 @@ CsvResult read_trace_mat(const std::string& path, const CsvColumns& columns) {
                    quoted_text(columns.velocity) + " (velocity); need at least one; the file has: " + variable_list(path);
     return result;
   }
+  if (const std::string missing = named_column_missing(columns, has_position, has_velocity); !missing.empty()) {
+    result.error = path + ": " + missing + "; the file has: " + variable_list(path);
+    return result;
+  }
   TraceColumns c;
   if (!read_vector(mat.get(), path, columns.time, "time", c.t, result.error) ||
       !read_vector(mat.get(), path, columns.force, "force", c.u, result.error) ||

@@ -87,6 +87,7 @@ bool read_input_list(const std::string& list_path, const CsvColumns& defaults, s
           return false;
         }
         (key == "force-scale" ? in.columns.force_scale : key == "time-scale" ? in.columns.time_scale : in.columns.position_scale) = x;
+        if (key == "position-scale") in.columns.position_scale_stated = true;
       } else {
         error = where + "unknown key " + quoted_text(key) + " (time, position, velocity, force, columns, position-scale, force-scale, time-scale)";
         return false;

@@ -196,6 +196,8 @@ CsvResult read_trace_wpilog(const std::string& path, const CsvColumns& columns) 
     if (!x && !v)
       throw std::invalid_argument(path + ": neither the position " + quoted_text(columns.position) + " nor the velocity " +
                                   quoted_text(columns.velocity) + " is an entry; its numeric entries: " + numeric_names(entries));
+    if (const std::string missing = named_column_missing(columns, x != nullptr, v != nullptr); !missing.empty())
+      throw std::invalid_argument(path + ": " + missing + "; its numeric entries: " + numeric_names(entries));
     TraceColumns c;
     std::size_t outside = 0;
     for (const auto& [stamp, unused] : base.samples) {

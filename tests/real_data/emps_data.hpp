@@ -14,7 +14,7 @@ inline host::CsvColumns emps_columns() {
   host::CsvColumns c;
   c.time = "t_s";
   c.position = "qm_m";
-  c.velocity = "no_velocity_column";
+  c.velocity = "";  // not read
   c.force = "force_N";
   return c;
 }
