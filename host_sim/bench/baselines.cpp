@@ -98,7 +98,7 @@ RegressionRows rows_from(const Prepared& p, const BaselineOptions& opt) {
   r.sample_rate_hz = s.sample_rate_hz;
   std::vector<double> vf, uf;
   if (opt.filter_hz > 0 && n > 16) {
-    r.filter_hz = std::min(opt.filter_hz, 0.4 * s.sample_rate_hz);
+    r.filter_hz = applied_cutoff_hz(opt.filter_hz, s.sample_rate_hz);
     vf = filtfilt_butter4(s.v, r.filter_hz, s.sample_rate_hz);
     uf = filtfilt_butter4(s.u, r.filter_hz, s.sample_rate_hz);
   } else {

@@ -57,6 +57,7 @@ struct ValidateCommand : Command {
       std::printf("  %zu stretches between time gaps (%zu scored), %zu on their clock's slots (jittered stamps), "
                   "%zu read onto a uniform grid (uneven steps)\n",
                   r.stretches, r.stretches_scored, r.stretches_on_clock_slots, r.stretches_resampled);
+    if (const std::string n = r.filter_note(); !n.empty()) std::printf("  note: %s\n", n.c_str());
     note_force_outliers(r.force_outliers, r.units);
     if (r.position_wrap.found()) std::printf("  position %s\n", r.position_wrap.describe().c_str());
     if (!json_path.empty() && !write_json(json_path, to_json(r, model, opt))) return 1;

@@ -369,12 +369,12 @@ namespace {
 /// Butterworth at cut-off fc (at most 0.4 of the rate), then central
 /// differences: no lag, and the encoder's counts averaged over about 1/fc.
 std::vector<double> derived_velocity(const Signals& s, double fc_hz) {
-  return zero_phase_velocity(s.x, s.t, std::min(fc_hz, 0.4 * s.sample_rate_hz), s.sample_rate_hz, s.max_step_s());
+  return zero_phase_velocity(s.x, s.t, applied_cutoff_hz(fc_hz, s.sample_rate_hz), s.sample_rate_hz, s.max_step_s());
 }
 }  // namespace
 
 void derive_velocity(Signals& s, double fc_hz) {
-  s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+  s.velocity_filter_hz = applied_cutoff_hz(fc_hz, s.sample_rate_hz);
   zero_phase_velocity(s.x, s.t, s.velocity_filter_hz, s.sample_rate_hz, s.max_step_s(), s.v);  // into s.v's storage
 }
 
@@ -450,7 +450,7 @@ Signals derived_at(const Signals& raw, const Trace& trace, const VelocityTiming&
                    std::vector<double>* derived = nullptr) {
   Signals s = raw;
   if (derived && derived->size() == s.t.size()) {
-    s.velocity_filter_hz = std::min(fc_hz, 0.4 * s.sample_rate_hz);
+    s.velocity_filter_hz = applied_cutoff_hz(fc_hz, s.sample_rate_hz);
     s.v = std::move(*derived);
   } else {
     derive_velocity(s, fc_hz);

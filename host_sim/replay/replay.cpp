@@ -29,6 +29,8 @@ CsvColumns through_position(const CsvColumns& cols, const std::string& column, d
   c.position = column;
   c.velocity = cols.time;
   c.position_scale = scale;
+  c.position_scale_stated = true;
+  c.named_columns_required = false;  // read_column names a missing column itself
   return c;
 }
 
@@ -96,7 +98,7 @@ ReplayFigures relative_errors(const FourSeries& y, const FourSeries& a, const Fo
 /// then central differences for velocity and acceleration.
 void process_position(const std::vector<double>& x, const std::vector<double>& t, double filter_hz, double rate_hz,
                       std::vector<double>& xf, std::vector<double>& v, std::vector<double>& a) {
-  xf = filtfilt_butter4(x, std::min(filter_hz, 0.4 * rate_hz), rate_hz);
+  xf = filtfilt_butter4(x, applied_cutoff_hz(filter_hz, rate_hz), rate_hz);
   v = central_difference(xf, t);
   a = central_difference(v, t);
 }
@@ -262,6 +264,13 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
 /// The three rows of figures, and the compared series (after drop_first) for plots.
 void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResult& r) {
   const double rate = 1.0 / r.dt_s;
+  r.filter_applied_hz = applied_cutoff_hz(opt.filter_hz, rate);
+  if (cutoff_out_of_reach(opt.filter_hz, rate)) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "--filter %.4g Hz is beyond 0.4 of the log's rate: both positions were filtered at %.4g Hz",
+                  opt.filter_hz, r.filter_applied_hz);
+    r.notes.push_back(buf);
+  }
   std::vector<double> xf, v, a, xsf, vs, as;
   process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
   process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);
@@ -316,7 +325,7 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
 /// controller names no extra command.
 CsvResult reference_and_extra_file(const std::string& path, const CsvColumns& cols, const Controller& c) {
   if (c.extra_command.empty()) return {};
-  CsvColumns both = through_position(cols, c.reference, cols.position_scale);
+  CsvColumns both = through_position(cols, c.reference, position_scale(cols));
   both.force = c.extra_command;
   both.force_scale = 1.0;
   return read_trace_file(path, both);
@@ -390,7 +399,7 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
   }
   if (take_reference_and_extra(both, run)) return run;
   // Column by column, where the one pass failed: these reads say why.
-  Outcome<std::vector<double>> reference = read_column(path, cols, c.reference, "reference", cols.position_scale, run.t, false);
+  Outcome<std::vector<double>> reference = read_column(path, cols, c.reference, "reference", position_scale(cols), run.t, false);
   run.reference = std::move(reference.value);
   run.error = reference.error;
   if (c.extra_command.empty() || !run.error.empty()) return run;
@@ -477,7 +486,8 @@ nlohmann::json to_json(const ReplayResult& r, const ModelFile& model, const Cont
                     "(sat(delayed command) + extra)"},
       {"same_processing", "the simulated position processed as the measured one"},
       {"processing_alone", "simulated state against the same simulation processed, relative to the measured signal"},
-      {"filter_hz", opt.filter_hz},
+      {"filter_hz", r.filter_applied_hz > 0.0 ? r.filter_applied_hz : opt.filter_hz},
+      {"filter_requested_hz", opt.filter_hz},
       {"drop_first", opt.drop_first},
       {"relative_error", "100 ||y - y_sim|| / ||y||"}};
   j["controller"] = {{"law", law_name(c.law)}, {"gains", gains_json(r.gains, c.law)},

@@ -133,8 +133,9 @@ struct ReplayResult {
   std::size_t samples = 0, samples_compared = 0;
   std::size_t saturated_samples = 0;  ///< simulated commands at the limit
   std::size_t stuck_samples = 0;      ///< samples at which the simulated axis was at rest
-  std::vector<std::string> notes;     ///< the run's (LoggedRun::notes)
+  std::vector<std::string> notes;     ///< the run's (LoggedRun::notes), and a filter beyond the rate's reach
   Units units;                        ///< ReplayOptions::units
+  double filter_applied_hz = 0.0;     ///< the comparison's cut-off as applied (applied_cutoff_hz)
   /// The compared series (every sample after drop_first), for plots.
   std::vector<double> t, x, v, a, u, x_sim, v_sim, a_sim, u_sim;
   /// The simulated position processed as the measured one, and its velocity and acceleration.

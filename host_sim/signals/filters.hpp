@@ -2,6 +2,7 @@
 // 4th-order Butterworth low-pass (forward-backward, like MATLAB's filtfilt)
 // and central differences, as in the EMPS reference protocol. Host only.
 #pragma once
+#include <algorithm>
 #include <vector>
 
 namespace feedid::host {
@@ -53,6 +54,15 @@ std::vector<double> clock_grid(const std::vector<double>& t, double rate_hz);
 double interpolate(const std::vector<double>& t, const std::vector<double>& y, double q);
 /// The same at every time of q.
 std::vector<double> resample(const std::vector<double>& t, const std::vector<double>& y, const std::vector<double>& q);
+
+/// The cut-off a zero-phase Butterworth is applied at for a requested one
+/// (Hz): at most 0.4 of the rate, where the bilinear design still passes
+/// what it should (at half the rate it is undefined). What reports a
+/// cut-off reports this one, and says where it differs from the request.
+inline double applied_cutoff_hz(double requested_hz, double rate_hz) { return std::min(requested_hz, 0.4 * rate_hz); }
+/// Whether a request is out of that reach by more than the rate's rounding
+/// (a rate from time stamps is 1999.99999999 Hz, not 2000).
+inline bool cutoff_out_of_reach(double requested_hz, double rate_hz) { return requested_hz > 0.4 * rate_hz * (1.0 + 1e-6); }
 
 /// Velocity from position without lag: filtfilt_butter4 at cutoff_hz, then
 /// central differences, on each stretch between steps longer than

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "signals/condition.hpp"
@@ -43,7 +44,7 @@ ProtocolStretch stretch_on_grid(const Signals& s, std::size_t first, std::size_t
 /// column the velocity column is filtered and differentiated once.
 void protocol_derivatives(const ProtocolStretch& p, bool has_position, double filter_hz, std::vector<double>& v,
                           std::vector<double>& a) {
-  const double fc = std::min(filter_hz, 0.4 * p.rate_hz);
+  const double fc = applied_cutoff_hz(filter_hz, p.rate_hz);
   v = has_position ? central_difference(filtfilt_butter4(p.x, fc, p.rate_hz), p.t)
                    : filtfilt_butter4(p.v_column, fc, p.rate_hz);
   a = central_difference(v, p.t);
@@ -80,6 +81,9 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
   if (n <= first || n < 3) return;  // nothing left after the filter's edge
   std::vector<double> v, a;
   protocol_derivatives(p, has_position, opt.filter_hz, v, a);
+  const double fc = applied_cutoff_hz(opt.filter_hz, p.rate_hz);
+  r.filter_applied_hz = r.filter_applied_hz > 0.0 ? std::min(r.filter_applied_hz, fc) : fc;
+  r.filter_requested_hz = opt.filter_hz;
   std::vector<double> u_hat(n);
   for (std::size_t k = 0; k < n; ++k)
     u_hat[k] = predict_force(model, v[k], a[k]) + opt.load.at(has_position ? p.x[k] : 0.0);  // validate() refuses
@@ -156,6 +160,15 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
   return r;
 }
 
+std::string ValidateResult::filter_note() const {
+  // applied = 0.4 rate where out of reach (applied_cutoff_hz)
+  if (!(filter_applied_hz > 0.0) || !cutoff_out_of_reach(filter_requested_hz, filter_applied_hz / 0.4)) return "";
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "--filter %.4g Hz is beyond 0.4 of the log's rate: the position was filtered at %.4g Hz",
+                filter_requested_hz, filter_applied_hz);
+  return buf;
+}
+
 nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const ValidateOptions& opt) {
   nlohmann::json j = {{"relative_error_pct", r.relative_error_pct},
           {"relative_error_full_rate_pct", r.relative_error_full_pct},
@@ -164,7 +177,8 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"samples_used", r.samples_used},
           {"protocol",
            {{"position_filter", "zero-phase 4th-order Butterworth"},
-            {"filter_hz", opt.filter_hz},
+            {"filter_hz", r.filter_applied_hz > 0.0 ? r.filter_applied_hz : opt.filter_hz},
+            {"filter_requested_hz", opt.filter_hz},
             {"derivatives", "central differences"},
             {"drop_first", opt.drop_first},
             {"decimate", opt.decimate},

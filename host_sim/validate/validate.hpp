@@ -51,6 +51,13 @@ struct ValidateResult {
   ForceOutliers force_outliers;  ///< forces beyond the data's limit, bridged as identify bridges them
   PositionWrap position_wrap;  ///< jumps of a wrapped position taken out, as identify takes them out
   Units units;  ///< ValidateOptions::units
+  /// The position filter's cut-off as applied (Hz; applied_cutoff_hz: at
+  /// most 0.4 of the rate, the least over the scored stretches); below
+  /// ValidateOptions::filter_hz where that was out of the rate's reach.
+  double filter_applied_hz = 0.0;
+  /// Why the filter was applied below the request, or empty.
+  std::string filter_note() const;
+  double filter_requested_hz = 0.0;
 };
 
 /// The EMPS protocol (docs/emps.md) on each stretch between time gaps of

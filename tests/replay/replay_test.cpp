@@ -4,6 +4,8 @@
 // around the same plant class).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -258,6 +260,25 @@ TEST(Replay, TrueModelReproducesAnIndependentlySimulatedLoop) {
   // THEN the force and acceleration errors grow many times over
   EXPECT_GT(w.same_processing_pct.force, 5.0 * std::max(r.same_processing_pct.force, 0.2));
   EXPECT_GT(w.same_processing_pct.acceleration, 5.0 * std::max(r.same_processing_pct.acceleration, 0.2));
+}
+
+// GIVEN a run and --filter 1e6 Hz, beyond the log's reach
+// THEN the comparison's cut-off is reported as applied (0.4 of the rate)
+// and the note says so: 300 Hz to 1e6 Hz gave the same figures while the
+// JSON recorded each as asked
+TEST(Replay, AFilterBeyondTheRatesReachIsReportedAsApplied) {
+  const LoggedRun run = simulated_run(true_drive(), 3.0);
+  const Controller c = controller_from_json(minimal_controller(), "c");
+  ReplayOptions o;
+  o.filter_hz = 1e6;
+  const ReplayResult r = replay(model_of(true_drive()), c, run, o);
+  ASSERT_EQ(r.error, "");
+  const double rate = 1.0 / r.dt_s;
+  EXPECT_DOUBLE_EQ(r.filter_applied_hz, 0.4 * rate);
+  EXPECT_TRUE(std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& n) { return n.find("--filter 1e+06 Hz") != std::string::npos; }));
+  o.filter_hz = 0.4 * rate;
+  const ReplayResult at = replay(model_of(true_drive()), c, run, o);
+  EXPECT_DOUBLE_EQ(at.error_pct.acceleration, r.error_pct.acceleration);
 }
 
 /// 7 s of the true drive in the loop, its plant with a ripple of amplitude
