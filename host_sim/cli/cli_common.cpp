@@ -102,6 +102,11 @@ void note_time_unit(const std::vector<TraceInput>& inputs) {
     if (in.columns.time_scale == 0.0 && time_unit_from_name(in.columns.time) != 1.0)
       std::fprintf(stderr, "note: %s: time column '%s' read as %g s per unit, from its name (--time-scale to override)\n",
                    in.path.c_str(), in.columns.time.c_str(), time_unit_from_name(in.columns.time));
+  for (const TraceInput& in : inputs)
+    if (position_scale(in.columns) != in.columns.position_scale)
+      std::fprintf(stderr, "note: %s: position column '%s' read as %g m (or rad) per unit, and the velocity alike, from "
+                   "its name (--position-scale to override)\n", in.path.c_str(), in.columns.position.c_str(),
+                   position_scale(in.columns));
 }
 }  // namespace
 
@@ -226,8 +231,10 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
   group_since(c, before_input, "Input: files and columns");
   const std::size_t before_units = c->get_options().size();
   c->add_option("--position-scale", cols.position_scale,
-                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count")
-      ->check(nonzero_scale())->capture_default_str();
+                "multiplies position and velocity as they are read, e.g. m (or rad) per encoder count; default: from a "
+                "unit ending the position column's name (x_mm, \"pos [um]\"), else 1")
+      ->check(nonzero_scale())->capture_default_str()
+      ->each([&cols](const std::string&) { cols.position_scale_stated = true; });
   c->add_option("--time-scale", cols.time_scale,
                 "seconds per unit of the time column, e.g. 0.001 for ms; 0 (default): from a unit ending the column's "
                 "name (t_ms, \"time [us]\"), else s")->check(zero_or_positive())->capture_default_str();
@@ -315,6 +322,21 @@ bool write_json(const std::string& path, const nlohmann::json& j, const std::vec
   const std::string err = write_whole_file(path, json_as_written(j).dump(2) + "\n", inputs);
   if (!err.empty()) std::fprintf(stderr, "error: %s\n", err.c_str());
   return err.empty();
+}
+
+void say_failure_where_json_was(const CLI::App& sub, int rc, std::filesystem::file_time_type run_start) {
+  const CLI::Option* opt = sub.get_option_no_throw("--json");
+  if (rc == 0 || !opt || opt->count() == 0) return;
+  const std::string path = opt->as<std::string>();
+  std::error_code ec;
+  if (path.empty() || path == "-" || !std::filesystem::is_regular_file(path, ec)) return;
+  const auto written = std::filesystem::last_write_time(path, ec);
+  if (ec || written >= run_start) return;  // this run's own report (its error), or unreadable
+  const std::string kept = previous_result_path(path);
+  if (std::filesystem::exists(kept, ec) && !std::filesystem::is_regular_file(kept, ec)) return;  // the run said it cannot keep it
+  const nlohmann::json failed = {
+      {"error", "this run failed (exit " + std::to_string(rc) + ") before it had a result; its error is on standard error"}};
+  (void)write_json(path, failed);
 }
 
 std::string output_over_input(const CLI::App& sub) {

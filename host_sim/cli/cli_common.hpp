@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <memory>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,14 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
 /// report is not written (said on stderr) and true is returned, so that
 /// the caller says the run's own error and exits with it.
 bool write_json(const std::string& path, const nlohmann::json& j, const std::vector<std::string>& inputs = {});
+
+/// After a failed run (exit `rc`) of the parsed subcommand: where its --json
+/// names a file that holds an earlier result and this run wrote none (it
+/// failed reading its input, model or controller), the file is replaced
+/// by one that says the run failed, the earlier result kept beside it as
+/// write_json keeps it: an exit 2 left the last run's "status ok" where a
+/// pipeline reads this one's. A JSON this run wrote (its own error) stays.
+void say_failure_where_json_was(const CLI::App& sub, int rc, std::filesystem::file_time_type run_start);
 
 /// A number option that must be finite and above 0, its message "<value>
 /// <unit>: must be > 0<remedy>" (0 or less was read as "not given").

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <iostream>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <memory>
 #include <vector>
@@ -78,7 +79,10 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: %s\n", clash.c_str());
         return 2;
       }
-      return with_stdout_checked(c->run());
+      const auto run_start = std::filesystem::file_time_type::clock::now();
+      const int rc = c->run();
+      say_failure_where_json_was(*c->app, rc, run_start);
+      return with_stdout_checked(rc);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -40,6 +40,7 @@ struct MonitorCommand : Command {
     app->add_option("--load", cols.load,
                     "column of the load (payload, process force): each reference is modelled against its epoch mean");
     add_input_options(app, cols, input);
+    app->get_option("--in-list")->group("");  // one log only: refused with the reason, not offered in --help
   }
   int run() override { return run_monitor(in_path, input, cols, json_path, plot_path, jsonl_path, opt); }
 };

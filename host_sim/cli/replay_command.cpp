@@ -60,6 +60,7 @@ struct ReplayCommand : Command {
     app->add_option("--controller", controller_path, "controller JSON (docs/reference.md, \"replay\")")->required();
     app->add_option("--in", in_path, "the logged run (CSV, .mat or .wpilog), one continuous recording")->required();
     add_input_options(app, cols, input);
+    app->get_option("--in-list")->group("");  // one recording only: refused with the reason, not offered in --help
     app->add_option("--json", json_path, "write the result as JSON");
     app->add_option("--plot", plot_path, "write measured against simulated force over time as SVG");
     app->add_option("--report", report_dir, "write report.html with every signal's overlay and residual into this folder");

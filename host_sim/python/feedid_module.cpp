@@ -100,7 +100,7 @@ std::string one_of(const py::handle& value, const std::string& key, const std::s
 bool input_option(const std::string& key, const py::handle& value, CsvColumns& c, Axis& axis, std::string& force_unit) {
   if (key == "axis") axis = one_of(value, key, {"linear", "rotary"}) == "rotary" ? Axis::rotary : Axis::linear;
   else if (key == "force_unit") force_unit = cast_option<std::string>(value, key, "a string");
-  else if (key == "position_scale") c.position_scale = number(value, key);
+  else if (key == "position_scale") c.position_scale = number(value, key), c.position_scale_stated = true;
   else if (key == "force_scale") c.force_scale = number(value, key);
   else if (key == "time_scale") c.time_scale = zero_or_positive(value, key);
   else if (key == "bad_rows") c.skip_bad_rows = one_of(value, key, {"skip", "error"}) == "skip";
@@ -333,7 +333,7 @@ LoggedRun run_from_arrays(const Trace& trace, std::size_t rows, const std::map<s
   };
   const std::vector<double>* r = column(c.reference, "reference");
   if (!r) throw std::invalid_argument("arrays: no reference column '" + c.reference + "' (the controller's reference; give it in columns)");
-  for (double q : *r) run.reference.push_back(q * cols.position_scale);
+  for (double q : *r) run.reference.push_back(q * position_scale(cols));
   if (c.extra_command.empty()) return run;
   if (const std::vector<double>* e = column(c.extra_command, "extra command")) run.extra = *e;
   else run.notes.push_back("arrays have no extra command column '" + c.extra_command + "': none is added");
@@ -410,8 +410,9 @@ std::string monitor_file(const std::string& path, const py::dict& kw) {
 }
 
 /// `feedid compensate`: the friction table a drive can load, from a model
-/// JSON (identify's); the JSON text of the table, or its CSV with format "csv".
-std::string compensate_model_text(const std::string& model_text, const py::dict& kw) {
+/// JSON (identify's); the JSON text of the table, or its CSV with format
+/// "csv", and the warnings the CLI prints (a flagged model, the table's range).
+std::pair<std::string, std::vector<std::string>> compensate_model_text(const std::string& model_text, const py::dict& kw) {
   CompensateOptions opt;
   std::string format = "json";
   for (const auto& [k, value] : kw) {
@@ -426,7 +427,7 @@ std::string compensate_model_text(const std::string& model_text, const py::dict&
   }
   const ModelCompensation c = compensate_model(nlohmann::json::parse(model_text), opt, "model");
   raise_if(c.error);
-  return format == "csv" ? to_csv(c.table, opt, c.units) : json_as_written(c.json).dump();
+  return {format == "csv" ? to_csv(c.table, opt, c.units) : json_as_written(c.json).dump(), c.warnings};
 }
 
 /// The fleet page (report/report.hpp) from feedid.fleet's rows as JSON text;
@@ -495,7 +496,7 @@ PYBIND11_MODULE(_feedid, m) {
   m.def("monitor_file", &monitor_file, py::arg("path"), py::arg("options"),
         "friction health of one log, streamed; the JSON text of monitor --json");
   m.def("compensate", &compensate_model_text, py::arg("model"), py::arg("options"),
-        "the friction table of a model JSON text; its JSON text, or CSV");
+        "the friction table of a model JSON text: (its JSON text or CSV, warnings)");
   m.def("fleet_report", &fleet_report, py::arg("rows"), py::arg("dir"), py::arg("command"),
         "report.html of a fleet's rows (JSON text) into dir");
   m.def("read", &read_signals, py::arg("path"), py::arg("options"), "a trace file's signals as arrays, through the host reader");

@@ -181,6 +181,20 @@ TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
     const std::string kept((std::istreambuf_iterator<char>(prev)), std::istreambuf_iterator<char>());
     EXPECT_EQ(kept, earlier) << "the earlier result was lost";
   }
+  // A run that fails before it has a result (reading: a column missing)
+  // says so at --json too, and keeps the earlier result the same way: it
+  // left the last run's "status ok" there with exit 2.
+  std::filesystem::remove(dir + "/axis.prev.json");
+  ASSERT_EQ(run_feedid("identify --in " + good + " --json " + json).exit_code, 0);
+  const CliRun unread = run_feedid("identify --in " + good + " --force no_such_column --json " + json);
+  EXPECT_EQ(unread.exit_code, 2) << unread.err;
+  {
+    std::ifstream now(json), prev(dir + "/axis.prev.json");
+    const nlohmann::json report = nlohmann::json::parse(now, nullptr, false);
+    EXPECT_TRUE(report.is_object() && report.contains("error") && !report.contains("status")) << report.dump();
+    const nlohmann::json kept = nlohmann::json::parse(prev, nullptr, false);
+    EXPECT_TRUE(kept.is_object() && kept.value("status", "") == "ok") << "the earlier result was lost";
+  }
   // Where the earlier result cannot be kept (a folder in the way), nothing
   // is replaced, and the run still says its own error and exits with it.
   ASSERT_EQ(run_feedid("identify --in " + good + " --json " + json).exit_code, 0);

@@ -182,6 +182,10 @@ class EmpsArrays(unittest.TestCase):
                 cli_table = json.load(f)
         # WHEN its table is made from Python; THEN it is the CLI's
         self.assertEqual(feedid.compensate(model, points=12), cli_table)
+        # and what the CLI warns of is a Python warning: a table far above the
+        # speeds the model was identified at
+        with self.assertWarnsRegex(UserWarning, "times the fastest speed the model was identified at"):
+            feedid.compensate(model, points=12, max_speed=100.0)
         # and a model that is not physical is refused with the CLI's words
         model["m"] = -1.0
         model["physical"] = False

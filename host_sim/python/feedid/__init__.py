@@ -238,9 +238,12 @@ def compensate(model, points=20, max_speed=0.0, force_scale=1.0, force_unit=None
     drive can load, from identify's dict (or a path to its JSON file). max_speed 0: the model's
     config.velocity_max_m_s. The table's dict (``--format json``), or its
     CSV text with format="csv". A model that cannot be compensated with
-    (not ok, not physical) is a ValueError with the CLI's message."""
-    text = _feedid.compensate(_json_given(model, "model")[0], dict(points=points, max_speed=max_speed, force_scale=force_scale,
-                                                      force_unit=force_unit, format=format))
+    (not ok, not physical) is a ValueError with the CLI's message; what
+    the CLI warns of (a flagged model, the table's range) is a Python warning."""
+    text, notes = _feedid.compensate(_json_given(model, "model")[0], dict(points=points, max_speed=max_speed, force_scale=force_scale,
+                                                            force_unit=force_unit, format=format))
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
     return text if format == "csv" else json.loads(text)
 
 
