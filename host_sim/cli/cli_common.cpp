@@ -387,6 +387,30 @@ std::string output_over_input(const CLI::App& sub) {
   return "";
 }
 
+std::string output_unwritable(const CLI::App& sub) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const char* name : {"--json", "--jsonl", "--out", "--plot", "--truth", "--friction-plot", "--markdown", "--model-out"}) {
+    const CLI::Option* o = sub.get_option_no_throw(name);
+    if (!o) continue;
+    for (const std::string& out : o->results()) {
+      if (out.empty() || out == "-") continue;
+      const fs::path p(out), dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+      if (fs::is_directory(p, ec)) return std::string(name) + " " + out + ": is a folder; name a file";
+      if (!fs::is_directory(dir, ec))
+        return std::string(name) + " " + out + ": the folder " + dir.string() + " does not exist (nothing was run)";
+    }
+  }
+  for (const char* name : {"--report", "--plot-dir"}) {
+    const CLI::Option* o = sub.get_option_no_throw(name);
+    if (!o) continue;
+    for (const std::string& dir : o->results())
+      if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+        return std::string(name) + " " + dir + ": is a file, not a folder (nothing was run)";
+  }
+  return "";
+}
+
 Outcome<Trace> run_simulation(const SimConfig& cfg) {
   if (std::string why = sim_config_error(cfg); !why.empty()) return refused<Trace>(std::move(why));
   Progress p("simulate");

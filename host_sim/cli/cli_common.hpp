@@ -84,6 +84,13 @@ CLI::Validator positive_number(const std::string& unit, const std::string& remed
 /// any command runs.
 std::string output_over_input(const CLI::App& sub);
 
+/// Why an output of the parsed subcommand cannot be written where it is
+/// named: a file output whose folder does not exist or that names a
+/// folder, a --report or --plot-dir that is a file; empty when none.
+/// Checked in main before the command runs: found after a long run, it
+/// left the run's other outputs written and this one not.
+std::string output_unwritable(const CLI::App& sub);
+
 /// simulate() with progress on stderr, or why the options cannot be simulated.
 Outcome<Trace> run_simulation(const SimConfig& cfg);
 

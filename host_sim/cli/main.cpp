@@ -74,7 +74,8 @@ int main(int argc, char** argv) {
   try {
     for (auto& c : commands) {
       if (!*c->app) continue;
-      const std::string clash = output_over_input(*c->app);
+      std::string clash = output_over_input(*c->app);
+      if (clash.empty()) clash = output_unwritable(*c->app);
       if (!clash.empty()) {
         std::fprintf(stderr, "error: %s\n", clash.c_str());
         return 2;

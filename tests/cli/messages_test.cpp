@@ -158,6 +158,30 @@ TEST(Messages, NoOutputReplacesAnInputOrAnotherOutput) {
 // GIVEN a result at --json, WHEN a later run fails after reading (too little
 // motion) THEN its report with the error is at --json, and the earlier
 // result is kept whole beside it, not lost; a second failure keeps it too.
+// GIVEN an output named in a folder that does not exist (or a report
+// folder that is a file) beside a --json that can be written
+// WHEN the command runs
+// THEN it stops before running, exit 2, naming the option and the folder,
+// and writes nothing: found after the run, the --json was written and the
+// run exited 1
+TEST(Messages, AnOutputThatCannotBeWrittenStopsTheRunBeforeItStarts) {
+  const std::string dir = ::testing::TempDir() + "feedid_unwritable";
+  std::filesystem::create_directories(dir);
+  const std::string trace = dir + "/t.csv", json = dir + "/x.json";
+  std::filesystem::remove(json);
+  ASSERT_EQ(run_feedid("simulate --duration 20 --out " + trace).exit_code, 0);
+  const CliRun r = run_feedid("identify --in " + trace + " --json " + json + " --friction-plot " + dir + "/nodir/p.svg");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--friction-plot"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(json)) << "an output of a run that was refused";
+  const CliRun folder = run_feedid("identify --in " + trace + " --json " + dir);
+  EXPECT_EQ(folder.exit_code, 2) << folder.err;
+  EXPECT_NE(folder.err.find("is a folder"), std::string::npos) << folder.err;
+  const CliRun report = run_feedid("diagnose --in " + trace + " --report " + trace);
+  EXPECT_EQ(report.exit_code, 2) << report.err;
+}
+
 TEST(Messages, AFailedRunKeepsTheResultItReplaces) {
   const std::string dir = ::testing::TempDir() + "feedid_failed_run";
   std::filesystem::create_directories(dir);
