@@ -221,7 +221,7 @@ void add_input_options(CLI::App* c, CsvColumns& cols, InputOptions& u) {
                                       "(an empty name: a column not read, t,,x,u)");
   c->add_option("--time", cols.time, "CSV column or .mat variable of time (s, or ISO 8601 stamps); in a .wpilog the entry whose records give the rows (where it has no such entry: the force entry)")->capture_default_str();
   c->add_option("--rate", cols.rate_hz, "sample rate (Hz) of a CSV without a time column: data row k is at k / rate")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number("Hz", ""));
   c->add_option("--position", cols.position,
                 "CSV column, .mat variable or .wpilog entry of position (m; rad with --axis rotary); in a .mat also a struct field "
                 "(rec.act_pos) or a matrix column (data(:,2) or data:2)")->capture_default_str();

@@ -26,11 +26,11 @@ struct MonitorCommand : Command {
     app->add_option("--jsonl", jsonl_path,
                     "write one JSON line per epoch and per alarm, a time series for a database (docs/monitor.md); - for stdout");
     app->add_option("--plot", plot_path, "write each parameter's trend with +-2 se bands and the alarms as SVG");
-    app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(CLI::PositiveNumber);
+    app->add_option("--epoch-s", opt.detector.epoch_s, "epoch length (s)")->capture_default_str()->check(positive_number("s", ""));
     app->add_option("--reference-epochs", opt.detector.reference_epochs, "epochs pooled into each parameter's reference")
         ->capture_default_str()->check(CLI::Range(3, 16));
     app->add_option("--threshold", opt.detector.threshold, "CUSUM threshold h (docs/monitor.md: its false-alarm rate)")
-        ->capture_default_str();
+        ->capture_default_str()->check(positive_number("(threshold)", ""));
     app->add_flag("--watch-stribeck", opt.detector.watch_stribeck,
                   "alarm on the break-away force and Stribeck velocity too (off: their epochs scatter beyond their "
                   "standard errors, docs/monitor.md)");

@@ -142,6 +142,10 @@ class EmpsArrays(unittest.TestCase):
         # AND a missing reference column is a ValueError naming it, an unknown option a TypeError
         with self.assertRaisesRegex(ValueError, "no reference column 'qg_m'"):
             feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"])
+        # AND arrays without the controller's extra command are replayed without
+        # the pulses, as the CLI does, and said (they went by without a word)
+        with self.assertWarnsRegex(UserWarning, "no extra command column 'pulses_N_raw'"):
+            feedid.replay(model, CONTROLLER, p["t_s"], p["qm_m"], p["force_N"], columns={"qg_m": p["qg_m"]})
         with self.assertRaisesRegex(TypeError, "unknown option 'folds'"):
             feedid.replay_file(model, CONTROLLER, pulses, folds=3)
 
@@ -243,6 +247,13 @@ class Errors(unittest.TestCase):
         model = {"m": np.float32(95.0), "pos": {"sigma": np.int64(200), "fc": 20.0},
                  "neg": {"sigma": 200.0, "fc": np.array(20.0)}}
         self.assertIn("relative_error_pct", feedid.validate(model, t, x, u))
+        # what the CLI prints beside validate's figures is a Python warning; no model is a TypeError
+        with self.assertWarnsRegex(UserWarning, "unknown key 'ofset_N'"):
+            feedid.validate({**model, "ofset_N": 5.0}, t, x, u)
+        with self.assertWarnsRegex(UserWarning, "beyond 0.4 of the log's rate"):
+            feedid.validate(model, t, x, u, filter=1e6)
+        with self.assertRaisesRegex(TypeError, "validate needs a model"):
+            feedid.validate(None, t, x, u)
         with self.assertRaisesRegex(ValueError, "model: 'pos.fc' must be a finite number, not nan"):
             feedid.validate({**model, "pos": {"sigma": 200.0, "fc": float("nan")}}, t, x, u)
         with tempfile.TemporaryDirectory() as tmp:
@@ -282,6 +293,15 @@ class Fleet(unittest.TestCase):
                 Client(cluster) as client:
             self.assertEqual(len(client.scheduler_info()["workers"]), 2)
             frame = feedid.fleet.identify_many(logs, client=client, axis="rotary", force_unit="V")
+            # a single path is one log, not a log per character; an item naming no path is its own error row
+            one = feedid.fleet.identify_many(logs[3][0], client=client, axis="rotary", force_unit="V")
+            bad = feedid.fleet.identify_many([None, logs[3][0]], client=client, axis="rotary", force_unit="V")
+        self.assertEqual(len(one), 1)
+        self.assertEqual(one["path"][0], logs[3][0])
+        self.assertEqual(len(bad), 2)
+        self.assertEqual(bad["status"][0], "error")
+        self.assertIn("TypeError", bad["error"][0])
+        self.assertEqual(bad["status"][1], one["status"][0])
         # THEN one row per log, in order; the bad one carries its error and stopped nothing
         self.assertEqual(len(frame), 4)
         self.assertIn("missing.csv", frame["error"][2])

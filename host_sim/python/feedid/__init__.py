@@ -79,7 +79,7 @@ def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **opt
     unknown option. The GIL is released while the host works.
     """
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
+    return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options)[0])
 
 
 def _plain(value, name, key=""):
@@ -152,8 +152,24 @@ def diagnose(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, model
     options.update(axis=axis, force_unit=force_unit)
     given = _given(model, controller)
     if given is None:
-        return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options))
+        return _failed_on_error(_feedid.run_arrays("diagnose", *_signals(t, x, u, v), options)[0])
     return _warned(_feedid.model_gap_arrays(*_signals(t, x, u, v), options, given, columns or {}))
+
+
+def _model_for_validate(model):
+    """validate's model as JSON text; None is a TypeError (it was a JSON parse error)."""
+    if model is None:
+        raise TypeError("validate needs a model: identify's dict, a truth dict, or a path to its JSON file")
+    return _json_given(model, "model")[0]
+
+
+def _validated(text_and_warnings):
+    """validate's dict, with what the CLI prints beside it (an unknown model key, a filter beyond the log's
+    reach) as Python warnings."""
+    text, notes = text_and_warnings
+    for note in notes:
+        warnings.warn(note, stacklevel=3)
+    return json.loads(text)
 
 
 def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **options):
@@ -163,7 +179,7 @@ def validate(model, t, x=None, u=None, *, v=None, axis="linear", force_unit=None
     --json``; a model in other units than axis and force_unit give is a
     ValueError."""
     options.update(axis=axis, force_unit=force_unit)
-    return json.loads(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, _json_given(model, "model")[0]))
+    return _validated(_feedid.run_arrays("validate", *_signals(t, x, u, v), options, _model_for_validate(model)))
 
 
 def replay(model, controller, t, x, u, *, columns=None, axis="linear", force_unit=None, **options):
@@ -203,7 +219,7 @@ def identify_files(paths, axis="linear", force_unit=None, **options):
     position, velocity and force (default t, x, v, u).
     """
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.run_files("identify", _paths(paths), options))
+    return _checked(_feedid.run_files("identify", _paths(paths), options)[0])
 
 
 def diagnose_files(paths, axis="linear", force_unit=None, model=None, controller=None, **options):
@@ -212,14 +228,14 @@ def diagnose_files(paths, axis="linear", force_unit=None, model=None, controller
     options.update(axis=axis, force_unit=force_unit)
     given = _given(model, controller)
     if given is None:
-        return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options))
+        return _failed_on_error(_feedid.run_files("diagnose", _paths(paths), options)[0])
     return _warned(_feedid.model_gap_files(_paths(paths), options, given))
 
 
 def validate_files(model, paths, axis="linear", force_unit=None, **options):
     """validate() on trace files (as identify_files())."""
     options.update(axis=axis, force_unit=force_unit)
-    return json.loads(_feedid.run_files("validate", _paths(paths), options, _json_given(model, "model")[0]))
+    return _validated(_feedid.run_files("validate", _paths(paths), options, _model_for_validate(model)))
 
 
 def monitor(path, axis="linear", force_unit=None, **options):

@@ -16,6 +16,8 @@ _DIRECTION_TERMS = ("sigma", "fc", "fs", "vs")
 
 
 def _log_name(paths):
+    if not isinstance(paths, list):  # an item that named no path, refused in its own row
+        return repr(paths)
     return paths[0] if len(paths) == 1 else " + ".join(paths)
 
 
@@ -77,9 +79,24 @@ def monitor_log(path, options):
         return monitor_row(path, None, "%s: %s" % (type(e).__name__, e))
 
 
+def _logs(paths_or_groups):
+    """The logs given: one path (a str or os.PathLike) is one log, not a list of its characters."""
+    if isinstance(paths_or_groups, (str, bytes, os.PathLike)):
+        return [paths_or_groups]
+    return list(paths_or_groups)
+
+
+def _group(g):
+    """One log's paths; an item that names no path (None, a number) is left for its task to refuse as its own row."""
+    try:
+        return feedid._paths(g)
+    except TypeError:
+        return g
+
+
 def _groups(paths_or_groups):
     """Each item is a log: a path, or a list of paths pooled as runs."""
-    return [feedid._paths(g) for g in paths_or_groups]
+    return [_group(g) for g in _logs(paths_or_groups)]
 
 
 def identify_many(paths_or_groups, client=None, **options):
@@ -106,7 +123,7 @@ def monitor_many(paths, client=None, **options):
     epochs_identified, alarms, first_alarm_parameter, _direction, _t_s,
     _change_pct, units, error. client and options as identify_many's
     (epoch_s, reference_epochs, threshold and the input options)."""
-    return _on_cluster(monitor_log, [feedid._paths(p)[0] for p in paths], client, options)
+    return _on_cluster(monitor_log, [feedid._paths(p)[0] for p in _logs(paths)], client, options)
 
 
 def _on_cluster(task, logs, client, options):
