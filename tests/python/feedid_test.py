@@ -269,6 +269,12 @@ class Errors(unittest.TestCase):
                              feedid.validate(model, t, x, u)["relative_error_pct"])
         with self.assertRaisesRegex(ValueError, "t, u have no samples"):
             feedid.identify(np.array([]), np.array([]), np.array([]))
+        # complex, boolean and text arrays are refused (they were cast); narrower floats are warned of
+        for bad in (t.astype(complex), t > 0, t.astype(str)):
+            with self.assertRaisesRegex(TypeError, "t: an array of .* a signal is real numbers"):
+                feedid.validate(model, bad, x, u)
+        with self.assertWarnsRegex(UserWarning, "u is float32: .*give float64"):
+            feedid.validate(model, t, x, u.astype(np.float32))
 
     def test_a_missing_file_is_the_readers_message(self):
         with self.assertRaises(ValueError) as e:
