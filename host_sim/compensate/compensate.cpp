@@ -246,9 +246,10 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   // unit already (identify --force-unit A) was divided by it a second time,
   // 12.5 times too small, beside a force_A key holding the right values.
   const Units units = stated_units(mj);
-  if (units.force != "N" && (opt.force_scale != 1.0 || (!opt.force_unit.empty() && opt.force_unit != units.force))) {
+  const bool si_force = units.force == "N" || units.force == "N m";  // a linear or a rotary axis's
+  if (!si_force && (opt.force_scale != 1.0 || (!opt.force_unit.empty() && opt.force_unit != units.force))) {
     c.error = source + " is in " + units.force + " already (units.force): its table is in " + units.force +
-              "; --force-scale and --force-unit convert a model in N to a drive unit";
+              "; --force-scale and --force-unit convert a model in N (or N m) to a drive unit";
     return c;
   }
   if (opt.max_speed_m_s <= 0) {
@@ -261,9 +262,9 @@ ModelCompensation compensate_model(const nlohmann::json& mj, CompensateOptions o
   if (!c.error.empty()) return c;
   c.warnings = file.warnings;
   c.units = units;
-  if (units.force == "N" && !opt.force_unit.empty() && opt.force_scale == 1.0)
+  if (si_force && !opt.force_unit.empty() && opt.force_scale == 1.0)
     c.warnings.push_back("--force-unit " + opt.force_unit + " without --force-scale: the force_" + opt.force_unit +
-                         " values are the N values (1 N per " + opt.force_unit + ")");
+                         " values are the " + units.force + " values (1 " + units.force + " per " + opt.force_unit + ")");
   for (const std::string& w : table_range_warnings(mj, file.drive, opt.max_speed_m_s, top_speed, units))
     c.warnings.push_back(source + ": " + w);
   if (file.load.any())

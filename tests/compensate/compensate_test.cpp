@@ -143,6 +143,14 @@ TEST(CompensationTable, AModelInADriveUnitIsNotScaledAgainAndItsCsvSaysItsUnit) 
   const std::string csv = to_csv(c.table, o, c.units);
   EXPECT_EQ(csv.substr(0, csv.find('\n')), "direction,speed_m_s,force_A") << csv;
   EXPECT_EQ(to_csv(c.table, o).substr(0, 31), "direction,speed_m_s,force_N\npos") << "a model in N keeps N";
+  // A rotary model in N m is in SI: N m per A converts it
+  nlohmann::json rotary = model;
+  rotary["units"] = {{"position", "rad"}, {"force", "N m"}};
+  o.force_scale = 0.5;
+  o.force_unit = "A";
+  const ModelCompensation r = compensate_model(rotary, o, "spindle.json");
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(to_csv(r.table, o, r.units).substr(0, 40), "direction,speed_rad_s,force_N_m,force_A\n");
 }
 
 // GIVEN identify's model of a trace too short to settle the friction
