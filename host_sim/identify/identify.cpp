@@ -1070,6 +1070,22 @@ std::vector<std::string> implausible_magnitudes(const IdentifyResult& r) {
   return implausible_parameters(to_drive_params(r.estimate), r.units, r.config.velocity_max_m_s);
 }
 
+std::vector<std::string> identify_warnings(const IdentifyResult& r) {
+  std::vector<std::string> w = implausible_magnitudes(r);
+  const double absorbed = r.signals.lag_search.absorbed_by_refit;
+  if (r.signals.force_lag_origin == Signals::LagOrigin::estimated && absorbed >= kLagToldByReversals) {
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the force lag (%.3g ms +- %.2g) is told only by the reversals: refitting friction and mass takes "
+                  "back %.0f %% of a shift's residual elsewhere (a motion of one frequency), so m and sigma rest on "
+                  "the friction law at low speed; motion with several accelerations at each speed separates them "
+                  "(docs/recording.md), or state the lag (--force-lag-s)",
+                  1e3 * r.signals.force_lag_s, 1e3 * r.signals.force_lag_se_s, 100.0 * absorbed);
+    w.emplace_back(buf);
+  }
+  return w;
+}
+
 SysIdGains sysid_gains(const IdentifyResult& r) {
   const auto& e = r.estimate;
   const auto& p = e.pos;
@@ -1182,7 +1198,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
   j["model"] = friction_model_json(r);
   j["sysid"] = sysid_json(r);
   if (r.gravity.form != GravityTerm::none || !r.gravity.note.empty()) j["gravity"] = gravity_json(r);
-  j["warnings"] = implausible_magnitudes(r);
+  j["warnings"] = identify_warnings(r);
   j["fit"] = {{"friction_r2", std::min(e.pos.friction_r2, e.neg.friction_r2)},
               {"friction_r2_pos", e.pos.friction_r2}, {"friction_r2_neg", e.neg.friction_r2},
               // null where not computed (streamed): a 0 read as a perfect fit
@@ -1212,6 +1228,8 @@ nlohmann::json to_json(const IdentifyResult& r) {
                 {"velocity_hold_rows", r.signals.velocity_hold_rows},
                 {"held_values_spread", r.signals.held_values_spread},
                 {"force_lag_s", r.signals.force_lag_s}, {"force_lag_se_s", r.signals.force_lag_se_s},
+                {"force_lag_absorbed_by_refit", std::isfinite(r.signals.lag_search.absorbed_by_refit)
+                                                    ? nlohmann::json(r.signals.lag_search.absorbed_by_refit) : nlohmann::json()},
                 {"force_lag_origin", lag_origin_name(r.signals.force_lag_origin)}, {"force_convention", r.signals.force_convention},
                 {"force_sign", r.signals.force_sign.sign}, {"force_sign_origin", r.signals.force_sign.describe()},
                 {"force_sign_ratio", std::isfinite(r.signals.force_sign.ratio) ? nlohmann::json(r.signals.force_sign.ratio) : nlohmann::json()},
@@ -1289,7 +1307,7 @@ std::string summary(const IdentifyResult& r, const DriveParams* truth) {
   const std::string unphysical = not_physical(r);
   if (!unphysical.empty())
     o << "  NOT PHYSICAL: " << unphysical << " (m must be positive, Fc and sigma not negative)\n";
-  for (const std::string& w : implausible_magnitudes(r)) o << "  WARNING: " << w << "\n";
+  for (const std::string& w : identify_warnings(r)) o << "  WARNING: " << w << "\n";
   if (r.force_outliers.position_spikes.rows > 0) o << "  " << r.force_outliers.position_spikes.describe(r.units.position) << "\n";
   if (r.force_outliers.saturation.found()) o << "  force " << r.force_outliers.saturation.describe(r.units.force) << "\n";
   if (r.force_outliers.rows > 0) o << "  force: " << r.force_outliers.describe(r.units.force) << "\n";

@@ -485,6 +485,18 @@ SysIdGains sysid_gains(const IdentifyResult& r);
 /// missing scale; none for a force labelled in another unit (V, A).
 std::vector<std::string> implausible_magnitudes(const IdentifyResult& r);
 
+/// Share of a force shift's block residual that refitting friction and mass
+/// takes back (LagEstimate::absorbed_by_refit) from which the estimated
+/// lag rests on the reversals alone: then m and sigma, which trade against
+/// the lag on the rest of the motion, rest on the friction law at low
+/// speed there (a single tone: 0.999; the ladder and EMPS: under 0.05;
+/// two tones: 0.6).
+constexpr double kLagToldByReversals = 0.9;
+
+/// What identify warns of: implausible_magnitudes, and an estimated force
+/// lag that only the reversals tell (kLagToldByReversals).
+std::vector<std::string> identify_warnings(const IdentifyResult& r);
+
 nlohmann::json to_json(const IdentifyResult& r);
 std::string summary(const IdentifyResult& r, const DriveParams* truth = nullptr);
 

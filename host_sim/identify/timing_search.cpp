@@ -90,6 +90,80 @@ double jackknife_vertex_se(double l, double h, const LagCost& lo, const LagCost&
   return jackknife_se(v);
 }
 
+/// Standard error of the vertex of the parabola through (l - h, lo),
+/// (l, mid), (l + h, hi): from its curvature and the residual variance per
+/// block (nine model parameters and the lag fitted), or the chunks'
+/// scatter where that is larger; h where the three do not curve upwards.
+/// Curvature a of SSR = a (lag - l0)^2 + c through three points h apart.
+double curvature(double h, const LagCost& lo, const LagCost& mid, const LagCost& hi) {
+  return (lo.ssr - 2.0 * mid.ssr + hi.ssr) / (2.0 * h * h);
+}
+
+double vertex_se(double l, double h, const LagCost& lo, const LagCost& mid, const LagCost& hi) {
+  const double curv = curvature(h, lo, mid, hi);
+  if (!(curv > 0.0) || !std::isfinite(curv)) return h;
+  const double dof = static_cast<double>(mid.blocks) - 10.0;
+  const double s2 = dof > 0 ? mid.ssr / dof : mid.ssr;
+  const double jack = jackknife_vertex_se(l, h, lo, mid, hi);
+  return std::isfinite(jack) ? std::max(std::sqrt(s2 / curv), jack) : std::sqrt(s2 / curv);
+}
+
+/// A lag, the model the core identifies with the force paired there, and
+/// that model's block residual.
+struct RefitPoint {
+  double lag = 0.0;
+  LagCost c;
+  HeldModel model;
+};
+
+RefitPoint refit_at(const Signals& s, Signals& work, const feedid::Config<double>& cfg, double lag, int& evaluations) {
+  pair_at(s, work, lag);
+  ++evaluations;
+  RefitPoint p{lag, LagCost{}, identify_model(work, cfg)};
+  if (p.model.ok) p.c = block_cost(work, p.model.params, cfg);
+  return p;
+}
+
+/// Three refits half a period apart, the middle one the least (or at an
+/// end of the searched range), and whether the walk left its start.
+struct RefitWalk {
+  RefitPoint lo, mid, hi;
+  bool walked = false;
+};
+
+/// Held friction finds the lag it was identified at whenever the motion
+/// lets friction and mass absorb a shift of the force. On a single tone
+/// u(t - d) = (m - d sigma) a + (sigma + d m w^2) v + the Coulomb steps,
+/// so the held search returned its starting lag whatever the true one
+/// (m 5 to 22 standard errors off, status ok): only the reversals tell the
+/// lag there, and only a refit of the friction lets them. So the core
+/// identifies again half a period either side of the held search's lag
+/// (`start`, identified there); where a side fits better, the walk goes
+/// that way by half periods until the fit worsens. On motion that
+/// separates the lag the sides fit worse and the walk stays: two
+/// identifications.
+RefitWalk walk_by_refits(const Signals& s, Signals& work, const feedid::Config<double>& cfg, RefitPoint start,
+                         int& evaluations) {
+  const double h = 0.5;
+  const double l = start.lag;
+  RefitWalk w{refit_at(s, work, cfg, l - h, evaluations), std::move(start), refit_at(s, work, cfg, l + h, evaluations)};
+  for (;;) {
+    const bool down = w.lo.c.ssr < w.mid.c.ssr && w.lo.c.ssr <= w.hi.c.ssr && w.lo.lag - h >= kForceLagMin - 1e-9;
+    const bool up = !down && w.hi.c.ssr < w.mid.c.ssr && w.hi.lag + h <= kForceLagMax + 1e-9;
+    if (!down && !up) return w;
+    w.walked = true;
+    if (down) {
+      w.hi = std::move(w.mid);
+      w.mid = std::move(w.lo);
+      w.lo = refit_at(s, work, cfg, w.mid.lag - h, evaluations);
+    } else {
+      w.lo = std::move(w.mid);
+      w.mid = std::move(w.hi);
+      w.hi = refit_at(s, work, cfg, w.mid.lag + h, evaluations);
+    }
+  }
+}
+
 }  // namespace
 
 LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg, HeldFriction* shared) {
@@ -112,6 +186,7 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   struct Point { double lag; LagCost c; };
   std::vector<Point> pts;
   HeldModel model;
+  const bool own_friction = !(shared && shared->ok);  // this search identifies the friction it holds
   std::vector<BlockPair> pairs;
   bool each_identified = false;  // the fallback below: the core identifies at every lag
   auto eval = [&](double lag) {
@@ -173,8 +248,6 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
   if (!settled || identified_at <= kForceLagMin + 1e-9 || identified_at >= kForceLagMax - 1e-9) {
     each_identified = true;
     scan_grid();
-  } else if (shared && !shared->ok) {
-    *shared = model;
   }
   const Point best = best_point();
   if (!std::isfinite(best.c.ssr)) return e;
@@ -190,17 +263,27 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
     return e;
   }
   const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);
-  const double curv = (lo.ssr - 2.0 * best.c.ssr + hi.ssr) / (2.0 * h * h);  // SSR = a (lag - l0)^2 + c
-  const double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);
+  double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);
+  e.se_samples = vertex_se(best.lag, h, lo, best.c, hi);
+  if (!each_identified && own_friction) {
+    // Whether the held friction chose its own lag (walk_by_refits). Where the
+    // walk stays, the held parabola's vertex stands and its error is at least
+    // the refits' (flatter where friction and mass absorb part of a shift);
+    // where it moves, the refits give both.
+    const RefitWalk w = walk_by_refits(s, work, cfg, RefitPoint{best.lag, best.c, model}, e.evaluations);
+    const double refit_se = vertex_se(w.mid.lag, h, w.lo.c, w.mid.c, w.hi.c);
+    e.absorbed_by_refit = 1.0 - curvature(h, w.lo.c, w.mid.c, w.hi.c) / curvature(h, lo, best.c, hi);
+    if (w.walked) {
+      at = vertex(w.mid.lag, h, w.lo.c.ssr, w.mid.c.ssr, w.hi.c.ssr);
+      e.se_samples = refit_se;
+      model = w.mid.model;
+    } else {
+      e.se_samples = std::max(e.se_samples, refit_se);
+    }
+    if (shared && !shared->ok && model.ok) *shared = model;
+  }
   if (!std::isfinite(at)) return e;
   e.lag_samples = at;
-  // Residual variance per block, nine model parameters and the lag fitted;
-  // the chunks' scatter where it is larger.
-  const double dof = static_cast<double>(best.c.blocks) - 10.0;
-  const double s2 = dof > 0 ? best.c.ssr / dof : best.c.ssr;
-  e.se_samples = std::sqrt(s2 / curv);
-  const double jack = jackknife_vertex_se(best.lag, h, lo, best.c, hi);
-  if (std::isfinite(jack)) e.se_samples = std::max(e.se_samples, jack);
   e.ok = true;
   return e;
 }

@@ -29,6 +29,10 @@ struct LagEstimate {
   double se_samples = 0.0;   ///< its standard error (periods)
   int evaluations = 0;       ///< identifications run for the search
   bool ok = false;           ///< false: no motion to judge timing by (lag left at 0)
+  /// The share of a shift's block residual that refitting the friction and
+  /// mass takes back (0: none, the motion separates the lag; near 1: only
+  /// the reversals tell it, as on a single tone). NaN where not measured.
+  double absorbed_by_refit = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The signals as the core sees them, one entry per sample.

@@ -63,14 +63,15 @@ TEST(BlockPairs, EveryLagFromOneObservationMatchesAPassAtThatLag) {
 
 // GIVEN a 20 s simulated trace with a velocity column, WHEN identify runs
 // with nothing stated, THEN its searches and standard errors cost at most
-// 13 passes of the core over the trace (34 when every lag of the search
-// ran the core, 14 when the column's lag search identified on its own)
-// and counts.core_passes says so.
+// 15 passes of the core over the trace (34 when every lag of the search
+// ran the core; 12 before two refits beside the held search's lag tested
+// whether the held friction chose its own lag, which on a single tone it
+// did, m 5 to 25 standard errors off) and counts.core_passes says so.
 TEST(SearchCost, IdentifyCountsItsCorePassesAndStaysWithinBudget) {
   const host::IdentifyResult r = identified_20s();
   ASSERT_EQ(r.status, feedid::Status::ok) << r.error;
   EXPECT_GE(r.core_passes, 3.0);  // the search's identification, the result, the jackknife's chunks
-  EXPECT_LE(r.core_passes, 13.0);
+  EXPECT_LE(r.core_passes, 15.0);
   EXPECT_DOUBLE_EQ(host::to_json(r)["counts"]["core_passes"].get<double>(), r.core_passes);
 }
 
