@@ -265,12 +265,7 @@ void simulate_in_loop(const ModelFile& model, const Controller& c, const LoggedR
 void compare_with_run(const LoggedRun& run, const ReplayOptions& opt, ReplayResult& r) {
   const double rate = 1.0 / r.dt_s;
   r.filter_applied_hz = applied_cutoff_hz(opt.filter_hz, rate);
-  if (cutoff_out_of_reach(opt.filter_hz, rate)) {
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "--filter %.4g Hz is beyond 0.4 of the log's rate: both positions were filtered at %.4g Hz",
-                  opt.filter_hz, r.filter_applied_hz);
-    r.notes.push_back(buf);
-  }
+  if (std::string n = cutoff_note(opt.filter_hz, r.filter_applied_hz, "both positions were"); !n.empty()) r.notes.push_back(std::move(n));
   std::vector<double> xf, v, a, xsf, vs, as;
   process_position(run.x, run.t, opt.filter_hz, rate, xf, v, a);
   process_position(r.x_sim, run.t, opt.filter_hz, rate, xsf, vs, as);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace feedid::host {
@@ -250,6 +251,14 @@ std::vector<double> integrate_velocity(const std::vector<double>& v, const std::
     x[k] = x[k - 1] + (h > 0 && h <= max_step_s ? v[k] * h : 0.0);
   }
   return x;
+}
+
+std::string cutoff_note(double requested_hz, double applied_hz, const char* filtered) {
+  if (!(applied_hz > 0.0) || !(requested_hz > applied_hz * (1.0 + 1e-6))) return "";
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "--filter %.4g Hz is beyond 0.4 of the log's rate: %s filtered at %.4g Hz",
+                requested_hz, filtered, applied_hz);
+  return buf;
 }
 
 }  // namespace feedid::host

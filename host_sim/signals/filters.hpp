@@ -3,6 +3,7 @@
 // and central differences, as in the EMPS reference protocol. Host only.
 #pragma once
 #include <algorithm>
+#include <string>
 #include <vector>
 
 namespace feedid::host {
@@ -60,9 +61,11 @@ std::vector<double> resample(const std::vector<double>& t, const std::vector<dou
 /// what it should (at half the rate it is undefined). What reports a
 /// cut-off reports this one, and says where it differs from the request.
 inline double applied_cutoff_hz(double requested_hz, double rate_hz) { return std::min(requested_hz, 0.4 * rate_hz); }
-/// Whether a request is out of that reach by more than the rate's rounding
-/// (a rate from time stamps is 1999.99999999 Hz, not 2000).
-inline bool cutoff_out_of_reach(double requested_hz, double rate_hz) { return requested_hz > 0.4 * rate_hz * (1.0 + 1e-6); }
+/// Why a cut-off was applied below the one requested (`filtered`: what it
+/// filtered, e.g. "the position"), or empty where it was applied as asked
+/// within the rate's rounding (a rate from time stamps is 1999.99999999 Hz,
+/// not 2000). One text for every command that reports a cut-off.
+std::string cutoff_note(double requested_hz, double applied_hz, const char* filtered);
 
 /// Velocity from position without lag: filtfilt_butter4 at cutoff_hz, then
 /// central differences, on each stretch between steps longer than

@@ -160,14 +160,7 @@ ValidateResult validate(const DriveParams& model, const Trace& logged, const Val
   return r;
 }
 
-std::string ValidateResult::filter_note() const {
-  // applied = 0.4 rate where out of reach (applied_cutoff_hz)
-  if (!(filter_applied_hz > 0.0) || !cutoff_out_of_reach(filter_requested_hz, filter_applied_hz / 0.4)) return "";
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "--filter %.4g Hz is beyond 0.4 of the log's rate: the position was filtered at %.4g Hz",
-                filter_requested_hz, filter_applied_hz);
-  return buf;
-}
+std::string ValidateResult::filter_note() const { return cutoff_note(filter_requested_hz, filter_applied_hz, "the position was"); }
 
 nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const ValidateOptions& opt) {
   nlohmann::json j = {{"relative_error_pct", r.relative_error_pct},

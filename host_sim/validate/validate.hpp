@@ -55,9 +55,9 @@ struct ValidateResult {
   /// most 0.4 of the rate, the least over the scored stretches); below
   /// ValidateOptions::filter_hz where that was out of the rate's reach.
   double filter_applied_hz = 0.0;
-  /// Why the filter was applied below the request, or empty.
+  double filter_requested_hz = 0.0;  ///< ValidateOptions::filter_hz (Hz)
+  /// Why the filter was applied below the request, or empty (cutoff_note).
   std::string filter_note() const;
-  double filter_requested_hz = 0.0;
 };
 
 /// The EMPS protocol (docs/emps.md) on each stretch between time gaps of
