@@ -14,6 +14,26 @@
 namespace feedid::host::cli {
 namespace {
 
+/// The service change and warm-up of the run (--change-*, --warmup-*), for
+/// the truth file; null where neither is on. The model beside it is the
+/// drive before them.
+nlohmann::json change_json(const ServiceChange& ch) {
+  if (!ch.on() && !ch.warms_up()) return nullptr;
+  nlohmann::json j;
+  if (ch.on())
+    j["step"] = {{"time_s", ch.time_s},
+                 {"coulomb_fraction", ch.coulomb_fraction},
+                 {"viscous_fraction", ch.viscous_fraction},
+                 {"mass_fraction", ch.mass_fraction},
+                 {"direction", ch.direction > 0 ? "positive" : ch.direction < 0 ? "negative" : "both"}};
+  if (ch.warms_up())
+    j["warmup"] = {{"friction_drop_fraction", ch.warmup_drop},
+                   {"duration_s", ch.warmup_s},
+                   {"temperature_C", {20.0, 45.0}},
+                   {"column", "temperature_C"}};
+  return j;
+}
+
 struct SimulateCommand : Command {
   SimConfig sim;
   std::string out_path, truth_path;
@@ -41,6 +61,7 @@ struct SimulateCommand : Command {
       const nlohmann::json simulated = effects_json(sim.effects, sim.drive);
       tj["effects"] = nlohmann::json::array();
       if (!simulated.empty()) tj["simulated_effects"] = simulated;
+      if (const nlohmann::json change = change_json(sim.change); !change.is_null()) tj["simulated_change"] = change;
       if (!write_json(truth_path, tj)) return 1;
     }
     std::printf("wrote %s: %zu samples, %.3g s at %.6g Hz\n", out_path.c_str(), t.samples.size(), sim.motion.duration_s,

@@ -110,6 +110,30 @@ TEST(Messages, SimulatesTruthFileIsAModelFile) {
   }
 }
 
+// GIVEN a run with a step change and a warm-up, THEN the truth file states
+// both (it held the drive before them only), and validate, which models
+// neither, says so by the key's name.
+TEST(Messages, SimulatesTruthFileStatesTheChangeAndTheWarmUp) {
+  const std::string dir = ::testing::TempDir();
+  const std::string trace = dir + "feedid_truth_change.csv", truth = dir + "feedid_truth_change.json";
+  ASSERT_EQ(run_feedid("simulate --duration 10 --change-time 6 --change-coulomb-fraction 0.2 --change-direction neg "
+                       "--warmup-drop 0.1 --warmup-minutes 0.1 --out " + trace + " --truth " + truth).exit_code, 0);
+  std::ifstream f(truth);
+  const nlohmann::json j = nlohmann::json::parse(f);
+  ASSERT_TRUE(j.contains("simulated_change")) << j.dump();
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["step"]["time_s"].get<double>(), 6.0);
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["step"]["coulomb_fraction"].get<double>(), 0.2);
+  EXPECT_EQ(j["simulated_change"]["step"]["direction"], "negative");
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["duration_s"].get<double>(), 6.0);
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["friction_drop_fraction"].get<double>(), 0.1);
+  const CliRun v = run_feedid("validate --model " + truth + " --in " + trace);
+  EXPECT_EQ(v.exit_code, 0) << v.err;
+  EXPECT_NE(v.err.find("simulated_change"), std::string::npos) << v.err;
+  ASSERT_EQ(run_feedid("simulate --duration 5 --out " + trace + " --truth " + truth).exit_code, 0);
+  std::ifstream g(truth);
+  EXPECT_FALSE(nlohmann::json::parse(g).contains("simulated_change"));
+}
+
 // GIVEN --stream asked for on pooled inputs, THEN the run says it reads
 // them whole instead (a .mat run did so without a word) and still succeeds
 TEST(Messages, AStreamThatCannotBeHadIsSaid) {
