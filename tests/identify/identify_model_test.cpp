@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "identify/identify.hpp"
+#include "model/model_file.hpp"
 #include "test_support.hpp"
 
 namespace feedid::test {
@@ -67,6 +68,30 @@ TEST(ImplausibleMagnitudes, AnUnscaledPositionIsNamed) {
   EXPECT_NE(w[0].find("mass"), std::string::npos) << w[0];
   EXPECT_NE(w[1].find("--position-scale"), std::string::npos) << w[1];
   EXPECT_EQ(host::to_json(r).at("warnings").size(), 2u);
+}
+
+// GIVEN identify's own JSON, with and without a constant gravity term,
+// THEN the model reader passes over every key identify writes beside the
+// model (kIdentifyReportKeys follows to_json), AND a typo beside them, at
+// the top or in a direction, is warned of by name (it was passed over with
+// them: an 'ofset_N' read as no offset without a word).
+TEST(ModelFileOfIdentify, OnlyKeysIdentifyDoesNotWriteAreWarnedOf) {
+  const host::Trace tr = simulate(SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 20.0});
+  for (const host::GravityTerm g : {host::GravityTerm::none, host::GravityTerm::constant}) {
+    host::IdentifyOptions opt;
+    opt.gravity = g;
+    nlohmann::json j = host::to_json(host::identify(tr, opt));
+    j["truth"] = host::model_json(host::SimConfig{}.drive);  // as demo writes it beside the model
+    const host::ModelFile clean = host::model_file_from_json(j, "id.json");
+    ASSERT_TRUE(clean.error.empty()) << clean.error;
+    EXPECT_TRUE(clean.warnings.empty()) << clean.warnings.front();
+    j["ofset_N"] = 3.0;
+    j["pos"]["sigmaa"] = 1.0;
+    const host::ModelFile typo = host::model_file_from_json(j, "id.json");
+    ASSERT_EQ(typo.warnings.size(), 2u);
+    EXPECT_NE(typo.warnings[0].find("'pos.sigmaa'"), std::string::npos) << typo.warnings[0];
+    EXPECT_NE(typo.warnings[1].find("'ofset_N'"), std::string::npos) << typo.warnings[1];
+  }
 }
 
 }  // namespace
