@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "signals/condition.hpp"
@@ -50,6 +51,21 @@ void protocol_derivatives(const ProtocolStretch& p, bool has_position, double fi
   a = central_difference(v, p.t);
 }
 
+/// Speed below which a stretch's sample is at standstill (m/s): a millionth
+/// of its top speed, or the speed the rounding of its logged positions
+/// makes (64 units in the last place of the largest per period), if more.
+/// At standstill the filtered position's difference is rounding, and its
+/// sign put +-Fc in the prediction: moving the position's origin by 0.5 m
+/// moved a production run's full-rate error from 26.8 to 28.0 %. A
+/// millionth of the top speed is far inside any Stribeck dip, where the
+/// model cannot tell static friction anyway; F(0) = 0 there.
+double standstill_speed(const std::vector<double>& v, const std::vector<double>& x, double rate_hz) {
+  double v_top = 0.0, x_top = 0.0;
+  for (const double s : v) v_top = std::max(v_top, std::fabs(s));
+  for (const double p : x) x_top = std::max(x_top, std::fabs(p));
+  return std::max(1e-6 * v_top, 64.0 * std::numeric_limits<double>::epsilon() * x_top * rate_hz);
+}
+
 /// Sums of squares of the error and of the force, over every stretch.
 struct ErrorSums {
   double error = 0.0, force = 0.0;
@@ -84,9 +100,11 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
   const double fc = applied_cutoff_hz(opt.filter_hz, p.rate_hz);
   r.filter_applied_hz = r.filter_applied_hz > 0.0 ? std::min(r.filter_applied_hz, fc) : fc;
   r.filter_requested_hz = opt.filter_hz;
+  const double still = standstill_speed(v, has_position ? p.x : std::vector<double>{}, p.rate_hz);
   std::vector<double> u_hat(n);
   for (std::size_t k = 0; k < n; ++k)
-    u_hat[k] = predict_force(model, v[k], a[k]) + opt.load.at(has_position ? p.x[k] : 0.0);  // validate() refuses
+    u_hat[k] = predict_force(model, std::fabs(v[k]) < still ? 0.0 : v[k], a[k]) +
+               opt.load.at(has_position ? p.x[k] : 0.0);  // validate() refuses
                                                                                          // an arm's load without x
   for (std::size_t k = first; k < n; ++k) full.add(p.u[k], u_hat[k]);
   // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
