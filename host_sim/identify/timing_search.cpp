@@ -270,17 +270,30 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
     // walk stays, the held parabola's vertex stands and its error is at least
     // the refits' (flatter where friction and mass absorb part of a shift);
     // where it moves, the refits give both.
+    // A walk that stops at an end of the range still falling gives that
+    // end, at least that far out, as the held search does (se h).
     const RefitWalk w = walk_by_refits(s, work, cfg, RefitPoint{best.lag, best.c, model}, e.evaluations);
-    const double refit_se = vertex_se(w.mid.lag, h, w.lo.c, w.mid.c, w.hi.c);
-    e.absorbed_by_refit = 1.0 - curvature(h, w.lo.c, w.mid.c, w.hi.c) / curvature(h, lo, best.c, hi);
-    if (w.walked) {
-      at = vertex(w.mid.lag, h, w.lo.c.ssr, w.mid.c.ssr, w.hi.c.ssr);
+    const RefitPoint& least = w.lo.c.ssr < w.mid.c.ssr ? w.lo : w.hi.c.ssr < w.mid.c.ssr ? w.hi : w.mid;
+    const bool at_end = &least != &w.mid;
+    const double refit_se = at_end ? h : vertex_se(w.mid.lag, h, w.lo.c, w.mid.c, w.hi.c);
+    const double held_curv = curvature(h, lo, best.c, hi), refit_curv = curvature(h, w.lo.c, w.mid.c, w.hi.c);
+    if (held_curv > 0.0 && std::isfinite(held_curv) && std::isfinite(refit_curv))
+      e.absorbed_by_refit = std::clamp(1.0 - std::max(refit_curv, 0.0) / held_curv, 0.0, 1.0);
+    if (w.walked || at_end) {
+      at = at_end ? least.lag : vertex(w.mid.lag, h, w.lo.c.ssr, w.mid.c.ssr, w.hi.c.ssr);
       e.se_samples = refit_se;
-      model = w.mid.model;
+      model = least.model;
     } else {
       e.se_samples = std::max(e.se_samples, refit_se);
     }
-    if (shared && !shared->ok && model.ok) *shared = model;
+    if (shared && !shared->ok && model.ok && std::isfinite(at)) {
+      *shared = model;
+      shared->absorbed_by_refit = e.absorbed_by_refit;
+      shared->refit_se_samples = refit_se;
+    }
+  } else if (!own_friction) {
+    e.absorbed_by_refit = shared->absorbed_by_refit;
+    e.se_samples = std::max(e.se_samples, shared->refit_se_samples);
   }
   if (!std::isfinite(at)) return e;
   e.lag_samples = at;

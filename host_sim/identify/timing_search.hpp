@@ -41,6 +41,12 @@ static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by who
 struct HeldFriction {
   bool ok = false;
   DriveParams params;
+  /// What the search that identified it learnt from its refits
+  /// (LagEstimate::absorbed_by_refit, and the refits' error of the lag,
+  /// periods): a search holding it has no refits of its own, and the
+  /// motion that confounds one lag confounds the other.
+  double absorbed_by_refit = std::numeric_limits<double>::quiet_NaN();
+  double refit_se_samples = 0.0;
 };
 LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& cfg, HeldFriction* shared = nullptr);
 
