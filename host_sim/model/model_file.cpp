@@ -34,10 +34,12 @@ double number_at(const nlohmann::json& j, const char* key, const std::string& wh
 /// Keys of j outside `known` (and, in a file identify wrote, outside
 /// `report`: what identify writes beside the model), each as a warning.
 /// A typo among identify's keys (ofset_N) was passed over with them.
+/// `units`: the file's, in which identify named its report keys
+/// (mass_from_windows_kg_m2 on a rotary axis, friction_rms_V for a force in V).
 void warn_unknown(const nlohmann::json& j, const std::set<std::string>& known, const std::set<std::string>& report,
-                  bool from_identify, const std::string& where, ModelFile& out) {
+                  bool from_identify, const Units& units, const std::string& where, ModelFile& out) {
   for (const auto& [key, value] : j.items())
-    if (!known.count(key) && !(from_identify && report.count(key)))
+    if (!known.count(key) && !(from_identify && report.count(key_in_si(key, units))))
       out.warnings.push_back(out.source + ": unknown key '" + where + key + "' (ignored)");
 }
 
@@ -72,7 +74,7 @@ DirectionFriction direction_from_json(const nlohmann::json& j, const char* name,
   if (f.breakaway_N == 0.0 && !(f.stribeck_velocity_m_s > 0.0)) f.stribeck_velocity_m_s = 1.0;
   if (f.breakaway_N < 0.0) refuse(out, "'" + w + "fs' must be >= 0 (static friction is fc + fs)");
   if (!(f.stribeck_velocity_m_s > 0.0)) refuse(out, "'" + w + "vs' must be > 0 when '" + w + "fs' is given");
-  warn_unknown(o, {"sigma", "fc", "fs", "vs"}, kIdentifyDirectionReportKeys, from_identify, w, out);
+  warn_unknown(o, {"sigma", "fc", "fs", "vs"}, kIdentifyDirectionReportKeys, from_identify, stated_units(j), w, out);
   return f;
 }
 
@@ -123,7 +125,7 @@ void read_gravity(const nlohmann::json& g, bool from_identify, ModelFile& out) {
     out.load.gravity_angle0_rad = number_at(g, "angle0_rad", "gravity.", out);
   }
   if (!from_identify) warn_unknown(g, {"form", "G", "angle0_rad", "G_se", "angle0_se_rad", "units", "note", "rule"}, {},
-                                   false, "gravity.", out);
+                                   false, Units{}, "gravity.", out);
 }
 
 /// The effects diagnose named (a list of {"kind", "parameters"}), kept for
@@ -186,7 +188,7 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
     return out;
   }
   warn_unknown(j, {"m", "pos", "neg", offset, "gravity", "effects", "simulated_effects", "simulated_change", "units", "comment"},
-               kIdentifyReportKeys, from_identify, "", out);
+               kIdentifyReportKeys, from_identify, stated_units(j), "", out);
   for (const std::string& w : implausible_parameters(out.drive, stated_units(j))) out.warnings.push_back(out.source + ": " + w);
   if (from_identify)
     for (const char* name : {"pos", "neg"})

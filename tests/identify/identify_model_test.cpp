@@ -70,17 +70,23 @@ TEST(ImplausibleMagnitudes, AnUnscaledPositionIsNamed) {
   EXPECT_EQ(host::to_json(r).at("warnings").size(), 2u);
 }
 
-// GIVEN identify's own JSON, with and without a constant gravity term,
+// GIVEN identify's own JSON as written, with and without a constant
+// gravity term, on a linear axis, a rotary one and a force in volts,
 // THEN the model reader passes over every key identify writes beside the
-// model (kIdentifyReportKeys follows to_json), AND a typo beside them, at
-// the top or in a direction, is warned of by name (it was passed over with
-// them: an 'ofset_N' read as no offset without a word).
+// model (kIdentifyReportKeys follows to_json, in the file's units), AND a
+// typo beside them, at the top or in a direction, is warned of by name
+// (it was passed over with them: an 'ofset_N' read as no offset without
+// a word).
 TEST(ModelFileOfIdentify, OnlyKeysIdentifyDoesNotWriteAreWarnedOf) {
   const host::Trace tr = simulate(SimSpec{100.0, 2000.0, 1, 1e-8, 0.5, 20.0});
-  for (const host::GravityTerm g : {host::GravityTerm::none, host::GravityTerm::constant}) {
+  const host::Units rotary{"rad", "N m"}, volts{"m", "V"};
+  for (const host::GravityTerm g : {host::GravityTerm::none, host::GravityTerm::constant})
+  for (const host::Units& units : {host::Units{}, rotary, volts}) {
+    SCOPED_TRACE(units.position + " " + units.force);
     host::IdentifyOptions opt;
     opt.gravity = g;
-    nlohmann::json j = host::to_json(host::identify(tr, opt));
+    opt.units = units;
+    nlohmann::json j = host::json_as_written(host::to_json(host::identify(tr, opt)));
     j["truth"] = host::model_json(host::SimConfig{}.drive);  // as demo writes it beside the model
     const host::ModelFile clean = host::model_file_from_json(j, "id.json");
     ASSERT_TRUE(clean.error.empty()) << clean.error;
