@@ -26,10 +26,10 @@ nlohmann::json change_json(const ServiceChange& ch) {
                  {"viscous_fraction", ch.viscous_fraction},
                  {"mass_fraction", ch.mass_fraction},
                  {"direction", ch.direction > 0 ? "positive" : ch.direction < 0 ? "negative" : "both"}};
-  if (ch.warms_up())
-    j["warmup"] = {{"friction_drop_fraction", ch.warmup_drop},
-                   {"duration_s", ch.warmup_s},
-                   {"temperature_C", {20.0, 45.0}},
+  if (ch.warms_up())  // the nominal ramp; a run shorter than it ends part way (temperature_C column)
+    j["warmup"] = {{"ramp_s", ch.warmup_s},
+                   {"ramp_temperature_C", {20.0, 45.0}},
+                   {"friction_drop_at_ramp_end", ch.warmup_drop},
                    {"column", "temperature_C"}};
   return j;
 }

@@ -124,8 +124,8 @@ TEST(Messages, SimulatesTruthFileStatesTheChangeAndTheWarmUp) {
   EXPECT_DOUBLE_EQ(j["simulated_change"]["step"]["time_s"].get<double>(), 6.0);
   EXPECT_DOUBLE_EQ(j["simulated_change"]["step"]["coulomb_fraction"].get<double>(), 0.2);
   EXPECT_EQ(j["simulated_change"]["step"]["direction"], "negative");
-  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["duration_s"].get<double>(), 6.0);
-  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["friction_drop_fraction"].get<double>(), 0.1);
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["ramp_s"].get<double>(), 6.0);
+  EXPECT_DOUBLE_EQ(j["simulated_change"]["warmup"]["friction_drop_at_ramp_end"].get<double>(), 0.1);
   const CliRun v = run_feedid("validate --model " + truth + " --in " + trace);
   EXPECT_EQ(v.exit_code, 0) << v.err;
   EXPECT_NE(v.err.find("simulated_change"), std::string::npos) << v.err;
