@@ -90,15 +90,15 @@ double jackknife_vertex_se(double l, double h, const LagCost& lo, const LagCost&
   return jackknife_se(v);
 }
 
-/// Standard error of the vertex of the parabola through (l - h, lo),
-/// (l, mid), (l + h, hi): from its curvature and the residual variance per
-/// block (nine model parameters and the lag fitted), or the chunks'
-/// scatter where that is larger; h where the three do not curve upwards.
 /// Curvature a of SSR = a (lag - l0)^2 + c through three points h apart.
 double curvature(double h, const LagCost& lo, const LagCost& mid, const LagCost& hi) {
   return (lo.ssr - 2.0 * mid.ssr + hi.ssr) / (2.0 * h * h);
 }
 
+/// Standard error of the vertex of the parabola through (l - h, lo),
+/// (l, mid), (l + h, hi): from its curvature and the residual variance per
+/// block (nine model parameters and the lag fitted), or the chunks'
+/// scatter where that is larger; h where the three do not curve upwards.
 double vertex_se(double l, double h, const LagCost& lo, const LagCost& mid, const LagCost& hi) {
   const double curv = curvature(h, lo, mid, hi);
   if (!(curv > 0.0) || !std::isfinite(curv)) return h;
@@ -269,9 +269,9 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
     // Whether the held friction chose its own lag (walk_by_refits). Where the
     // walk stays, the held parabola's vertex stands and its error is at least
     // the refits' (flatter where friction and mass absorb part of a shift);
-    // where it moves, the refits give both.
-    // A walk that stops at an end of the range still falling gives that
-    // end, at least that far out, as the held search does (se h).
+    // where it moves, the refits give both. A walk that stops at an end of
+    // the range still falling gives that end, at least that far out, as the
+    // held search does (se h).
     const RefitWalk w = walk_by_refits(s, work, cfg, RefitPoint{best.lag, best.c, model}, e.evaluations);
     const RefitPoint& least = w.lo.c.ssr < w.mid.c.ssr ? w.lo : w.hi.c.ssr < w.mid.c.ssr ? w.hi : w.mid;
     const bool at_end = &least != &w.mid;
