@@ -100,12 +100,11 @@ void score_stretch(const DriveParams& model, const ProtocolStretch& p, bool has_
   const double fc = applied_cutoff_hz(opt.filter_hz, p.rate_hz);
   r.filter_applied_hz = r.filter_applied_hz > 0.0 ? std::min(r.filter_applied_hz, fc) : fc;
   r.filter_requested_hz = opt.filter_hz;
-  const double still = standstill_speed(v, has_position ? p.x : std::vector<double>{}, p.rate_hz);
+  const double still = has_position ? standstill_speed(v, p.x, p.rate_hz) : standstill_speed(v, {}, p.rate_hz);
   std::vector<double> u_hat(n);
+  // validate() refuses an arm's load without x
   for (std::size_t k = 0; k < n; ++k)
-    u_hat[k] = predict_force(model, std::fabs(v[k]) < still ? 0.0 : v[k], a[k]) +
-               opt.load.at(has_position ? p.x[k] : 0.0);  // validate() refuses
-                                                                                         // an arm's load without x
+    u_hat[k] = predict_force(model, std::fabs(v[k]) < still ? 0.0 : v[k], a[k]) + opt.load.at(has_position ? p.x[k] : 0.0);
   for (std::size_t k = first; k < n; ++k) full.add(p.u[k], u_hat[k]);
   // Protocol: each column low-passed (anti-alias, zero phase, at 0.8 of the
   // new Nyquist frequency, like MATLAB decimate's default) and every n-th
