@@ -236,13 +236,16 @@ void raise_if(const std::string& error) {
 using JsonAndWarnings = std::pair<std::string, std::vector<std::string>>;
 
 /// The command on a trace read without the GIL; the JSON text of its --json,
-/// and what the CLI prints on stderr beside it (validate: the model
-/// reader's warnings, a filter beyond the rate's reach).
+/// and what the CLI prints beside it (identify: its warnings; validate: the
+/// model reader's warnings, a filter beyond the rate's reach).
 /// model_text: validate's model (identify's JSON), in the log's units.
 JsonAndWarnings run(Command command, const CsvResult& read, const CallOptions& o, const std::string& model_text) {
   if (!read.ok) throw std::invalid_argument(read.error);
   switch (command) {
-    case Command::identify: return {json_as_written(to_json(identify(read.trace, o.diagnose.identify))).dump(), {}};
+    case Command::identify: {  // the warnings the CLI's summary prints (identify_warnings)
+      const IdentifyResult r = identify(read.trace, o.diagnose.identify);
+      return {json_as_written(to_json(r)).dump(), identify_warnings(r)};
+    }
     case Command::diagnose: return {json_as_written(to_json(diagnose(read.trace, o.diagnose))).dump(), {}};
     case Command::validate: break;
     case Command::monitor:

@@ -254,6 +254,16 @@ class Errors(unittest.TestCase):
             feedid.validate(model, t, x, u, filter=1e6)
         with self.assertRaisesRegex(TypeError, "validate needs a model"):
             feedid.validate(None, t, x, u)
+        # identify's warnings, which the CLI prints, are Python warnings (they
+        # were only in the dict): a single tone leaves the lag to the reversals
+        tt = np.arange(60000) * 5e-4
+        w = 2 * np.pi
+        vv = 0.05 * w * np.cos(w * tt)
+        friction = np.sign(vv) * (25.0 + 8.0 * np.exp(-(vv / 0.002) ** 2)) + 700.0 * vv
+        uu = 100.0 * -0.05 * w * w * np.sin(w * tt) + friction + np.random.default_rng(1).normal(0.0, 0.5, tt.size)
+        with self.assertWarnsRegex(UserWarning, "told only by the reversals"):
+            tone = feedid.identify(tt, np.round(0.05 * np.sin(w * tt) / 1e-8) * 1e-8, uu)
+        self.assertTrue(any("told only by the reversals" in x for x in tone["warnings"]))
         with self.assertRaisesRegex(ValueError, "model: 'pos.fc' must be a finite number, not nan"):
             feedid.validate({**model, "pos": {"sigma": 200.0, "fc": float("nan")}}, t, x, u)
         with tempfile.TemporaryDirectory() as tmp:

@@ -73,13 +73,23 @@ def identify(t, x=None, u=None, *, v=None, axis="linear", force_unit=None, **opt
     alignment, force_lag_s, velocity_lag_s, velocity_filter, velocity_min,
     velocity_resolution, position_scale, force_scale, time_scale, bad_rows.
 
-    Returns the dict of ``feedid identify --json``. Raises Error with the
-    host's message when the trace cannot be identified, NotPhysical when
-    the model is not physical, ValueError for bad input, TypeError for an
-    unknown option. The GIL is released while the host works.
+    Returns the dict of ``feedid identify --json``; its "warnings" (what
+    the CLI prints as WARNING) are Python warnings too. Raises Error with
+    the host's message when the trace cannot be identified, NotPhysical
+    when the model is not physical, ValueError for bad input, TypeError for
+    an unknown option. The GIL is released while the host works.
     """
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.run_arrays("identify", *_signals(t, x, u, v), options)[0])
+    return _identified(_feedid.run_arrays("identify", *_signals(t, x, u, v), options))
+
+
+def _identified(text_and_warnings):
+    """identify's dict (_checked), its warnings given as Python warnings
+    first (an implausible magnitude, a lag only the reversals tell)."""
+    text, notes = text_and_warnings
+    for note in notes:
+        warnings.warn(note, stacklevel=3)
+    return _checked(text)
 
 
 def _plain(value, name, key=""):
@@ -219,7 +229,7 @@ def identify_files(paths, axis="linear", force_unit=None, **options):
     position, velocity and force (default t, x, v, u).
     """
     options.update(axis=axis, force_unit=force_unit)
-    return _checked(_feedid.run_files("identify", _paths(paths), options)[0])
+    return _identified(_feedid.run_files("identify", _paths(paths), options))
 
 
 def diagnose_files(paths, axis="linear", force_unit=None, model=None, controller=None, **options):
