@@ -1083,6 +1083,17 @@ std::vector<std::string> identify_warnings(const IdentifyResult& r) {
                   1e3 * r.signals.force_lag_s, 1e3 * r.signals.force_lag_se_s, 100.0 * absorbed);
     w.emplace_back(buf);
   }
+  const LagEstimate& lag = r.signals.lag_search;
+  const bool at_range_end = std::fabs(lag.lag_samples - kForceLagMin) < 1e-9 || std::fabs(lag.lag_samples - kForceLagMax) < 1e-9;
+  if (r.signals.force_lag_origin == Signals::LagOrigin::estimated && lag.ok && at_range_end) {
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the force lag came out at an end of the range searched (%+g periods of the core's velocity, "
+                  "%.3g ms): the force may lag further, a delay beyond any logging convention, and m and sigma "
+                  "absorb the rest of it; state it (--force-lag-s) where it is known, or see the delay diagnose names",
+                  lag.lag_samples, 1e3 * r.signals.force_lag_s);
+    w.emplace_back(buf);
+  }
   return w;
 }
 

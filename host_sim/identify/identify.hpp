@@ -493,8 +493,10 @@ std::vector<std::string> implausible_magnitudes(const IdentifyResult& r);
 /// two tones: 0.6).
 constexpr double kLagToldByReversals = 0.9;
 
-/// What identify warns of: implausible_magnitudes, and an estimated force
-/// lag that only the reversals tell (kLagToldByReversals).
+/// What identify warns of: implausible_magnitudes, an estimated force lag
+/// that only the reversals tell (kLagToldByReversals), and one at an end of
+/// the range searched (kForceLagMin, kForceLagMax), which a longer delay
+/// would put there with m and sigma off by many standard errors.
 std::vector<std::string> identify_warnings(const IdentifyResult& r);
 
 nlohmann::json to_json(const IdentifyResult& r);

@@ -249,55 +249,85 @@ LagEstimate estimate_force_lag(const Signals& s, const feedid::Config<double>& c
     each_identified = true;
     scan_grid();
   }
-  const Point best = best_point();
-  if (!std::isfinite(best.c.ssr)) return e;
-  e.lag_samples = best.lag;
-  // Parabola through the best point and its neighbours half a period away.
   const double h = 0.5;
-  if (best.lag - h < kForceLagMin - 1e-9 || best.lag + h > kForceLagMax + 1e-9) {
-    // At the end of the range: the lag is at least that far out. The edge
-    // is still a better pairing than assuming a held command, and the
-    // diagnosis names what lies beyond the conventions a delay.
-    e.se_samples = h;
+  // The lag and its error from the points scanned: the best where it lies
+  // at an end of the range (the lag is at least that far out; the edge is
+  // still a better pairing than a held command's, and the diagnosis names
+  // what lies beyond the conventions a delay), else the vertex of the
+  // parabola through it and its neighbours half a period away.
+  auto from_points = [&]() {
+    const Point best = best_point();
+    if (!std::isfinite(best.c.ssr)) return;
+    e.lag_samples = best.lag;
+    if (best.lag - h < kForceLagMin - 1e-9 || best.lag + h > kForceLagMax + 1e-9) {
+      e.se_samples = h;
+      e.ok = true;
+      return;
+    }
+    const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);
+    const double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);
+    e.se_samples = vertex_se(best.lag, h, lo, best.c, hi);
+    if (!std::isfinite(at)) return;
+    e.lag_samples = at;
     e.ok = true;
-    return e;
-  }
-  const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);
-  double at = vertex(best.lag, h, lo.ssr, best.c.ssr, hi.ssr);
-  e.se_samples = vertex_se(best.lag, h, lo, best.c, hi);
-  if (!each_identified && own_friction) {
-    // Whether the held friction chose its own lag (walk_by_refits). Where the
-    // walk stays, the held parabola's vertex stands and its error is at least
-    // the refits' (flatter where friction and mass absorb part of a shift);
-    // where it moves, the refits give both. A walk that stops at an end of
-    // the range still falling gives that end, at least that far out, as the
-    // held search does (se h).
-    const RefitWalk w = walk_by_refits(s, work, cfg, RefitPoint{best.lag, best.c, model}, e.evaluations);
-    const RefitPoint& least = w.lo.c.ssr < w.mid.c.ssr ? w.lo : w.hi.c.ssr < w.mid.c.ssr ? w.hi : w.mid;
-    const bool at_end = &least != &w.mid;
-    const double refit_se = at_end ? h : vertex_se(w.mid.lag, h, w.lo.c, w.mid.c, w.hi.c);
-    const double held_curv = curvature(h, lo, best.c, hi), refit_curv = curvature(h, w.lo.c, w.mid.c, w.hi.c);
-    if (held_curv > 0.0 && std::isfinite(held_curv) && std::isfinite(refit_curv))
-      e.absorbed_by_refit = std::clamp(1.0 - std::max(refit_curv, 0.0) / held_curv, 0.0, 1.0);
-    if (w.walked || at_end) {
-      at = at_end ? least.lag : vertex(w.mid.lag, h, w.lo.c.ssr, w.mid.c.ssr, w.hi.c.ssr);
-      e.se_samples = refit_se;
-      model = least.model;
-    } else {
-      e.se_samples = std::max(e.se_samples, refit_se);
-    }
-    if (shared && !shared->ok && model.ok && std::isfinite(at)) {
-      *shared = model;
-      shared->absorbed_by_refit = e.absorbed_by_refit;
-      shared->refit_se_samples = refit_se;
-    }
-  } else if (!own_friction) {
+  };
+  from_points();
+  if (each_identified || !std::isfinite(best_point().c.ssr)) return e;
+  if (!own_friction) {
     e.absorbed_by_refit = shared->absorbed_by_refit;
     e.se_samples = std::max(e.se_samples, shared->refit_se_samples);
+    return e;
   }
-  if (!std::isfinite(at)) return e;
-  e.lag_samples = at;
-  e.ok = true;
+  // Whether the held friction chose its own lag (walk_by_refits). Where the
+  // walk stays, the held parabola's vertex stands and its error is at least
+  // the refits' (flatter where friction and mass absorb part of a shift);
+  // where it moves, the refits give both. A walk that stops at an end of
+  // the range still falling gives that end with error h, as above.
+  const Point best = best_point();
+  const LagCost lo = eval(best.lag - h), hi = eval(best.lag + h);  // the held parabola's, kept in pts
+  const RefitWalk w = walk_by_refits(s, work, cfg, RefitPoint{best.lag, best.c, model}, e.evaluations);
+  const double held_curv = curvature(h, lo, best.c, hi), refit_curv = curvature(h, w.lo.c, w.mid.c, w.hi.c);
+  if (held_curv > 0.0 && std::isfinite(held_curv) && std::isfinite(refit_curv))
+    e.absorbed_by_refit = std::clamp(1.0 - std::max(refit_curv, 0.0) / held_curv, 0.0, 1.0);
+  if (e.absorbed_by_refit >= kLagRefitEveryLag) {
+    // Friction absorbs so much of a shift that the held lag, and a walk
+    // from it, can be a local least of the refits (a 1 Hz tone with the
+    // force 4 periods behind: -0.27 periods, m 40 standard errors off):
+    // every lag is identified on its own, as where the held friction does
+    // not settle, and the friction handed on is identified at the lag found.
+    each_identified = true;
+    scan_grid();
+    from_points();
+    if (e.ok && shared && !shared->ok) {
+      pair_at(s, work, std::round(2.0 * e.lag_samples) / 2.0);
+      ++e.evaluations;
+      model = identify_model(work, cfg);
+      if (model.ok) {
+        *shared = model;
+        shared->absorbed_by_refit = e.absorbed_by_refit;
+        shared->refit_se_samples = e.se_samples;
+      }
+    }
+    return e;
+  }
+  const RefitPoint& least = w.lo.c.ssr < w.mid.c.ssr ? w.lo : w.hi.c.ssr < w.mid.c.ssr ? w.hi : w.mid;
+  const bool at_end = &least != &w.mid;
+  const double refit_se = at_end ? h : vertex_se(w.mid.lag, h, w.lo.c, w.mid.c, w.hi.c);
+  double at = e.ok ? e.lag_samples : std::numeric_limits<double>::quiet_NaN();
+  if (w.walked || at_end) {
+    at = at_end ? least.lag : vertex(w.mid.lag, h, w.lo.c.ssr, w.mid.c.ssr, w.hi.c.ssr);
+    e.se_samples = refit_se;
+    model = least.model;
+  } else {
+    e.se_samples = std::max(e.se_samples, refit_se);
+  }
+  if (shared && !shared->ok && model.ok && std::isfinite(at)) {
+    *shared = model;
+    shared->absorbed_by_refit = e.absorbed_by_refit;
+    shared->refit_se_samples = refit_se;
+  }
+  e.ok = std::isfinite(at);
+  if (e.ok) e.lag_samples = at;
   return e;
 }
 

@@ -19,6 +19,14 @@ constexpr double kForceLagMin = -5.0;
 constexpr double kForceLagMax = 3.0;
 static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by whole samples the blocks' taps hold");
 
+/// Share of a shift's block residual that refitting friction and mass
+/// takes back (LagEstimate::absorbed_by_refit) from which the held
+/// friction's lag is not trusted and every lag is refitted: the held
+/// search assumes friction does not absorb a shift (the ladder: 0.03,
+/// EMPS: 0.01), and where it absorbs half (a tone with the force beyond
+/// the range) the refits had a local least far from the truth.
+constexpr double kLagRefitEveryLag = 0.25;
+
 
 /// The lag that minimises the residual of the identified model over short
 /// blocks of motion (the inertia identity integral(u - F) = m dv is exact only
