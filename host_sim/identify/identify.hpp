@@ -485,14 +485,6 @@ SysIdGains sysid_gains(const IdentifyResult& r);
 /// missing scale; none for a force labelled in another unit (V, A).
 std::vector<std::string> implausible_magnitudes(const IdentifyResult& r);
 
-/// Share of a force shift's block residual that refitting friction and mass
-/// takes back (LagEstimate::absorbed_by_refit) from which the estimated
-/// lag rests on the reversals alone: then m and sigma, which trade against
-/// the lag on the rest of the motion, rest on the friction law at low
-/// speed there (a single tone: 0.999; the ladder and EMPS: under 0.05;
-/// two tones: 0.6).
-constexpr double kLagToldByReversals = 0.9;
-
 /// What identify warns of: implausible_magnitudes, an estimated force lag
 /// that only the reversals tell (kLagToldByReversals), and one at an end of
 /// the range searched (kForceLagMin, kForceLagMax), which a longer delay

@@ -27,6 +27,12 @@ static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by who
 /// the range) the refits had a local least far from the truth.
 constexpr double kLagRefitEveryLag = 0.25;
 
+/// The same share from which the lag rests on the reversals alone, which
+/// identify warns of: then m and sigma, which trade against the lag on the
+/// rest of the motion, rest on the friction law at low speed there (a
+/// single tone: 0.999; two tones: 0.6).
+constexpr double kLagToldByReversals = 0.9;
+
 
 /// The lag that minimises the residual of the identified model over short
 /// blocks of motion (the inertia identity integral(u - F) = m dv is exact only
