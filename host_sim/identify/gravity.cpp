@@ -84,7 +84,7 @@ std::vector<Block> residual_blocks(const IdentifyResult& r) {
   Block cur;
   int dir = 0;
   auto close = [&]() {
-    if (cur.tau > 0.5 * kBlock_s) {
+    if (s.reaches(cur.tau, 0.5 * kBlock_s)) {
       for (double& x : cur.row) x /= cur.tau;
       cur.residual /= cur.tau;
       out.push_back(cur);
@@ -105,7 +105,7 @@ std::vector<Block> residual_blocks(const IdentifyResult& r) {
     cur.row[kSin] += std::sin(s.x[k]) * dt;
     cur.residual += res * dt;
     cur.tau += dt;
-    if (cur.tau >= kBlock_s) close();
+    if (s.reaches(cur.tau, kBlock_s)) close();
   }
   close();
   return out;

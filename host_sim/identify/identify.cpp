@@ -192,7 +192,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
   I moment_impulse, g;
   double t_start = 0.0, moment_dv = 0.0;
   auto close = [&](std::size_t k_end, bool adjacent_next) {
-    if (cur.dir != 0 && cur.tau >= 0.5 * block_s) {
+    if (cur.dir != 0 && s.reaches(cur.tau, 0.5 * block_s)) {
       cur.phi_impulse = I{}.add(moment_impulse, 1.0 / cur.tau);
       cur.phi_dv = moment_dv / cur.tau;
       if (prev.dir == cur.dir)
@@ -239,7 +239,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     moment_impulse.add(g, age * dt);
     moment_dv += age * dv;
     cur.tau += dt;
-    if (cur.tau >= block_s) close(k, true);
+    if (s.reaches(cur.tau, block_s)) close(k, true);
   }
   if (cur.dir != 0) close(n - 1, false);  // the last block, as at a gap
 }

@@ -281,6 +281,28 @@ TEST_F(Emps, APositionSpikeIsBridgedAndNamed) {
   for (std::size_t i = 0; i < got.size(); ++i) EXPECT_NEAR(got[i] / want[i], 1.0, 1e-3) << i;
 }
 
+// GIVEN the cross-test run with its clock started 1000 s later (the stamps'
+// last bits change, nothing else), WHEN identified, THEN every choice and
+// figure is the same. Its blocks last exactly 10 periods, where a sum of
+// steps lands on the length: the stamps' rounding closed some a sample
+// later, which took the cut-off from 100 to 400 Hz and moved the force lag
+// by 1.5 of its standard errors (Signals::reaches).
+TEST_F(Emps, IdentifyDoesNotDependOnTheClocksOrigin) {
+  const Trace run = read_emps("DATA_EMPS_PULSES.csv");
+  Trace later = run;
+  for (TraceSample& s : later.samples) s.t_s += 1000.0;
+  const IdentifyResult a = identify(run, IdentifyOptions{}), b = identify(later, IdentifyOptions{});
+  ASSERT_EQ(a.status, feedid::Status::ok) << a.error;
+  ASSERT_EQ(b.status, feedid::Status::ok) << b.error;
+  EXPECT_NEAR(b.signals.velocity_filter_hz, a.signals.velocity_filter_hz, 1e-6 * a.signals.velocity_filter_hz);
+  EXPECT_EQ(b.signals.velocity_filter_rivals_hz.size(), a.signals.velocity_filter_rivals_hz.size());
+  EXPECT_NEAR(b.signals.force_lag_s, a.signals.force_lag_s, 1e-3 * a.signals.force_lag_se_s);
+  EXPECT_NEAR(b.estimate.mass_kg, a.estimate.mass_kg, 1e-3 * a.estimate.mass_se_kg);
+  EXPECT_NEAR(b.estimate.pos.coulomb_N, a.estimate.pos.coulomb_N, 1e-3 * a.estimate.pos.coulomb_se);
+  EXPECT_NEAR(b.estimate.neg.viscous_Ns_m, a.estimate.neg.viscous_Ns_m, 1e-3 * a.estimate.neg.viscous_se);
+  EXPECT_NEAR(b.estimate.mass_se_kg, a.estimate.mass_se_kg, 1e-3 * a.estimate.mass_se_kg);
+}
+
 // GIVEN the PULSES run diagnosed on its own (base identified on it)
 // THEN no effect is named that makes the friction fall with speed, and the
 // candidate that would is said not physical and not significant. Before, a
