@@ -264,8 +264,9 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   c->add_option("--alignment", o.alignment,
                 "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md)")->capture_default_str();
   c->add_option("--force-lag-s", o.force_lag_s,
-                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data")
-      ->check(finite_number());
+                "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data (identify warns where the data put it elsewhere)")
+      ->check(finite_number())
+      ->each([&o](const std::string&) { o.check_stated_lag = true; });
   c->add_option("--velocity-lag-s", o.velocity_lag_s,
                 "how far the logged velocity lags the motion (s; a position difference is half a period); default: estimated against position")
       ->check(finite_number());

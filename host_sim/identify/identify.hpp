@@ -97,6 +97,11 @@ struct IdentifyOptions {
   /// head; with_conventions_of): the standard errors then carry the lag's
   /// uncertainty as they do where identify estimated it. 0: stated exactly.
   double force_lag_se_s = 0.0;
+  /// force_lag_s was stated by the user (--force-lag-s), not carried from
+  /// a search (with_conventions_of clears it): the lag is searched too,
+  /// and identify_warnings says where the data put it elsewhere. A wrong
+  /// stated lag goes into m and sigma with status ok. Costs the search.
+  bool check_stated_lag = false;
   /// How far the logged velocity lags the motion (s), e.g. a drive's filter;
   /// NaN: estimated against position when there is a position column.
   double velocity_lag_s = std::numeric_limits<double>::quiet_NaN();

@@ -116,7 +116,10 @@ bool input_option(const std::string& key, const py::handle& value, CsvColumns& c
 bool identify_option(const std::string& key, const py::handle& value, IdentifyOptions& id) {
   if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
   else if (key == "alignment") id.alignment = cast_option<std::string>(value, key, "a string");
-  else if (key == "force_lag_s") id.force_lag_s = number(value, key);
+  else if (key == "force_lag_s") {
+    id.force_lag_s = number(value, key);
+    id.check_stated_lag = true;  // identify() warns where the data put it elsewhere
+  }
   else if (key == "velocity_lag_s") id.velocity_lag_s = number(value, key);
   else if (key == "velocity_filter") id.velocity_filter_hz = zero_or_positive(value, key);
   else if (key == "velocity_min") id.velocity_min_m_s = zero_or_positive(value, key);

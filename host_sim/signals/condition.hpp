@@ -78,6 +78,11 @@ struct Signals {
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log
   LagEstimate lag_search;             ///< the search behind an estimated lag (before any clamp)
+  /// Beside a stated lag (IdentifyOptions::check_stated_lag): the lag the
+  /// search found and its standard error, in force_lag_s's frame (s); NaN
+  /// where no search ran beside it.
+  double searched_force_lag_s = std::numeric_limits<double>::quiet_NaN();
+  double searched_force_lag_se_s = std::numeric_limits<double>::quiet_NaN();
   /// Part of the estimated lag beyond the conventions, left out when
   /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
   double lag_beyond_conventions = 0.0;

@@ -220,6 +220,45 @@ TEST(ForceLag, StatedLagIsUsedAsGiven) {
   EXPECT_EQ(r.signals.force_lag_se_s, 0.0);
 }
 
+// GIVEN a held force (one period behind the logged backward difference)
+// and a stated lag, WHEN the user states it (check_stated_lag, as
+// --force-lag-s and Python's force_lag_s set it), THEN a lag two periods
+// off is warned of with the lag the data show, the true one is not, and
+// the check moves no estimate; a lag carried from an earlier search
+// (with_conventions_of) is not searched again.
+TEST(ForceLag, AStatedLagTheDataContradictIsWarnedOf) {
+  const host::Trace trace =
+      host::simulate(logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 3, 10.0));
+  auto stated_warning = [](const host::IdentifyResult& r) {
+    for (const std::string& w : host::identify_warnings(r))
+      if (w.find("stated force lag") != std::string::npos) return w;
+    return std::string();
+  };
+  host::IdentifyOptions wrong;
+  wrong.force_lag_s = 1.0 / 2000.0;
+  host::IdentifyOptions checked = wrong;
+  checked.check_stated_lag = true;
+  const host::IdentifyResult quiet = host::identify(trace, wrong), told = host::identify(trace, checked);
+  ASSERT_TRUE(quiet.error.empty() && told.error.empty()) << quiet.error << told.error;
+  EXPECT_EQ(stated_warning(quiet), "");
+  EXPECT_NE(stated_warning(told).find("differs by 1."), std::string::npos) << stated_warning(told);
+  // the lag shown is the search identify runs when no lag is stated, and it holds the truth
+  const host::IdentifyResult found = host::identify(trace, host::IdentifyOptions{});
+  ASSERT_TRUE(found.error.empty()) << found.error;
+  EXPECT_NEAR(told.signals.searched_force_lag_s, found.signals.force_lag_s, 1e-12);
+  EXPECT_NEAR(told.signals.searched_force_lag_s * 2000.0, -1.0, 3.0 * told.signals.searched_force_lag_se_s * 2000.0);
+  EXPECT_EQ(told.estimate.mass_kg, quiet.estimate.mass_kg) << "the check moved the estimate";
+  EXPECT_EQ(told.signals.force_lag_s, quiet.signals.force_lag_s);
+  host::IdentifyOptions right;
+  right.force_lag_s = -1.0 / 2000.0;
+  right.check_stated_lag = true;
+  const host::IdentifyResult agreed = host::identify(trace, right);
+  ASSERT_TRUE(agreed.error.empty()) << agreed.error;
+  EXPECT_TRUE(std::isfinite(agreed.signals.searched_force_lag_s));
+  EXPECT_EQ(stated_warning(agreed), "") << stated_warning(agreed);
+  EXPECT_FALSE(host::with_conventions_of(told.signals, checked).check_stated_lag);
+}
+
 // GIVEN a stated lag that was estimated on another stretch of the same log
 // (monitor's head: force_lag_se_s), THEN the standard errors carry its
 // uncertainty as they do for a lag identify estimates; stated exactly, not.

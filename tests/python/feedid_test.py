@@ -264,6 +264,14 @@ class Errors(unittest.TestCase):
         with self.assertWarnsRegex(UserWarning, "told only by the reversals"):
             tone = feedid.identify(tt, np.round(0.05 * np.sin(w * tt) / 1e-8) * 1e-8, uu)
         self.assertTrue(any("told only by the reversals" in x for x in tone["warnings"]))
+        # a stated lag is searched beside and warned of where the data put it
+        # elsewhere (two tones separate it; the force is instant, lag 0)
+        vv2 = vv + 0.02 * 5 * w * np.cos(5 * w * tt)
+        friction2 = np.sign(vv2) * (25.0 + 8.0 * np.exp(-(vv2 / 0.002) ** 2)) + 700.0 * vv2
+        uu2 = 100.0 * np.gradient(vv2, tt) + friction2 + np.random.default_rng(2).normal(0.0, 0.5, tt.size)
+        xx2 = np.round((0.05 * np.sin(w * tt) + 0.02 * np.sin(5 * w * tt)) / 1e-8) * 1e-8
+        with self.assertWarnsRegex(UserWarning, "stated force lag"):
+            feedid.identify(tt, xx2, uu2, force_lag_s=1e-3)
         with self.assertRaisesRegex(ValueError, "model: 'pos.fc' must be a finite number, not nan"):
             feedid.validate({**model, "pos": {"sigma": 200.0, "fc": float("nan")}}, t, x, u)
         with tempfile.TemporaryDirectory() as tmp:
