@@ -76,8 +76,10 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
       const LagEstimate e = search.found ? *search.found
                                          : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
       s.lag_search = e;
-      s.searched_force_lag_s = e.ok ? (e.lag_samples - column_lag) * dt : std::numeric_limits<double>::quiet_NaN();
-      s.searched_force_lag_se_s = e.ok ? e.se_samples * dt : std::numeric_limits<double>::quiet_NaN();
+      if (e.ok)
+        s.searched_force_lag = {(e.lag_samples - column_lag) * dt, e.se_samples * dt,
+                                std::fabs(e.lag_samples - kForceLagMin) < 1e-9 || std::fabs(e.lag_samples - kForceLagMax) < 1e-9,
+                                e.absorbed_by_refit};
     }
   } else if (!std::isfinite(lag)) {
     const LagEstimate e = search.found ? *search.found
@@ -536,6 +538,13 @@ IdentifyOptions with_smooth_band_edges(const Signals& raw, const IdentifyOptions
 }
 }  // namespace
 
+/// Of s's lag searched beside a stated lag and `other` (another candidate
+/// velocity's), keeps the one nearer the stated lag: the warning speaks
+/// only where every velocity's search puts the lag elsewhere (an 8 kHz
+/// log's column and its position's derivative found lags a quarter period
+/// apart, and the stated one, the column's, was warned of).
+void keep_nearer_searched_lag(Signals& s, const Signals::SearchedLag& other);
+
 Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals raw = condition(trace, conditioning(opt));
   if (raw.error.empty()) raw.error = alignment_refusal(opt.alignment);
@@ -580,6 +589,8 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // the lag, which the choice then keeps (the found one).
   const bool reuse = whole && s.velocity_delay_samples == 0 && s.lag_search.ok;
   const LagEstimate found = s.lag_search;
+  const Signals::SearchedLag derived_searched = s.searched_force_lag;
+  Signals::SearchedLag column_searched;
   // The scan derives every candidate's velocity into its signals: s itself
   // on a whole log, which nothing below reads again, rather than a copy of
   // every column of it.
@@ -588,8 +599,10 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     Signals column = column_and_align(raw, search, timing, LagSearch{nullptr, &held});
     if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
+      keep_nearer_searched_lag(column, derived_searched);
       return column;
     }
+    column_searched = column.searched_force_lag;
   }
   std::ostringstream o;
   o << "the smoothest of " << choice.candidates << " cut-offs" << (raw.has_velocity_column && trace.has_position ? " and the velocity column" : "")
@@ -599,6 +612,7 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz,
                                     LagSearch{found.ok ? &found : nullptr}, at_choice);
   chosen.velocity_filter_rivals_hz = choice.rivals_hz;
+  keep_nearer_searched_lag(chosen, column_searched);
   if (reuse && chosen.velocity_delay_samples == 0 && choice.velocities.size() == choice.rivals_hz.size() + 1) {
     chosen.rival_velocities.assign(std::make_move_iterator(choice.velocities.begin() + 1),
                                    std::make_move_iterator(choice.velocities.end()));
@@ -1079,6 +1093,12 @@ std::vector<std::string> implausible_magnitudes(const IdentifyResult& r) {
 }
 
 namespace {
+/// How many standard errors (of both) the stated lag lies from a search's.
+double stated_lag_off_by(const Signals& s, const Signals::SearchedLag& f) {
+  const double se = std::hypot(s.force_lag_se_s, f.se_s);
+  return se > 0 ? std::fabs(s.force_lag_s - f.lag_s) / se : std::numeric_limits<double>::infinity();
+}
+
 /// Where a stated lag lies beyond what the search beside it allows: more
 /// than three standard errors of both (the stated one's, if any) and more
 /// than kLagAccuracy from the lag the data show (0.2 periods off put m 4
@@ -1086,21 +1106,27 @@ namespace {
 /// told only by the reversals: there its own bias (0.1-0.18 ms on a single
 /// tone at 2 kHz) is not in its error. Empty where it agrees.
 std::string stated_lag_contradicted(const Signals& s) {
-  if (s.force_lag_origin != Signals::LagOrigin::option || !std::isfinite(s.searched_force_lag_s)) return "";
-  if (s.lag_search.absorbed_by_refit >= kLagToldByReversals) return "";
-  const double off = s.force_lag_s - s.searched_force_lag_s;
-  const double se = std::hypot(s.force_lag_se_s, s.searched_force_lag_se_s);
-  if (!(std::fabs(off) > 3.0 * se && std::fabs(off) > kLagAccuracy * s.period_s())) return "";
-  char buf[400];
+  const Signals::SearchedLag& f = s.searched_force_lag;
+  if (s.force_lag_origin != Signals::LagOrigin::option || !std::isfinite(f.lag_s)) return "";
+  if (f.absorbed_by_refit >= kLagToldByReversals) return "";
+  const double off = s.force_lag_s - f.lag_s;
+  if (!(stated_lag_off_by(s, f) > 3.0 && std::fabs(off) > kLagAccuracy * s.period_s())) return "";
+  char buf[512];
   std::snprintf(buf, sizeof buf,
-                "the stated force lag (%.3g ms) differs by %.2g ms from the lag these data show (%.3g ms +- %.2g; "
-                "%.0f standard errors): m and sigma take up the difference; check --force-lag-s, or leave it out "
+                "the stated force lag (%.3g ms) differs by %.2g ms from the lag these data show (%.3g ms +- %.2g ms; "
+                "%.1f standard errors%s): m and sigma take up the difference; check --force-lag-s, or leave it out "
                 "to use the lag found",
-                1e3 * s.force_lag_s, 1e3 * std::fabs(off), 1e3 * s.searched_force_lag_s, 1e3 * s.searched_force_lag_se_s,
-                se > 0 ? std::fabs(off) / se : std::numeric_limits<double>::infinity());
+                1e3 * s.force_lag_s, 1e3 * std::fabs(off), 1e3 * f.lag_s, 1e3 * f.se_s, stated_lag_off_by(s, f),
+                f.at_range_end ? "; that search stopped at an end of its range, so the data's lag may lie further still" : "");
   return buf;
 }
 }  // namespace
+
+void keep_nearer_searched_lag(Signals& s, const Signals::SearchedLag& other) {
+  if (!std::isfinite(other.lag_s)) return;
+  if (!std::isfinite(s.searched_force_lag.lag_s) || stated_lag_off_by(s, other) < stated_lag_off_by(s, s.searched_force_lag))
+    s.searched_force_lag = other;
+}
 
 std::vector<std::string> identify_warnings(const IdentifyResult& r) {
   std::vector<std::string> w = implausible_magnitudes(r);

@@ -9,6 +9,7 @@
 // chosen and no force lag estimated here (identify does that). Host only.
 #pragma once
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <limits>
 #include <string>
@@ -78,11 +79,16 @@ struct Signals {
   enum class LagOrigin { estimated, option, convention, assumed } force_lag_origin = LagOrigin::convention;
   std::string force_convention;       ///< nearest named convention of the force log
   LagEstimate lag_search;             ///< the search behind an estimated lag (before any clamp)
-  /// Beside a stated lag (IdentifyOptions::check_stated_lag): the lag the
-  /// search found and its standard error, in force_lag_s's frame (s); NaN
-  /// where no search ran beside it.
-  double searched_force_lag_s = std::numeric_limits<double>::quiet_NaN();
-  double searched_force_lag_se_s = std::numeric_limits<double>::quiet_NaN();
+  /// Beside a stated lag (IdentifyOptions::check_stated_lag): the lag a
+  /// search found, in force_lag_s's frame, and what tells how far to trust
+  /// it. Of the searches on the candidate velocities (the derivative of
+  /// position, the column), the one nearest the stated lag.
+  struct SearchedLag {
+    double lag_s = std::numeric_limits<double>::quiet_NaN();  ///< NaN: no search ran beside
+    double se_s = std::numeric_limits<double>::quiet_NaN();
+    bool at_range_end = false;  ///< the search stopped at an end of its range: the lag may lie further
+    double absorbed_by_refit = std::numeric_limits<double>::quiet_NaN();  ///< LagEstimate's
+  } searched_force_lag;
   /// Part of the estimated lag beyond the conventions, left out when
   /// IdentifyOptions::lag_within_conventions (periods; 0 otherwise).
   double lag_beyond_conventions = 0.0;
@@ -115,10 +121,17 @@ struct Signals {
   /// decided: with EMPS PULSES' stamps moved by 1000 s, the blocks closed
   /// a sample later here and there, the force lag moved by 1.5 standard
   /// errors and the chosen cut-off from 100 to 400 Hz. A millionth of a
-  /// period decides such a tie one way (the whole count) and no other sum.
+  /// period decides such a tie one way (the whole count) and no other sum;
+  /// so do four units in the last place of the stamps, where those are
+  /// coarser: stamps of Unix time (1.7e9 s) are rounded to 2.4e-7 s, and a
+  /// sum of steps is the difference of two of them.
   /// Not yet diagnose's blocks: all 5 samples long at 1 kHz, they named a
   /// compliance at their own rate (docs/status.md, "Time origin").
-  bool reaches(double duration_s, double length_s) const { return duration_s >= length_s - 1e-6 * period_s(); }
+  bool reaches(double duration_s, double length_s) const { return duration_s >= length_s - length_tie_s(); }
+  double length_tie_s() const {
+    const double stamp = t.empty() ? 0.0 : std::max(std::fabs(t.front()), std::fabs(t.back()));
+    return std::max(1e-6 * period_s(), 4.0 * std::numeric_limits<double>::epsilon() * stamp);
+  }
   /// First sample of the stretch that holds sample k, looked for at most
   /// `reach` samples back (the force pairing needs only its few taps).
   std::size_t stretch_start(std::size_t k, std::size_t reach = feedid::ForcePairing<double>::history) const {

@@ -242,11 +242,8 @@ TEST(ForceLag, AStatedLagTheDataContradictIsWarnedOf) {
   ASSERT_TRUE(quiet.error.empty() && told.error.empty()) << quiet.error << told.error;
   EXPECT_EQ(stated_warning(quiet), "");
   EXPECT_NE(stated_warning(told).find("differs by 1."), std::string::npos) << stated_warning(told);
-  // the lag shown is the search identify runs when no lag is stated, and it holds the truth
-  const host::IdentifyResult found = host::identify(trace, host::IdentifyOptions{});
-  ASSERT_TRUE(found.error.empty()) << found.error;
-  EXPECT_NEAR(told.signals.searched_force_lag_s, found.signals.force_lag_s, 1e-12);
-  EXPECT_NEAR(told.signals.searched_force_lag_s * 2000.0, -1.0, 3.0 * told.signals.searched_force_lag_se_s * 2000.0);
+  // the lag shown (the nearer of the two velocities' searches) holds the truth
+  EXPECT_NEAR(told.signals.searched_force_lag.lag_s * 2000.0, -1.0, 3.0 * told.signals.searched_force_lag.se_s * 2000.0);
   EXPECT_EQ(told.estimate.mass_kg, quiet.estimate.mass_kg) << "the check moved the estimate";
   EXPECT_EQ(told.signals.force_lag_s, quiet.signals.force_lag_s);
   host::IdentifyOptions right;
@@ -254,9 +251,21 @@ TEST(ForceLag, AStatedLagTheDataContradictIsWarnedOf) {
   right.check_stated_lag = true;
   const host::IdentifyResult agreed = host::identify(trace, right);
   ASSERT_TRUE(agreed.error.empty()) << agreed.error;
-  EXPECT_TRUE(std::isfinite(agreed.signals.searched_force_lag_s));
+  EXPECT_TRUE(std::isfinite(agreed.signals.searched_force_lag.lag_s));
   EXPECT_EQ(stated_warning(agreed), "") << stated_warning(agreed);
   EXPECT_FALSE(host::with_conventions_of(told.signals, checked).check_stated_lag);
+  // AND at 8 kHz, with an instant force (half a period ahead of the
+  // column), the column's search and the derivative's put the lag a
+  // quarter period apart: the true lag stated is not warned of (a review
+  // found it was, against the derivative's search alone)
+  host::SimConfig fast = logged_drive({ForceLog::instant, VelocityLog::backward_difference, 100.0, 8000.0, 1e-8}, 7, 30.0);
+  fast.motion.program = host::Program::production;
+  host::IdentifyOptions nominal;
+  nominal.force_lag_s = -0.5 / 8000.0;
+  nominal.check_stated_lag = true;
+  const host::IdentifyResult production = host::identify(host::simulate(fast), nominal);
+  ASSERT_TRUE(production.error.empty()) << production.error;
+  EXPECT_EQ(stated_warning(production), "") << stated_warning(production);
 }
 
 // GIVEN a stated lag that was estimated on another stretch of the same log
