@@ -77,9 +77,7 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
                                          : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
       s.lag_search = e;
       if (e.ok)
-        s.searched_force_lag = {(e.lag_samples - column_lag) * dt, e.se_samples * dt,
-                                std::fabs(e.lag_samples - kForceLagMin) < 1e-9 || std::fabs(e.lag_samples - kForceLagMax) < 1e-9,
-                                e.absorbed_by_refit};
+        s.searched_force_lag = {(e.lag_samples - column_lag) * dt, e.se_samples * dt, at_range_end(e), e.absorbed_by_refit};
     }
   } else if (!std::isfinite(lag)) {
     const LagEstimate e = search.found ? *search.found
@@ -1143,8 +1141,7 @@ std::vector<std::string> identify_warnings(const IdentifyResult& r) {
   }
   if (const std::string c = stated_lag_contradicted(r.signals); !c.empty()) w.push_back(c);
   const LagEstimate& lag = r.signals.lag_search;
-  const bool at_range_end = std::fabs(lag.lag_samples - kForceLagMin) < 1e-9 || std::fabs(lag.lag_samples - kForceLagMax) < 1e-9;
-  if (r.signals.force_lag_origin == Signals::LagOrigin::estimated && lag.ok && at_range_end) {
+  if (r.signals.force_lag_origin == Signals::LagOrigin::estimated && lag.ok && at_range_end(lag)) {
     char buf[400];
     std::snprintf(buf, sizeof buf,
                   "the force lag came out at an end of the range searched (%+g periods of the core's velocity, "

@@ -4,6 +4,7 @@
 // core, so they live in identify/, above the signals they choose for.
 // Host only.
 #pragma once
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -18,6 +19,12 @@ namespace feedid::host {
 constexpr double kForceLagMin = -5.0;
 constexpr double kForceLagMax = 3.0;
 static_assert(kForceLagMax <= kForceLead, "the lag search leads the force by whole samples the blocks' taps hold");
+
+/// Whether a search's lag stopped at an end of that range (the force may
+/// lag further: identify warns).
+inline bool at_range_end(const LagEstimate& e) {
+  return std::fabs(e.lag_samples - kForceLagMin) < 1e-9 || std::fabs(e.lag_samples - kForceLagMax) < 1e-9;
+}
 
 /// Share of a shift's block residual that refitting friction and mass
 /// takes back (LagEstimate::absorbed_by_refit) from which the held
