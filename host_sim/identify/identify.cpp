@@ -93,8 +93,17 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
       s.force_lag_origin = Signals::LagOrigin::assumed;
     }
   }
-  if (!(lag >= kForceLagMin - 1.0 && lag <= kForceLagMax + 1.0)) {
-    s.error = "force lag of " + std::to_string(lag) + " sample periods is outside [-6, 3]";
+  // The core pairs a force up to max_lead periods ahead of the velocity;
+  // a later one moves the motion by whole samples (apply_force_lag).
+  const double earliest = -static_cast<double>(feedid::ForcePairing<double>::max_lead), latest = kForceLagMax + 1.0;
+  if (!(lag >= earliest && lag <= latest)) {
+    char buf[360];
+    std::snprintf(buf, sizeof buf,
+                  "a force lag of %.4g ms (%.3g sample periods behind the velocity the core pairs with) is beyond what "
+                  "the pairing reaches at %.6g Hz: %.4g to %.4g ms behind the logged velocity",
+                  1e3 * (lag - column_lag) * dt, lag, 1.0 / dt, 1e3 * (earliest - column_lag) * dt,
+                  1e3 * (latest - column_lag) * dt);
+    s.error = buf;
     return;
   }
   apply_force_lag(s, lag);

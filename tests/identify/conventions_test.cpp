@@ -268,6 +268,27 @@ TEST(ForceLag, AStatedLagTheDataContradictIsWarnedOf) {
   EXPECT_EQ(stated_warning(production), "") << stated_warning(production);
 }
 
+// GIVEN a stated lag beyond what the pairing reaches (the force more than
+// five periods ahead of the velocity the core pairs with), THEN identify
+// refuses it in the option's own unit, with the range it can pair, and not
+// as the core's configuration error (a review found "-6.000000 sample
+// periods is outside [-6, 3]" and "force_lag_samples must be in [-5, 0]").
+TEST(ForceLag, AStatedLagOutOfReachIsRefusedInSeconds) {
+  const host::Trace trace =
+      host::simulate(logged_drive({ForceLog::held, VelocityLog::backward_difference, 100.0, 2000.0, 1e-8}, 3, 10.0));
+  for (const double lag_s : {-0.0028, -0.004, 0.003}) {
+    host::IdentifyOptions o;
+    o.force_lag_s = lag_s;
+    const host::IdentifyResult r = host::identify(trace, o);
+    EXPECT_NE(r.error.find(" ms (") , std::string::npos) << lag_s << ": " << r.error;
+    EXPECT_NE(r.error.find("beyond what the pairing reaches at 2000 Hz"), std::string::npos) << lag_s << ": " << r.error;
+    EXPECT_EQ(r.error.find("invalid configuration"), std::string::npos) << lag_s << ": " << r.error;
+  }
+  host::IdentifyOptions inside;
+  inside.force_lag_s = -0.0022;  // -4.4 periods behind the column, -3.9 behind the core's velocity
+  EXPECT_EQ(host::identify(trace, inside).error, "");
+}
+
 // GIVEN a stated lag that was estimated on another stretch of the same log
 // (monitor's head: force_lag_se_s), THEN the standard errors carry its
 // uncertainty as they do for a lag identify estimates; stated exactly, not.
