@@ -262,7 +262,9 @@ void add_identify_options(CLI::App* c, CsvColumns& cols, InputOptions& units, Id
   c->add_option("--method", method, "bands (default) or paper (the seed paper's literal regression)")
       ->check(CLI::IsMember({"bands", "paper"}))->capture_default_str();
   c->add_option("--alignment", o.alignment,
-                "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md)")->capture_default_str();
+                "force/velocity pairing: auto, held-backward, held-instant, trapezoid (docs/reference.md; identify warns where the data put the lag elsewhere)")
+      ->capture_default_str()
+      ->each([&o](const std::string& v) { o.check_stated_lag = o.check_stated_lag || v != "auto"; });
   c->add_option("--force-lag-s", o.force_lag_s,
                 "how far the logged force lags the logged velocity (s, negative: leads); overrides --alignment; default: estimated from the data (identify warns where the data put it elsewhere)")
       ->check(finite_number())

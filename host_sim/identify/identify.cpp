@@ -68,20 +68,24 @@ void align_force(Signals& s, const IdentifyOptions& opt, double velocity_lag, do
   const double dt = s.period_s();
   double lag = named_lag(opt.alignment) + column_lag, se = 0.0;
   s.force_lag_origin = Signals::LagOrigin::convention;
+  auto found_or_searched = [&] {
+    return search.found ? *search.found : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
+  };
+  // A lag the user stated, searched beside before it moves the motion (identify_warnings).
+  auto search_beside_stated = [&] {
+    const LagEstimate e = found_or_searched();
+    s.lag_search = e;
+    if (e.ok) s.searched_force_lag = {(e.lag_samples - column_lag) * dt, e.se_samples * dt, at_range_end(e), e.absorbed_by_refit};
+  };
   if (std::isfinite(opt.force_lag_s)) {
     lag = opt.force_lag_s / dt + column_lag;
     se = opt.force_lag_se_s > 0 ? opt.force_lag_se_s / dt : 0.0;
     s.force_lag_origin = Signals::LagOrigin::option;
-    if (opt.check_stated_lag) {  // before the stated lag moves the motion
-      const LagEstimate e = search.found ? *search.found
-                                         : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
-      s.lag_search = e;
-      if (e.ok)
-        s.searched_force_lag = {(e.lag_samples - column_lag) * dt, e.se_samples * dt, at_range_end(e), e.absorbed_by_refit};
-    }
-  } else if (!std::isfinite(lag)) {
-    const LagEstimate e = search.found ? *search.found
-                                       : estimate_force_lag(s, search.cfg ? *search.cfg : auto_config(s, opt), search.held);
+    if (opt.check_stated_lag) search_beside_stated();
+  } else if (std::isfinite(lag)) {  // a named --alignment
+    if (opt.check_stated_lag) search_beside_stated();
+  } else {
+    const LagEstimate e = found_or_searched();
     s.lag_search = e;
     if (e.ok) {
       lag = e.lag_samples;
@@ -1114,17 +1118,19 @@ double stated_lag_off_by(const Signals& s, const Signals::SearchedLag& f) {
 /// tone at 2 kHz) is not in its error. Empty where it agrees.
 std::string stated_lag_contradicted(const Signals& s) {
   const Signals::SearchedLag& f = s.searched_force_lag;
-  if (s.force_lag_origin != Signals::LagOrigin::option || !std::isfinite(f.lag_s)) return "";
+  const bool stated = s.force_lag_origin == Signals::LagOrigin::option || s.force_lag_origin == Signals::LagOrigin::convention;
+  if (!stated || !std::isfinite(f.lag_s)) return "";
   if (f.absorbed_by_refit >= kLagToldByReversals) return "";
   const double off = s.force_lag_s - f.lag_s;
   if (!(stated_lag_off_by(s, f) > 3.0 && std::fabs(off) > kLagAccuracy * s.period_s())) return "";
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "the stated force lag (%.3g ms) differs by %.2g ms from the lag these data show (%.3g ms +- %.2g ms; "
-                "%.1f standard errors%s): m and sigma take up the difference; check --force-lag-s, or leave it out "
+                "the stated force lag (%.3g ms%s) differs by %.2g ms from the lag these data show (%.3g ms +- %.2g ms; "
+                "%.1f standard errors%s): m and sigma take up the difference; check %s, or leave it out "
                 "to use the lag found",
-                1e3 * s.force_lag_s, 1e3 * std::fabs(off), 1e3 * f.lag_s, 1e3 * f.se_s, stated_lag_off_by(s, f),
-                f.at_range_end ? "; that search stopped at an end of its range, so the data's lag may lie further still" : "");
+                1e3 * s.force_lag_s, s.force_lag_origin == Signals::LagOrigin::convention ? ", the named --alignment's" : "", 1e3 * std::fabs(off), 1e3 * f.lag_s, 1e3 * f.se_s, stated_lag_off_by(s, f),
+                f.at_range_end ? "; that search stopped at an end of its range, so the data's lag may lie further still" : "",
+                s.force_lag_origin == Signals::LagOrigin::convention ? "--alignment" : "--force-lag-s");
   return buf;
 }
 }  // namespace

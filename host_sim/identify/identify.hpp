@@ -97,8 +97,9 @@ struct IdentifyOptions {
   /// head; with_conventions_of): the standard errors then carry the lag's
   /// uncertainty as they do where identify estimated it. 0: stated exactly.
   double force_lag_se_s = 0.0;
-  /// force_lag_s was stated by the user (--force-lag-s), not carried from
-  /// a search (with_conventions_of clears it): the lag is searched too,
+  /// force_lag_s or a named alignment was stated by the user
+  /// (--force-lag-s, --alignment), not carried from a search
+  /// (with_conventions_of clears it): the lag is searched too,
   /// and identify_warnings says where the data put it elsewhere. A wrong
   /// stated lag goes into m and sigma with status ok. Costs the search.
   bool check_stated_lag = false;

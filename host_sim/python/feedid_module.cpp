@@ -115,7 +115,10 @@ bool input_option(const std::string& key, const py::handle& value, CsvColumns& c
 /// identify's own options (diagnose takes them too); false: not one of them.
 bool identify_option(const std::string& key, const py::handle& value, IdentifyOptions& id) {
   if (key == "method") id.method = one_of(value, key, {"bands", "paper"}) == "paper" ? feedid::Method::paper : feedid::Method::bands;
-  else if (key == "alignment") id.alignment = cast_option<std::string>(value, key, "a string");
+  else if (key == "alignment") {
+    id.alignment = cast_option<std::string>(value, key, "a string");
+    id.check_stated_lag = id.check_stated_lag || id.alignment != "auto";  // identify() warns where the data disagree
+  }
   else if (key == "force_lag_s") {
     id.force_lag_s = number(value, key);
     id.check_stated_lag = true;  // identify() warns where the data put it elsewhere

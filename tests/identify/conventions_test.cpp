@@ -254,6 +254,16 @@ TEST(ForceLag, AStatedLagTheDataContradictIsWarnedOf) {
   EXPECT_TRUE(std::isfinite(agreed.signals.searched_force_lag.lag_s));
   EXPECT_EQ(stated_warning(agreed), "") << stated_warning(agreed);
   EXPECT_FALSE(host::with_conventions_of(told.signals, checked).check_stated_lag);
+  // AND a named alignment is checked alike: trapezoid (0) is a period off
+  // this log, held-backward (-1 period) is its convention
+  for (const auto& [name, wrong] : {std::pair{"trapezoid", true}, std::pair{"held-backward", false}}) {
+    host::IdentifyOptions named;
+    named.alignment = name;
+    named.check_stated_lag = true;
+    const host::IdentifyResult r = host::identify(trace, named);
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(stated_warning(r).find("check --alignment") != std::string::npos, wrong) << name << ": " << stated_warning(r);
+  }
   // AND at 8 kHz, with an instant force (half a period ahead of the
   // column), the column's search and the derivative's put the lag a
   // quarter period apart: the true lag stated is not warned of (a review
