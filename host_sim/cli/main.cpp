@@ -14,6 +14,13 @@
 
 #if defined(__GLIBC__)
 #include <malloc.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+#include <cstdlib>
 #endif
 
 #include "cli_common.hpp"
@@ -37,17 +44,46 @@ int with_stdout_checked(int rc) {
 /// derives, copies and frees such columns dozens of times, and the kernel's
 /// zeroing of the new pages was a third of its CPU time (sys 2.2 of 7.3 s,
 /// issue 29). From the heap, and kept there, a freed column is reused;
-/// the peak memory stays the same (918 MB against 921 MB).
+/// the peak memory stays the same (918 MB against 921 MB). Every thread
+/// allocates from that one heap: diagnose's search threads had arenas of
+/// their own, each touched for the first time.
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   (void)mallopt(M_MMAP_MAX, 0);
-  (void)mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  (void)mallopt(M_TRIM_THRESHOLD, INT_MAX);
+  (void)mallopt(M_ARENA_MAX, 1);
+#endif
+}
+
+/// Memory the heap touches for the first time still costs a page fault per
+/// 4 KiB: 8700 faults and a fifth of `diagnose --model --controller` on EMPS
+/// PULSES (docs/benchmarks.md). So the heap's first stretch (a quarter of
+/// the memory, at most 1 GiB) is asked for in transparent huge pages, one
+/// fault per 2 MiB. The stretch is address space only: a page is backed once
+/// something is written to it, and a machine that refuses the stretch runs
+/// as before. Sanitizers bring their own allocator, which would mark the
+/// whole stretch in its shadow memory on free: it is not asked for there.
+void ask_for_huge_pages_in_the_heap() {
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+  constexpr std::size_t kHugePage = std::size_t(1) << 21;
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return;
+  const std::size_t stretch =
+      std::min(std::size_t(1) << 30, static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) / 4);
+  void* block = std::malloc(stretch);  // from the heap itself: M_MMAP_MAX is 0
+  if (block == nullptr) return;
+  const auto start = reinterpret_cast<std::uintptr_t>(block);
+  const std::uintptr_t from = (start + kHugePage - 1) & ~(kHugePage - 1);
+  const std::uintptr_t to = (start + stretch) & ~(kHugePage - 1);
+  if (to > from) (void)madvise(reinterpret_cast<void*>(from), to - from, MADV_HUGEPAGE);
+  std::free(block);  // kept in the heap: M_TRIM_THRESHOLD is above the stretch
 #endif
 }
 }  // namespace
 
 int main(int argc, char** argv) {
   keep_freed_memory_for_reuse();
+  ask_for_huge_pages_in_the_heap();
   CLI::App app{"feedid: identify a feed drive's mass and Stribeck friction from a trace, and diagnose the sim-to-real gap"};
   app.require_subcommand(1);
   std::vector<std::unique_ptr<Command>> commands;
