@@ -23,6 +23,19 @@
 #include <cstdlib>
 #endif
 
+// The heap in huge pages (ask_for_huge_pages_in_the_heap): glibc's heap on
+// a kernel that has them, and not under a sanitizer's allocator.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define FEEDID_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define FEEDID_SANITIZED 1
+#endif
+#endif
+#if defined(__GLIBC__) && defined(MADV_HUGEPAGE) && !defined(FEEDID_SANITIZED)
+#define FEEDID_HUGE_PAGE_HEAP 1
+#endif
+
 #include "cli_common.hpp"
 
 using namespace feedid::host::cli;
@@ -51,9 +64,24 @@ void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   (void)mallopt(M_MMAP_MAX, 0);
   (void)mallopt(M_TRIM_THRESHOLD, INT_MAX);
+#if defined(M_ARENA_MAX)
   (void)mallopt(M_ARENA_MAX, 1);
 #endif
+#endif
 }
+
+#if defined(FEEDID_HUGE_PAGE_HEAP)
+/// Whether the kernel refuses address space beyond its commit limit
+/// (vm.overcommit_memory = 2).
+bool strict_overcommit() {
+  std::FILE* f = std::fopen("/proc/sys/vm/overcommit_memory", "r");
+  if (f == nullptr) return false;
+  int mode = 0;
+  const bool read = std::fscanf(f, "%d", &mode) == 1;
+  std::fclose(f);
+  return read && mode == 2;
+}
+#endif
 
 /// Memory the heap touches for the first time still costs a page fault per
 /// 4 KiB: 8700 faults and a fifth of `diagnose --model --controller` on EMPS
@@ -61,10 +89,13 @@ void keep_freed_memory_for_reuse() {
 /// the memory, at most 1 GiB) is asked for in transparent huge pages, one
 /// fault per 2 MiB. The stretch is address space only: a page is backed once
 /// something is written to it, and a machine that refuses the stretch runs
-/// as before. Sanitizers bring their own allocator, which would mark the
-/// whole stretch in its shadow memory on free: it is not asked for there.
+/// as before. Not asked for where the kernel counts address space against
+/// a strict limit (overcommit mode 2: each process would hold 1 GiB of the
+/// machine's commit charge for its life), nor under a sanitizer, whose
+/// allocator would mark the whole stretch in its shadow memory on free.
 void ask_for_huge_pages_in_the_heap() {
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+#if defined(FEEDID_HUGE_PAGE_HEAP)
+  if (strict_overcommit()) return;
   constexpr std::size_t kHugePage = std::size_t(1) << 21;
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
   if (pages <= 0 || page <= 0) return;
