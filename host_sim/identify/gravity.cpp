@@ -83,8 +83,9 @@ std::vector<Block> residual_blocks(const IdentifyResult& r) {
   std::vector<Block> out;
   Block cur;
   int dir = 0;
+  const auto full = s.reached_at(kBlock_s), half = s.reached_at(0.5 * kBlock_s);
   auto close = [&]() {
-    if (s.reaches(cur.tau, 0.5 * kBlock_s)) {
+    if (half.by(cur.tau)) {
       for (double& x : cur.row) x /= cur.tau;
       cur.residual /= cur.tau;
       out.push_back(cur);
@@ -105,7 +106,7 @@ std::vector<Block> residual_blocks(const IdentifyResult& r) {
     cur.row[kSin] += std::sin(s.x[k]) * dt;
     cur.residual += res * dt;
     cur.tau += dt;
-    if (s.reaches(cur.tau, kBlock_s)) close();
+    if (full.by(cur.tau)) close();
   }
   close();
   return out;

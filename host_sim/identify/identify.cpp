@@ -211,8 +211,9 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
   Sums prev, cur;
   I moment_impulse, g;
   double t_start = 0.0, moment_dv = 0.0;
+  const auto full = s.reached_at(block_s), half = s.reached_at(0.5 * block_s);
   auto close = [&](std::size_t k_end, bool adjacent_next) {
-    if (cur.dir != 0 && s.reaches(cur.tau, 0.5 * block_s)) {
+    if (cur.dir != 0 && half.by(cur.tau)) {
       cur.phi_impulse = I{}.add(moment_impulse, 1.0 / cur.tau);
       cur.phi_dv = moment_dv / cur.tau;
       if (prev.dir == cur.dir)
@@ -259,7 +260,7 @@ void for_each_block(const Signals& s, const DriveParams& p, double v_min, double
     moment_impulse.add(g, age * dt);
     moment_dv += age * dv;
     cur.tau += dt;
-    if (s.reaches(cur.tau, block_s)) close(k, true);
+    if (full.by(cur.tau)) close(k, true);
   }
   if (cur.dir != 0) close(n - 1, false);  // the last block, as at a gap
 }

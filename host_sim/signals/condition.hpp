@@ -115,7 +115,7 @@ struct Signals {
   double max_step_s() const { return host::max_step_s(period_s()); }
   /// Whether the step into sample k (k >= 1) is such a gap.
   bool gap_before(std::size_t k) const { return t[k] - t[k - 1] > max_step_s(); }
-  /// Whether a duration summed from time steps reaches length_s. Block
+  /// When a duration summed from time steps reaches length_s. Block
   /// lengths are whole numbers of periods (10 ms at 1 or 4 kHz), where a
   /// sum of evenly stamped steps lands on the length and its last bits
   /// decided: with EMPS PULSES' stamps moved by 1000 s, the blocks closed
@@ -127,7 +127,13 @@ struct Signals {
   /// sum of steps is the difference of two of them.
   /// Not yet diagnose's blocks: all 5 samples long at 1 kHz, they named a
   /// compliance at their own rate (docs/status.md, "Time origin").
-  bool reaches(double duration_s, double length_s) const { return duration_s >= length_s - length_tie_s(); }
+  /// Worked out once per pass: `const auto full = s.reached_at(block_s);`,
+  /// then `full.by(tau)` at every sample.
+  struct LengthReached {
+    double at_s;  ///< the least duration that reaches the length (s)
+    bool by(double duration_s) const { return duration_s >= at_s; }
+  };
+  LengthReached reached_at(double length_s) const { return {length_s - length_tie_s()}; }
   double length_tie_s() const {
     const double stamp = t.empty() ? 0.0 : std::max(std::fabs(t.front()), std::fabs(t.back()));
     return std::max(1e-6 * period_s(), 4.0 * std::numeric_limits<double>::epsilon() * stamp);
