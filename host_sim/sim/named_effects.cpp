@@ -44,9 +44,15 @@ struct Parameters {
     return fallback;
   }
   double number(const char* key, double fallback) { return number_in(p, "", key, fallback); }
-  double positive(const char* key, double fallback) {
-    const double x = number(key, fallback);
-    if (!(x > 0.0)) fail(std::string("'") + key + "' must be > 0");
+  /// p[key], which the effect cannot do without (its size, where it acts):
+  /// a file without it is refused, not replayed as if the effect were nil.
+  double required(const char* key) {
+    if (!p.is_object() || !p.contains(key)) fail(std::string("'") + key + "' is missing");
+    return number(key, 0.0);
+  }
+  double required_positive(const char* key) {
+    const double x = required(key);
+    if (p.contains(key) && !(x > 0.0)) fail(std::string("'") + key + "' must be > 0");
     return x;
   }
   std::string text(const char* key) {
@@ -102,12 +108,16 @@ Drag profile_drag(Parameters& in, ExtraForceScales& scales) {
 /// t from the run's start (the replay's clock starts there); its slope in
 /// velocity and time constant into `scales`.
 Drag drift_drag(Parameters& in, ExtraForceScales& scales) {
-  const double tc = in.positive("time_constant_s", 0.0);
+  const double tc = in.required_positive("time_constant_s");
+  bool any_change = false;
   const auto side = [&](const char* d, const char* key) {
-    return in.p.contains(d) ? in.number_in(in.p.at(d), std::string(d) + ".", key, 0.0) : in.number(key, 0.0);
+    const nlohmann::json& o = in.p.contains(d) ? in.p.at(d) : in.p;
+    any_change = any_change || (o.is_object() && o.contains(key));
+    return in.number_in(o, in.p.contains(d) ? std::string(d) + "." : std::string(), key, 0.0);
   };
   const double vp = side("positive", "viscous_change_Ns_m"), cp = side("positive", "coulomb_change_N");
   const double vn = side("negative", "viscous_change_Ns_m"), cn = side("negative", "coulomb_change_N");
+  if (!any_change) in.fail("'viscous_change_Ns_m' and 'coulomb_change_N' are missing (shared, or under 'positive' and 'negative')");
   if (!in.error.empty()) return {};
   scales.viscous_Ns_m += std::max(std::fabs(vp), std::fabs(vn));
   scales.time_s = std::min(scales.time_s, tc);
@@ -168,15 +178,15 @@ struct Into {
 bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into out, std::string& note) {
   Effects& fx = out.fx;
   if (kind == effect_name(Effect::offset)) {
-    fx.load.offset_N += in.number("force_N", 0.0);
+    fx.load.offset_N += in.required("force_N");
     note = "a constant load force";
   } else if (kind == effect_name(Effect::quadratic_viscous)) {
-    fx.quadratic_c2_Ns2_m2 = in.number("c2", 0.0);
+    fx.quadratic_c2_Ns2_m2 = in.required("c2");
     note = "c2 v|v| in the friction";
   } else if (kind == effect_name(Effect::position_ripple)) {
-    fx.ripple_amplitude_N = in.number("amplitude_N", 0.0);
-    fx.ripple_period_m = in.positive("period_m", 1.0);
-    fx.ripple_phase_rad = in.number("phase_rad", 0.0);
+    fx.ripple_amplitude_N = in.required("amplitude_N");
+    fx.ripple_period_m = in.required_positive("period_m");
+    fx.ripple_phase_rad = in.required("phase_rad");
     note = "a load force sine in position";
     out.ripple = RippleSlot{};
     const double count = in.number("harmonics", 1.0);
@@ -193,10 +203,10 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
       if (Drag d = profile_drag(in, out.scales)) out.drags.push_back(std::move(d));
       note = "its profile per direction, interpolated in position";
     } else {
-      fx.position_friction_N = in.number("delta_N", 0.0);
-      fx.position_friction_x_min_m = in.number("x_min_m", 0.0);
-      fx.position_friction_x_max_m = in.number("x_max_m", 0.0);
-      if (!(fx.position_friction_x_max_m > fx.position_friction_x_min_m))
+      fx.position_friction_N = in.required("delta_N");
+      fx.position_friction_x_min_m = in.required("x_min_m");
+      fx.position_friction_x_max_m = in.required("x_max_m");
+      if (in.error.empty() && !(fx.position_friction_x_max_m > fx.position_friction_x_min_m))
         in.fail("'x_max_m' must be above 'x_min_m' (a range of positions)");
       note = "friction changed on its range of positions";
     }
@@ -208,16 +218,17 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
       note = "not simulated: the plant's bristle element is one, reset at reversals only";
       return false;
     }
-    fx.presliding_force_N = in.number("force_N", 0.0);
-    fx.presliding_distance_m = in.positive("distance_m", 1e-5);
+    fx.presliding_force_N = in.required("force_N");
+    fx.presliding_distance_m = in.required_positive("distance_m");
     note = "a bristle element reset at reversals";
   } else if (kind == effect_name(Effect::compliance)) {
-    const double m2 = in.number("load_mass_kg", 0.0);
+    const double m2 = in.required("load_mass_kg");
+    if (!in.error.empty()) return false;
     if (!(m2 > 0 && m2 < mass_kg)) {
       note = "not simulated: its load mass is outside (0, m)";
       return false;
     }
-    fx.compliance_frequency_hz = in.positive("frequency_hz", 0.0);
+    fx.compliance_frequency_hz = in.required_positive("frequency_hz");
     fx.compliance_mass_fraction = m2 / mass_kg;
     fx.compliance_damping_ratio = in.number("damping_ratio", 0.05);
     if (fx.compliance_damping_ratio < 0.0) in.fail("'damping_ratio' must be >= 0");
