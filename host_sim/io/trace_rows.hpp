@@ -5,7 +5,8 @@
 // out, never kept as a zero-length interval; more than a set share of bad
 // rows is an error. A row is held until the next one confirms its time, so
 // that a lone row stamped ahead of its neighbours is the one skipped, not
-// every row after it. Host only.
+// every row after it, and two rows out of order with each other are both
+// left out. Host only.
 #pragma once
 #include <cmath>
 #include <string>
@@ -76,10 +77,14 @@ class RowRules {
   /// held one but not before the row confirmed ahead of it, and the held
   /// row's step is far longer than the steps around it, the held row is
   /// the one out of order (one row stamped in the future): it is the row
-  /// skipped, and the new one is held instead.
+  /// skipped, and the new one is held instead. Where the held row's step
+  /// is out of line but not that far, both are skipped (skip_both); else
+  /// the new row is skipped alone.
   Taken take(const TraceSample& s, std::string_view time_text, std::size_t row) {
     if (have_held_ && !(s.t_s > held_.t_s)) {
-      if (!held_is_ahead(s.t_s)) return skip_new(time_text, row);
+      if (!held_is_ahead(s.t_s))
+        return s.t_s < held_.t_s && s.t_s > confirmed_time_ && held_out_of_line() ? skip_both(time_text, row)
+                                                                                   : skip_new(time_text, row);
       if (!bad(at(held_row_) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(held_text_) +
                " is ahead of the rows around it (" + quoted_text(confirmed_text_) + " on " + row_word_ + " " +
                std::to_string(confirmed_row_) + ", " + quoted_text(time_text) + " on " + row_word_ + " " +
@@ -140,11 +145,40 @@ class RowRules {
     return held_step > kAheadSteps * (t - confirmed_time_) && (!(confirmed_step_ > 0.0) || held_step > kAheadSteps * confirmed_step_);
   }
 
+  /// A held row's step from the confirmed one beyond this many of the step
+  /// before is out of line with its own past too (a swapped pair's first
+  /// row is two steps on; a row in line is one).
+  static constexpr double kOutOfLineSteps = 1.5;
+
+  bool held_out_of_line() const {
+    return have_confirmed_ && confirmed_step_ > 0.0 && held_.t_s - confirmed_time_ > kOutOfLineSteps * confirmed_step_;
+  }
+
   Taken skip_new(std::string_view time_text, std::size_t row) {
     const bool skipped = bad(at(row) + "column " + quoted_text(columns_.time) + ": time " + quoted_text(time_text) +
                              " is not greater than previous " + quoted_text(held_text_) + " on " + row_word_ + " " +
                              std::to_string(held_row_) + " (time must increase)");
     return skipped ? Taken::skipped : Taken::stop;
+  }
+
+  /// The new row goes back before the held one but not before the row
+  /// confirmed ahead of them, and the held row's step is out of line too:
+  /// two rows whose stamps are swapped, or one of them stamped a step off. Which is wrong cannot
+  /// be told, and a row kept at the wrong time is a spike in the velocity
+  /// and the acceleration (a swapped pair on EMPS PULSES doubled
+  /// diagnose's gap), so both are left out.
+  Taken skip_both(std::string_view time_text, std::size_t row) {
+    const std::string why = "column " + quoted_text(columns_.time) + ": times " + quoted_text(held_text_) + " on " +
+                            row_word_ + " " + std::to_string(held_row_) + " and " + quoted_text(time_text) + " on " +
+                            row_word_ + " " + std::to_string(row) +
+                            " are out of order (time must increase); which is stamped wrong cannot be told, so "
+                            "both rows are left out";
+    if (!bad(at(held_row_) + why)) return Taken::stop;
+    have_held_ = false;
+    return bad(at(row) + "column " + quoted_text(columns_.time) + ": out of order with " + row_word_ + " " +
+               std::to_string(held_row_) + ", left out with it")
+               ? Taken::skipped
+               : Taken::stop;
   }
 
   void hold(const TraceSample& s, std::string_view time_text, std::size_t row) {
