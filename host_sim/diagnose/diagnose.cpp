@@ -1472,9 +1472,8 @@ bool enough_observations(const Trace& trace, const Observations& obs, DiagnoseRe
     out.error = trace.source + ": the held-out time moves where the identification time does not pin the base model " +
                 "down: " + std::to_string(out.heldout_beyond_identification) + " of " +
                 std::to_string(out.blocks_heldout + out.heldout_beyond_identification) +
-                " held-out observations set aside, " + std::to_string(out.blocks_heldout) +
-                " left, need 50 (the folds alternate in time: a run that repeats its motions, or a longer or "
-                "shorter stretch of it, can be diagnosed)";
+                " held-out observations set aside (their predictions under the base fit vary by more than half "
+                "the noise), " + std::to_string(out.blocks_heldout) + " left, need 50";
     return false;
   }
   out.error = trace.source + ": too little motion to diagnose: " + std::to_string(obs.size()) +
