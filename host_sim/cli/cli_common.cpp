@@ -517,11 +517,41 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
   return 0;
 }
 
+namespace {
+/// One word for a POSIX shell: as it is where every character is safe,
+/// else in single quotes (a quote inside as '\'').
+std::string shell_word(const std::string& w) {
+  const bool safe = !w.empty() && w.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                                      "0123456789_./=:,+-@%") == std::string::npos;
+  if (safe) return w;
+  std::string q = "'";
+  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+}  // namespace
+
+std::string command_as_typed(const std::string& fallback) {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  const std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (all.empty()) return fallback;
+  std::string line;
+  for (std::size_t at = 0; at < all.size();) {
+    const std::size_t end = std::min(all.find('\0', at), all.size());
+    line += (line.empty() ? "" : " ") + shell_word(all.substr(at, end - at));
+    at = end + 1;
+  }
+  return line;
+}
+
 /// The diagnosis page, if a folder was given; the exit code.
-int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source) {
+int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
+                 const std::string& fallback) {
   if (dir.empty()) return 0;
   std::string err;
-  if (!write_diagnosis_report(r, dir, source, err)) { std::fprintf(stderr, "error: %s\n", err.c_str()); return 1; }
+  if (!write_diagnosis_report(r, dir, source, command_as_typed(fallback), err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
   std::printf("report: %s/report.html\n", dir.c_str());
   return 0;
 }

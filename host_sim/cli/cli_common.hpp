@@ -115,8 +115,15 @@ bool streams(const std::vector<std::string>& paths, const InputOptions& in, bool
 int run_monitor(const std::string& path, const InputOptions& in, const CsvColumns& cols, const std::string& json_path,
                 const std::string& plot_path, const std::string& jsonl_path, MonitorOptions opt);
 
-/// The diagnosis page, if a folder was given; the exit code.
-int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source);
+/// The command line this process was started with, each word quoted for a
+/// POSIX shell where it needs it, so that a report's "made by" can be
+/// rerun as it stands; `fallback` where the system does not tell it.
+std::string command_as_typed(const std::string& fallback);
+
+/// The diagnosis page, if a folder was given; the exit code. `fallback`
+/// names the command where command_as_typed cannot.
+int write_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
+                 const std::string& fallback);
 
 /// One subcommand: its options (add) and what it does (run).
 struct Command {

@@ -50,7 +50,7 @@ struct DemoCommand : Command {
     if (!d.error.empty()) return bad_input(d.error);
     std::cout << summary(d);
     if (d.has_augmented_model) print_against_truth(d, sim.drive);
-    return write_report(d, report_dir, "feedid demo");
+    return write_report(d, report_dir, "feedid demo", "feedid demo --report " + report_dir);
   }
   static void print_against_truth(const DiagnoseResult& d, const DriveParams& t) {
     const DriveParams& a = d.augmented_model;

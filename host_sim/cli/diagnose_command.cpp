@@ -99,7 +99,7 @@ struct DiagnoseCommand : Command {
     if (!controller_path.empty()) command += " --controller " + controller_path;
     for (const auto& in : in_path) command += " --in " + in;
     std::string err;
-    if (!write_model_gap_report(g, report_dir, csv.trace.source, command + " --report " + report_dir, err))
+    if (!write_model_gap_report(g, report_dir, csv.trace.source, command_as_typed(command + " --report " + report_dir), err))
       return output_failed(err);
     std::printf("report: %s/report.html\n", report_dir.c_str());
     return 0;
@@ -128,7 +128,8 @@ struct DiagnoseCommand : Command {
     if (!r.error.empty()) return bad_input(r.error);
     note_force_outliers(r.force_outliers, opt.identify.units);
     std::cout << summary(r);
-    return write_report(r, report_dir, csv.trace.source);
+    return write_report(r, report_dir, csv.trace.source,
+                        "feedid diagnose --in " + csv.trace.source + " --report " + report_dir);
   }
 };
 

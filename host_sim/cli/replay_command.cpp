@@ -103,7 +103,8 @@ struct ReplayCommand : Command {
     if (!plot_path.empty() && !write_svg(plot_path, replay_plot(r, "force", "Replay: " + in_path), err))
       return output_failed(err);
     const std::string command = "feedid replay --model " + model_path + " --controller " + controller_path + " --in " + in_path;
-    if (!report_dir.empty() && !write_replay_report(r, report_dir, in_path, command, err)) return output_failed(err);
+    if (!report_dir.empty() && !write_replay_report(r, report_dir, in_path, command_as_typed(command + " --report " + report_dir), err))
+      return output_failed(err);
     return 0;
   }
 };

@@ -416,12 +416,12 @@ std::string diagnosis_sections(const DiagnoseResult& r) {
 }  // namespace
 
 bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
-                            std::string& error) {
+                            const std::string& command, std::string& error) {
   if (!create_dir(dir, error)) return false;
   std::ostringstream o;
   o << page_head("feedid diagnosis: " + source);
-  o << "<h1>Sim-to-real gap diagnosis</h1>\n<p>Trace <code>" << html(source) << "</code>, made by <code>feedid diagnose --in "
-    << html(source) << " --report " << html(dir) << "</code>. docs/diagnosis.md explains every quantity.</p>\n";
+  o << "<h1>Sim-to-real gap diagnosis</h1>\n<p>Trace <code>" << html(source) << "</code>, made by <code>" << html(command)
+    << "</code>. docs/diagnosis.md explains every quantity.</p>\n";
   o << diagnosis_sections(r) << "</body>\n</html>\n";
   error = write_whole_file(dir + "/report.html", o.str());
   return error.empty();

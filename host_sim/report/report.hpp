@@ -27,8 +27,9 @@ PlotSpec friction_curve_plot(const IdentifyResult& r);
 /// the friction curve, the held-out residual before and after side by side
 /// over velocity, position and time, and the base model with the digits
 /// its standard errors justify.
+/// `command` is the command line that made it, shown so that it can be rerun.
 bool write_diagnosis_report(const DiagnoseResult& r, const std::string& dir, const std::string& source,
-                            std::string& error);
+                            const std::string& command, std::string& error);
 
 /// Measured and predicted force over time (the decimated validation series).
 bool write_force_plot_svg(const ValidateResult& r, const std::string& path, const std::string& title,

@@ -48,6 +48,24 @@ TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
   EXPECT_NE(o.out.find("relative error"), std::string::npos) << o.out;
 }
 
+// A review found the report's "made by" without the column options it was
+// run with (and without --json): rerun as shown, it failed. It is now the
+// command line as typed, each word quoted where a shell needs it.
+TEST(ReplayCli, TheReportSaysTheCommandAsTyped) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json"), json = own("r.json");
+  const std::string report = own("the report");  // a space: quoted on the page
+  write(c, kController);
+  write(m, kModel);
+  const std::string args = "replay --model " + m + " --controller " + c + " --in " + run +
+                           " --time t --position x --force u --json " + json + " --report '" + report + "'";
+  const CliRun o = run_feedid(args);
+  ASSERT_EQ(o.exit_code, 0) << o.err;
+  const std::string page = feedid::test::read_text(report + "/report.html");
+  const std::string words = "replay --model " + m + " --controller " + c + " --in " + run +
+                            " --time t --position x --force u --json " + json + " --report '" + report + "'";
+  EXPECT_NE(page.find("/feedid " + words + "</code>"), std::string::npos) << page.substr(0, 600);
+}
+
 TEST(ReplayCli, AModelInOtherUnitsThanTheLogIsRefused) {
   // GIVEN a rotary model (rad, N m), as identify --axis rotary writes its units
   const std::string run = write_run(), c = own("c.json"), m = own("m.json");

@@ -46,7 +46,9 @@ class DiagnosisReport : public ::testing::Test {
     // One folder per process: ctest runs each test in its own process, in parallel.
     dir_ = ::testing::TempDir() + "feedid_report_" + std::to_string(::getpid());
     std::string error;
-    ASSERT_TRUE(host::write_diagnosis_report(r, dir_, "ripple.csv", error)) << error;
+    ASSERT_TRUE(host::write_diagnosis_report(r, dir_, "ripple.csv", "feedid diagnose --in ripple.csv --report " + dir_,
+                                             error))
+        << error;
   }
   static std::string dir_;
 };
