@@ -54,6 +54,11 @@ Outcome<std::vector<double>> read_column(const std::string& path, const CsvColum
     return refused<Column>(path + ": the " + role + " column '" + column + "' (from the controller file) cannot be read" +
                            (r.ok ? ": no such column" : ": " + r.error));
   const std::size_t other = first_other_row(r.trace, t);
+  // A row the trace kept but this column's read skipped: the reader's own
+  // words name the file, the line and why ("value is NaN/Inf").
+  if (other < r.trace.samples.size() && !r.trace.skipped_rows.empty())
+    return refused<Column>(path + ": the " + role + " column '" + column + "' (from the controller file) has a bad row " +
+                           "the other columns do not: " + r.trace.skipped_rows.front());
   if (other < r.trace.samples.size())
     return refused<Column>(path + ": reading the " + role + " column '" + column +
                            "' kept other rows than the trace (a bad value in one column only?): first differs at row " +

@@ -99,4 +99,26 @@ TEST(ReplayCli, MissingReferenceColumnIsNamed) {
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
 }
 
+// A NaN in the reference column alone was refused as "kept other rows than
+// the trace (a bad value in one column only?): first differs at row 301",
+// a row count that is not the file's line. The reader's words now say it.
+TEST(ReplayCli, ABadValueInTheReferenceAloneIsNamedWithItsLine) {
+  const std::string run = own("run.csv"), c = own("c.json"), m = own("m.json");
+  {
+    std::ofstream f(run);
+    f << "t,x,u,r\n";
+    for (int k = 0; k < 500; ++k)
+      f << k * 1e-3 << "," << 0.01 + 1e-6 * k << ",1," << (k == 300 ? std::string("nan") : std::to_string(0.01 + 1e-6 * k))
+        << "\n";
+  }
+  write(c, kController);
+  write(m, kModel);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.err.find("the reference column 'r' (from the controller file) has a bad row the other columns do not: " +
+                       run + ":302: column 'r'"),
+            std::string::npos)
+      << o.err;
+}
+
 }  // namespace
