@@ -313,7 +313,8 @@ std::string replay_refusal(const ModelFile& model, const Controller& c, const Lo
   if (opt.drop_first < 0) return "--drop-first must be >= 0";
   if (!(opt.filter_hz > 0.0)) return "--filter must be > 0 Hz";
   if (n < static_cast<std::size_t>(opt.drop_first) + 20)
-    return run.source + ": too short to replay: " + std::to_string(n) + " samples";
+    return run.source + ": too short to replay: " + std::to_string(n) + " samples, of which --drop-first leaves out " +
+           std::to_string(opt.drop_first) + "; at least 20 must be left to compare";
   if (run.x.size() != n || run.u.size() != n || run.reference.size() != n || (!run.extra.empty() && run.extra.size() != n))
     return run.source + ": the replay's columns differ in length";
   return "";

@@ -99,6 +99,18 @@ TEST(ReplayCli, MissingReferenceColumnIsNamed) {
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
 }
 
+// --drop-first that leaves fewer than 20 samples was refused as "too short
+// to replay: 500 samples", as if the file were at fault.
+TEST(ReplayCli, DropFirstThatLeavesTooFewSamplesSaysSo) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  write(c, kController);
+  write(m, kModel);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run + " --drop-first 490");
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.err.find("500 samples, of which --drop-first leaves out 490; at least 20 must be left"), std::string::npos)
+      << o.err;
+}
+
 // A NaN in the reference column alone was refused as "kept other rows than
 // the trace (a bad value in one column only?): first differs at row 301",
 // a row count that is not the file's line. The reader's words now say it.
