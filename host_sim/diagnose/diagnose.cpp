@@ -1759,7 +1759,8 @@ std::string summary(const DiagnoseResult& r) {
     // A position-friction profile is 120 numbers: the JSON has it, the summary says so.
     nlohmann::json shown = e.parameters;
     if (shown.is_object() && shown.contains("profile")) shown["profile"] = "in the JSON";
-    o << buf << "    " << shown.dump() << "\n";
+    // Keys in the log's units, as the JSON names them (delta_V, x_max_rad).
+    o << buf << "    " << keys_in_units(shown, r.base.units).dump() << "\n";
   }
   if (r.gap_remains && !r.effects.empty()) {
     o << "  + unexplained: a gap of " << fmt(r.rms_augmented_N, N) << " RMS remains";

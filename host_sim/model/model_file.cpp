@@ -182,7 +182,7 @@ ModelFile model_file_from_json(const nlohmann::json& j, const std::string& sourc
     out.warnings.push_back(out.source + ": 'simulated_change' (the step change or warm-up simulate --truth simulated) "
                                         "is not modelled: the model is the drive before it");
   if (j.contains("units")) out.units = j.at("units");
-  const std::string unphysical = non_physical_parameters(out.drive);
+  const std::string unphysical = non_physical_parameters(out.drive, stated_units(j));  // in the file's units
   if (!unphysical.empty()) {
     refuse(out, "the model is not physical: " + unphysical + " (m must be > 0, fc and sigma >= 0)");
     return out;

@@ -256,6 +256,24 @@ TEST(DiagnoseEffect, PositionRippleUnderAnotherForceConvention) {
   EXPECT_GT(r.closed_fraction, 0.8);
 }
 
+// The summary's parameters name the log's units as the JSON does: a review
+// saw {"delta_N": ..., "x_max_m": ...} printed for a log in rad and V.
+TEST(DiagnoseEffect, TheSummaryNamesTheParametersInTheLogsUnits) {
+  host::SimConfig cfg = logged({ForceLog::instant, VelocityLog::backward_difference, 40.0}, 3);
+  cfg.effects.ripple_amplitude_N = 3.0;
+  cfg.effects.ripple_period_m = 5e-3;
+  host::DiagnoseOptions opt;
+  opt.identify.units = host::units_for(host::Axis::rotary, "V");
+  opt.identify.gravity = host::GravityTerm::none;
+  const host::DiagnoseResult r = host::diagnose(host::simulate(cfg), opt);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  ASSERT_EQ(r.effect, "position_ripple") << host::summary(r);
+  const std::string text = host::summary(r);
+  EXPECT_NE(text.find("\"amplitude_V\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"period_rad\""), std::string::npos) << text;
+  EXPECT_EQ(text.find("\"amplitude_N\""), std::string::npos) << text;
+}
+
 TEST(DiagnoseEffect, AnArmsWeightIsTheBasesNotAnEffect) {
   // GIVEN an arm whose weight is 30 N m at 0.4 rad (its friction 25 N m)
   host::DiagnoseOptions opt;

@@ -101,6 +101,13 @@ TEST(ModelFile, NonPhysicalOrNonNumericIsAnError) {
   j = emps_reference();
   j["pos"]["sigma"] = "203";
   EXPECT_NE(model_file_from_json(j, "x").error.find("'pos.sigma' must be a finite number"), std::string::npos);
+  // In the file's own units (a review saw "m = -0.0005073 kg" of a model in V and rad).
+  j = emps_reference();
+  j.erase("offset_N");
+  j["m"] = -1.0;
+  j["units"] = {{"position", "rad"}, {"force", "V"}};
+  const std::string why = model_file_from_json(j, "x").error;
+  EXPECT_NE(why.find("m = -1 V s^2/rad"), std::string::npos) << why;
 }
 
 TEST(ModelFile, IdentifyReportKeysAreNotWarnedButAFailedStatusIsAnError) {
