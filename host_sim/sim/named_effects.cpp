@@ -214,7 +214,9 @@ bool into_plant(const std::string& kind, Parameters& in, double mass_kg, Into ou
     if (Drag d = drift_drag(in, out.scales)) out.drags.push_back(std::move(d));
     note = "friction decaying from the run's start, per direction";
   } else if (kind == effect_name(Effect::presliding_hysteresis)) {
-    if (in.p.contains("elements") || in.text("resets") != "at reversals") {
+    // "resets" absent is the plant's own kind (a hand-written file); what
+    // diagnose names with several elements, or reset from rest too, is not.
+    if (in.p.contains("elements") || (in.p.contains("resets") && in.text("resets") != "at reversals")) {
       note = "not simulated: the plant's bristle element is one, reset at reversals only";
       return false;
     }
