@@ -34,6 +34,17 @@ CsvColumns through_position(const CsvColumns& cols, const std::string& column, d
   return c;
 }
 
+/// The file's header as the reader names it where `column` is not in it
+/// ("header has: 't_s', 'qm_m', ..."), or empty: a typo in the controller's
+/// optional column then shows beside the names it missed.
+std::string header_without(const std::string& path, const CsvColumns& cols, const std::string& column) {
+  CsvColumns c = through_position(cols, column, 1.0);
+  c.named_columns_required = true;
+  const std::string error = read_trace_file(path, c).error;
+  const std::size_t at = error.find("header has: ");
+  return at == std::string::npos ? std::string() : error.substr(at);
+}
+
 /// The first row (from 0) at which `read` keeps another time than `t`
 /// (a row beyond t's end counts); read's size where every row agrees.
 std::size_t first_other_row(const Trace& read, const std::vector<double>& t) {
@@ -407,8 +418,11 @@ LoggedRun read_logged_run(const std::string& path, const CsvColumns& cols, const
   Outcome<std::vector<double>> extra = read_column(path, cols, c.extra_command, "extra command", 1.0, run.t, true);
   run.extra = std::move(extra.value);
   run.error = extra.error;
-  if (run.error.empty() && run.extra.empty())
-    run.notes.push_back(path + " has no extra command column '" + c.extra_command + "': none is added");
+  if (run.error.empty() && run.extra.empty()) {
+    const std::string header = header_without(path, cols, c.extra_command);
+    run.notes.push_back(path + " has no extra command column '" + c.extra_command + "'" +
+                        (header.empty() ? std::string() : " (" + header + ")") + ": none is added");
+  }
   return run;
 }
 

@@ -111,6 +111,22 @@ TEST(ReplayCli, DropFirstThatLeavesTooFewSamplesSaysSo) {
       << o.err;
 }
 
+// A typo in the controller's extra command column replays without it (the
+// EMPS controller names pulses that DATA_EMPS lacks: a note, not an
+// error), and the note now lists the header, where the typo shows.
+TEST(ReplayCli, AMissingExtraCommandColumnIsNotedBesideTheHeader) {
+  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
+  std::string text = kController;
+  text.replace(text.find("\"reference\""), 0, "\"extra_command\": \"pulsesX\", ");
+  write(c, text);
+  write(m, kModel);
+  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_NE(o.out.find("has no extra command column 'pulsesX' (header has: 't', 'x', 'u', 'r'): none is added"),
+            std::string::npos)
+      << o.out;
+}
+
 // A NaN in the reference column alone was refused as "kept other rows than
 // the trace (a bad value in one column only?): first differs at row 301",
 // a row count that is not the file's line. The reader's words now say it.
