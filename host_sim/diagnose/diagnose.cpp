@@ -1503,7 +1503,7 @@ bool prepare(const Trace& logged, const DiagnoseOptions& opt, DiagnoseResult& ou
   const Trace trace = bridge_force_outliers(logged, opt.identify.units.force, out.force_outliers);
   if (trace.samples.size() < 1000) {
     out.error = trace.source + ": trace too short to diagnose: " + std::to_string(trace.samples.size()) +
-                " samples (need at least 1000, moving in both directions)";
+                " samples (need at least 1000)";
     return false;
   }
   if (opt.folds < 2) {
