@@ -1191,6 +1191,41 @@ void report_unsettled_friction(DiagnoseResult& out) {
                     "reaches speeds where friction rises again settles it (docs/recording.md)."}});
 }
 
+/// A position friction named where position and speed rise together (a
+/// one-way ramp, as SysId's quasi-static test drives): the run cannot tell
+/// friction that changes along the travel from friction that changes with
+/// speed in a way the model lacks. A review saw a 1.42 V level named at
+/// z 83 on a drivetrain whose Coulomb force is 0.06 V, without a word.
+/// Said beside it, with the correlation of position and speed.
+void report_position_with_speed(const Observations& obs, DiagnoseResult& out) {
+  constexpr double kConfounded = 0.9;  // |correlation| of position and speed in one direction
+  constexpr double kFewest = 20.0;     // observations a direction needs for a correlation
+  const auto named = [](const NamedEffect& e) { return e.kind == effect_name(Effect::position_friction); };
+  if (std::none_of(out.effects.begin(), out.effects.end(), named)) return;
+  double worst = 0.0;
+  for (const int d : {1, -1}) {
+    double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    for (const auto& o : obs.obs()) {
+      if (o.dir != d) continue;
+      const double y = std::fabs(o.v);
+      n += 1;
+      sx += o.x, sy += y, sxx += o.x * o.x, syy += y * y, sxy += o.x * y;
+    }
+    if (n < kFewest) continue;
+    const double cxx = sxx - sx * sx / n, cyy = syy - sy * sy / n, cxy = sxy - sx * sy / n;
+    if (cxx > 0 && cyy > 0) worst = std::max(worst, std::fabs(cxy) / std::sqrt(cxx * cyy));
+  }
+  if (worst < kConfounded) return;
+  char r[16];
+  std::snprintf(r, sizeof r, "%.2f", worst);
+  out.ambiguities.push_back(
+      {{"kinds", {effect_name(Effect::position_friction), "friction_with_speed"}},
+       {"correlation", worst},
+       {"note", "position and speed rise together in this run (correlation " + std::string(r) +
+                    "): the position friction named may be a change of friction with speed that the model lacks; a "
+                    "run that passes the same positions at other speeds would tell them apart"}});
+}
+
 /// The base model's level per pooled run (add_run_levels) is a finding, not
 /// an effect: the runs' friction differs, and the trace cannot say whether
 /// by day, load or a warm-up between them. Reported beside the offset's
@@ -1608,6 +1643,7 @@ DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   // them is the file's, and an offset is a candidate like any other.
   if (!opt.model) report_offset_ambiguity(out.effects.empty() ? base : final_model, opt, out);
   report_run_levels(base_cols, out.effects.empty() ? base : final_model, opt, out);
+  report_position_with_speed(obs, out);
   if (opt.on_effects_final) opt.on_effects_final(out);
   out.where = where.get();
   if (out.gap_remains && !out.effects.empty()) out.where_left = where_gap_lies(obs, final_model.residual, out.base, opt.block_s);

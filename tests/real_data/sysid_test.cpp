@@ -175,6 +175,28 @@ TEST(SysIdLogs, DriftLargerThanTheFrictionIsNotNamed) {
       EXPECT_NE(c.note.find("not physical"), std::string::npos) << c.note;
 }
 
+// GIVEN the left drivetrain's quasi-static forward ramp, where position and
+// speed rise together, WHEN diagnose names a position friction there (a
+// review saw a 1.42 V level at z 83 against kS 0.06 V, said without a
+// word), THEN it also says that position and speed are confounded.
+TEST(SysIdLogs, APositionFrictionOnARampIsSaidToBeConfoundedWithSpeed) {
+  const std::string file = sysid_dir + "/compbot_drive_left_slow_fwd.csv";
+  if (!std::filesystem::exists(file)) GTEST_SKIP() << "SysId data not found at " << sysid_dir;
+  const CsvResult in = read_trace_files({file}, CsvColumns{});
+  ASSERT_TRUE(in.ok) << in.error;
+  const DiagnoseResult dg = diagnose(in.trace, DiagnoseOptions{});
+  ASSERT_TRUE(dg.error.empty()) << dg.error;
+  bool named = false, said = false;
+  for (const auto& e : dg.effects) named = named || e.kind == "position_friction";
+  if (!named) GTEST_SKIP() << "no position friction is named on this ramp now: " << summary(dg);
+  for (const auto& a : dg.ambiguities)
+    if (a.value("kinds", nlohmann::json::array()).dump().find("friction_with_speed") != std::string::npos) {
+      said = true;
+      EXPECT_GE(a.value("correlation", 0.0), 0.9) << a.dump();
+    }
+  EXPECT_TRUE(said) << summary(dg);
+}
+
 INSTANTIATE_TEST_SUITE_P(Team581, SysId,
                          ::testing::Values(Mechanism{"compbot_drive_left", 0.060039, 0.22421, 0.011814},
                                            Mechanism{"compbot_drive_right", 0.060039, 0.22421, 0.011814},
