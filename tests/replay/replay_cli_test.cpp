@@ -38,6 +38,14 @@ const char* kController = R"({"kp": 50, "kv": 100, "drive_gain": 10, "saturation
                               "delay_samples": 1, "reference": "r"})";
 const char* kModel = R"({"m": 20, "pos": {"sigma": 50, "fc": 2}, "neg": {"sigma": 50, "fc": 2}})";
 
+/// replay of `run` in the loop of `controller` (its text), with kModel and `more` options.
+CliRun replay_in_loop(const std::string& run, const std::string& controller, const std::string& more = "") {
+  const std::string c = own("c.json"), m = own("m.json");
+  write(c, controller);
+  write(m, kModel);
+  return run_feedid("replay --model " + m + " --controller " + c + " --in " + run + more);
+}
+
 TEST(ReplayCli, RunsAndWarnsOfAnUnknownModelKey) {
   const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   write(c, kController);
@@ -89,12 +97,9 @@ TEST(ReplayCli, MissingControllerKeyIsExitTwoNamingIt) {
 }
 
 TEST(ReplayCli, MissingReferenceColumnIsNamed) {
-  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   std::string text = kController;
   text.replace(text.find("\"r\""), 3, "\"qg_m\"");
-  write(c, text);
-  write(m, kModel);
-  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = replay_in_loop(write_run(), text);
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("reference column 'qg_m'"), std::string::npos) << o.err;
 }
@@ -102,10 +107,7 @@ TEST(ReplayCli, MissingReferenceColumnIsNamed) {
 // --drop-first that leaves fewer than 20 samples was refused as "too short
 // to replay: 500 samples", as if the file were at fault.
 TEST(ReplayCli, DropFirstThatLeavesTooFewSamplesSaysSo) {
-  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
-  write(c, kController);
-  write(m, kModel);
-  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run + " --drop-first 490");
+  const CliRun o = replay_in_loop(write_run(), kController, " --drop-first 490");
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("500 samples, of which --drop-first leaves out 490; at least 20 must be left"), std::string::npos)
       << o.err;
@@ -115,12 +117,9 @@ TEST(ReplayCli, DropFirstThatLeavesTooFewSamplesSaysSo) {
 // EMPS controller names pulses that DATA_EMPS lacks: a note, not an
 // error), and the note now lists the header, where the typo shows.
 TEST(ReplayCli, AMissingExtraCommandColumnIsNotedBesideTheHeader) {
-  const std::string run = write_run(), c = own("c.json"), m = own("m.json");
   std::string text = kController;
   text.replace(text.find("\"reference\""), 0, "\"extra_command\": \"pulsesX\", ");
-  write(c, text);
-  write(m, kModel);
-  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = replay_in_loop(write_run(), text);
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_NE(o.out.find("has no extra command column 'pulsesX' (header has: 't', 'x', 'u', 'r'): none is added"),
             std::string::npos)
@@ -131,7 +130,7 @@ TEST(ReplayCli, AMissingExtraCommandColumnIsNotedBesideTheHeader) {
 // the trace (a bad value in one column only?): first differs at row 301",
 // a row count that is not the file's line. The reader's words now say it.
 TEST(ReplayCli, ABadValueInTheReferenceAloneIsNamedWithItsLine) {
-  const std::string run = own("run.csv"), c = own("c.json"), m = own("m.json");
+  const std::string run = own("run.csv");
   {
     std::ofstream f(run);
     f << "t,x,u,r\n";
@@ -139,9 +138,7 @@ TEST(ReplayCli, ABadValueInTheReferenceAloneIsNamedWithItsLine) {
       f << k * 1e-3 << "," << 0.01 + 1e-6 * k << ",1," << (k == 300 ? std::string("nan") : std::to_string(0.01 + 1e-6 * k))
         << "\n";
   }
-  write(c, kController);
-  write(m, kModel);
-  const CliRun o = run_feedid("replay --model " + m + " --controller " + c + " --in " + run);
+  const CliRun o = replay_in_loop(run, kController);
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.err.find("the reference column 'r' (from the controller file) has a bad row the other columns do not: " +
                        run + ":302: column 'r'"),
