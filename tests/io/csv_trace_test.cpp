@@ -398,6 +398,30 @@ std::vector<TraceSample> stream_all(CsvStream& st) {
   return out;
 }
 
+/// A 400-row ramp log (u = row number) whose row k is stamped stamp_ms(k) ms, as `name` in the temp folder.
+template <class StampMs>
+std::string write_ramp_log(const std::string& name, StampMs stamp_ms) {
+  std::string text = "t,x,v,u\n";
+  for (int k = 0; k < 400; ++k)
+    text += stamp_ms(k) + "," + std::to_string(k * 1e-6) + ",0.001," + std::to_string(k) + "\n";
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+/// The stream over `path` hands on the rows the whole-file reader kept, and names the same skipped rows.
+void expect_stream_gives(const std::string& path, const CsvResult& whole) {
+  CsvStream st(path, CsvColumns{});
+  const std::vector<TraceSample> rows = stream_all(st);
+  EXPECT_TRUE(st.error().empty()) << st.error();
+  ASSERT_EQ(rows.size(), whole.trace.samples.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k].t_s, whole.trace.samples[k].t_s);
+    EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
+  }
+  EXPECT_EQ(st.skipped_rows(), whole.trace.skipped_rows);
+}
+
 // The stream reads row by row with the reader's rules: the same samples,
 // the same counts, the same errors.
 TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
@@ -429,13 +453,8 @@ TEST(CsvStream, GivesWhatTheWholeFileReaderGives) {
 // before, every row after it was "time goes back" and the run failed with
 // more than 1 % bad rows. The stream hands on the same rows.
 TEST(CsvStream, ALoneRowStampedAheadIsTheOneSkipped) {
-  std::string text = "t,x,v,u\n";
-  for (int k = 0; k < 400; ++k) {
-    const std::string t = k == 200 ? "1e9" : std::to_string(k * 1e-3);
-    text += t + "," + std::to_string(k * 1e-6) + ",0.001," + std::to_string(k) + "\n";
-  }
-  const std::string path = ::testing::TempDir() + "feedid_ahead.csv";
-  std::ofstream(path) << text;
+  const std::string path =
+      write_ramp_log("feedid_ahead.csv", [](int k) { return k == 200 ? std::string("1e9") : std::to_string(k * 1e-3); });
   const CsvResult whole = read_trace_csv(path, CsvColumns{});
   ASSERT_TRUE(whole.ok) << whole.error;
   ASSERT_EQ(whole.trace.samples.size(), 399u);
@@ -447,12 +466,7 @@ TEST(CsvStream, ALoneRowStampedAheadIsTheOneSkipped) {
   EXPECT_NE(whole.trace.skipped_rows.front().find(":202: column 't': time '1e9' is ahead of the rows around it"),
             std::string::npos)
       << whole.trace.skipped_rows.front();
-  CsvStream st(path, CsvColumns{});
-  const std::vector<TraceSample> rows = stream_all(st);
-  EXPECT_TRUE(st.error().empty()) << st.error();
-  ASSERT_EQ(rows.size(), whole.trace.samples.size());
-  for (std::size_t k = 0; k < rows.size(); ++k) EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
-  EXPECT_EQ(st.skipped_rows(), whole.trace.skipped_rows);
+  expect_stream_gives(path, whole);
   // A row a step back is still the one skipped, not the row before it.
   std::ofstream(path) << "t,x,v,u\n0,0,0,0\n0.001,0,0,1\n0.002,0,0,2\n0.0015,0,0,-1\n0.003,0,0,3\n";
   CsvColumns lenient;
@@ -469,13 +483,9 @@ TEST(CsvStream, ALoneRowStampedAheadIsTheOneSkipped) {
 // the acceleration and doubled diagnose's gap. Which one is wrong cannot be
 // told, so both are left out, counted and named; the stream agrees.
 TEST(CsvStream, TwoRowsOutOfOrderAreBothLeftOut) {
-  std::string text = "t,x,v,u\n";
-  for (int k = 0; k < 400; ++k) {
-    const int stamp = k == 200 ? 201 : (k == 201 ? 200 : k);
-    text += std::to_string(stamp * 1e-3) + "," + std::to_string(k * 1e-6) + ",0.001," + std::to_string(k) + "\n";
-  }
-  const std::string path = ::testing::TempDir() + "feedid_swapped.csv";
-  std::ofstream(path) << text;
+  const std::string path = write_ramp_log("feedid_swapped.csv", [](int k) {
+    return std::to_string((k == 200 ? 201 : (k == 201 ? 200 : k)) * 1e-3);
+  });
   const CsvResult whole = read_trace_csv(path, CsvColumns{});
   ASSERT_TRUE(whole.ok) << whole.error;
   EXPECT_EQ(whole.trace.samples.size(), 398u);
@@ -490,11 +500,7 @@ TEST(CsvStream, TwoRowsOutOfOrderAreBothLeftOut) {
       << whole.trace.skipped_rows[0];
   EXPECT_NE(whole.trace.skipped_rows[1].find(":203: column 't': out of order with line 202"), std::string::npos)
       << whole.trace.skipped_rows[1];
-  CsvStream st(path, CsvColumns{});
-  const std::vector<TraceSample> rows = stream_all(st);
-  EXPECT_TRUE(st.error().empty()) << st.error();
-  ASSERT_EQ(rows.size(), whole.trace.samples.size());
-  for (std::size_t k = 0; k < rows.size(); ++k) EXPECT_EQ(rows[k].u_N, whole.trace.samples[k].u_N);
+  expect_stream_gives(path, whole);
 }
 
 TEST(CsvStream, HandsOnTheTemperatureAndLoadColumnsItIsAskedFor) {
