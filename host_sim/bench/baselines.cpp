@@ -76,7 +76,7 @@ struct Prepared {
 
 Prepared prepare(const Trace& trace, const BaselineOptions& opt) {
   Prepared p;
-  IdentifyOptions io;
+  const IdentifyOptions io = bench_identify_options(trace, opt.stated_conventions);
   p.s = simulated_signals(trace, io);
   const feedid::Config<double> c = auto_config(p.s, io);
   p.v_min = opt.velocity_min_m_s > 0 ? opt.velocity_min_m_s : c.velocity_min_m_s;
@@ -195,6 +195,16 @@ template <int N> bool solve_ls(std::array<std::array<double, N>, N> a, std::arra
 }
 
 }  // namespace
+
+IdentifyOptions bench_identify_options(const Trace& trace, bool stated) {
+  IdentifyOptions io;
+  const std::size_t n = trace.samples.size();
+  if (!stated || n < 2) return io;
+  const double rate_hz = static_cast<double>(n - 1) / (trace.samples.back().t_s - trace.samples.front().t_s);
+  io.velocity_filter_hz = 0.4 / std::sqrt(2.0) * rate_hz;
+  io.alignment = "held-backward";
+  return io;
+}
 
 Signals simulated_signals(const Trace& trace, const IdentifyOptions& io) {
   Signals s = prepare_signals(trace, io);

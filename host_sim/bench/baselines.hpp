@@ -35,6 +35,14 @@
 
 namespace feedid::host {
 
+/// How the bench conditions `trace` for every method. Default: as identify
+/// does, the force lag and the velocity cut-off searched. `stated`: both
+/// stated as a user who knows the drive would (--alignment held-backward,
+/// the simulator's held command; --velocity-filter-hz at 0.4/sqrt(2) of the
+/// rate, the top of the scan but one), so that the two runs tell what the
+/// searches cost every method (docs/benchmarks.md, issue 29).
+IdentifyOptions bench_identify_options(const Trace& trace, bool stated);
+
 /// The nine parameters in a fixed order: m, sigma+, Fc+, Fs+, vs+, sigma-, Fc-, Fs-, vs-.
 using ParamVector = std::array<double, 9>;
 extern const char* const kParamNames[9];
@@ -59,6 +67,8 @@ struct BaselineOptions {
   double filter_hz = 0.0;
   /// Samples slower than this (m/s) are left out; 0 = the core's choice (auto_config).
   double velocity_min_m_s = 0.0;
+  /// The signals' conventions stated, not searched (bench_identify_options).
+  bool stated_conventions = false;
 
   // batch_lm
   int lm_max_evaluations = 200;   ///< MINPACK maxfev: residual-vector evaluations

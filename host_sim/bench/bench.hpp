@@ -63,6 +63,10 @@ struct BenchOptions {
   /// batch_lm and ga: zero-phase Butterworth cut-off on velocity and force
   /// before differencing (Hz); 0 = none (BaselineOptions::filter_hz).
   double filter_hz = 0.0;
+  /// --stated-conventions: every method is given the force pairing and the
+  /// velocity cut-off instead of searching them (bench_identify_options):
+  /// what the conditioning's searches cost. Not the bar's figure.
+  bool stated_conventions = false;
   /// batch_lm from the textbook start (Fs = 0.2 Fc, vs = median speed)
   /// instead of the residual-based one.
   bool lm_naive_start = false;

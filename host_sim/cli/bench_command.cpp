@@ -42,6 +42,8 @@ struct BenchCommand : Command {
     c->add_option("--ga-population", bo.ga_population, "GA population")->capture_default_str();
     c->add_option("--ga-generations", bo.ga_generations, "GA generations")->capture_default_str();
     c->add_option("--filter-hz", bo.filter_hz, "batch_lm, ga: zero-phase Butterworth cut-off before differencing (Hz); 0 = none")->capture_default_str();
+    c->add_flag("--stated-conventions", bo.stated_conventions,
+                "every method is given the force pairing (held-backward) and a velocity cut-off of 0.4/sqrt(2) of the rate instead of searching them: what the searches cost (not the bar's figure)");
     c->add_flag("--lm-naive-start", bo.lm_naive_start, "batch_lm: textbook start (Fs = 0.2 Fc, vs = median speed)");
   }
   int run() override { return end_of_run(run_bench(bo)); }

@@ -57,6 +57,28 @@ TEST(Baselines, BatchLmFromTheNaiveStartAlsoConverges) {
   expect_recovers(r, 0.05);
 }
 
+TEST(Baselines, StatedConventionsSkipTheSearchesForEveryMethod) {
+  // GIVEN the bench's conditioning with the conventions stated (bench --stated-conventions)
+  const feedid::host::IdentifyOptions searched = feedid::host::bench_identify_options(default_trace(), false);
+  const feedid::host::IdentifyOptions stated = feedid::host::bench_identify_options(default_trace(), true);
+  EXPECT_EQ(searched.velocity_filter_hz, 0.0);
+  EXPECT_EQ(searched.alignment, "auto");
+  EXPECT_NEAR(stated.velocity_filter_hz, 0.4 / std::sqrt(2.0) * 2000.0, 1e-6);
+  EXPECT_EQ(stated.alignment, "held-backward");
+  // WHEN identify and batch LM run on it
+  const feedid::host::IdentifyResult a = feedid::host::identify(default_trace(), searched);
+  const feedid::host::IdentifyResult b = feedid::host::identify(default_trace(), stated);
+  BaselineOptions o;
+  o.stated_conventions = true;
+  const BaselineResult lm = feedid::host::batch_lm(default_trace(), o);
+  // THEN identify makes fewer core passes (no lag or cut-off search) and still recovers the drive
+  ASSERT_TRUE(a.error.empty() && b.error.empty()) << a.error << b.error;
+  EXPECT_LT(b.core_passes + 3.0, a.core_passes);
+  EXPECT_LT(feedid::host::max_rel_error(feedid::host::to_drive_params(b.estimate), truth()), 0.05);
+  EXPECT_TRUE(lm.converged) << lm.status;
+  expect_recovers(lm, 0.05);
+}
+
 TEST(Baselines, RlsRecoversTheDrive) {
   // WHEN the bank of RLS filters runs once over the stream
   const BaselineResult r = feedid::host::recursive_least_squares(default_trace(), BaselineOptions{});
