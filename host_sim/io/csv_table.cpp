@@ -1,9 +1,11 @@
 // The table inside a trace CSV (csv_table.hpp).
 #include "csv_table.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -174,6 +176,45 @@ Number read_number(std::string_view text, bool decimal_comma, double& value) {
   return Number::ok;
 }
 
+/// First stamps from this value on (in the column's unit) are read from an
+/// origin: below it a double keeps the stamps' digits to 1e-10 of a unit.
+constexpr double kTimeOriginFrom = 1e6;
+
+/// The integer part of `text` when it is a plain decimal number at least
+/// kTimeOriginFrom ("1700000000.001"; not signed, not in exponent form), else 0.
+std::int64_t whole_part_origin(std::string_view text, bool decimal_comma) {
+  const std::size_t point = text.find(decimal_comma ? ',' : '.');
+  const std::string_view whole = text.substr(0, point);
+  if (whole.empty() || whole.size() > 18) return 0;
+  for (std::size_t i = 0; i < text.size(); ++i)
+    if (i != point && !(text[i] >= '0' && text[i] <= '9')) return 0;
+  std::int64_t w = 0;
+  std::from_chars(whole.data(), whole.data() + whole.size(), w);
+  return static_cast<double>(w) >= kTimeOriginFrom ? w : 0;
+}
+
+/// `text` less `origin`, rounded once: the whole part's difference written
+/// before the stamp's own fraction and read as one number, so that
+/// "1700000012.001" from 1700000000 is the double of "12.001" bit for bit.
+/// Other forms, and stamps before the origin, are read whole and then
+/// shifted (a stamp before the first row is out of order anyway).
+Number read_since_origin(std::string_view text, bool decimal_comma, std::int64_t origin, double& value) {
+  const std::int64_t w = whole_part_origin(text, decimal_comma);
+  if (w < origin) {  // 0 where the form is not plain
+    const Number n = read_number(text, decimal_comma, value);
+    value -= static_cast<double>(origin);
+    return n;
+  }
+  const std::size_t point = std::min(text.find(decimal_comma ? ',' : '.'), text.size());
+  char buf[96];
+  const auto [end, ec] = std::to_chars(buf, buf + 24, w - origin);
+  const std::size_t fraction = text.size() - point;
+  if (ec != std::errc() || fraction >= sizeof buf - 25) return read_number(text, decimal_comma, value);
+  text.copy(end, fraction, point);
+  if (fraction > 0) *end = '.';
+  return read_number(std::string_view(buf, static_cast<std::size_t>(end - buf) + fraction), false, value);
+}
+
 /// A number (finite or not) or an ISO 8601 stamp: a value a data row holds.
 bool is_value(std::string_view text, char sep) {
   double v = 0.0;
@@ -340,6 +381,7 @@ void detect_time_format(Layout& lay, const char* b, const char* e) {
       const std::string_view text = trim_field(fields[i].first, fields[i].second);
       lay.iso_time = lay.have_epoch = parse_iso8601(text, lay.sep != ',', lay.epoch);
       if (lay.iso_time) lay.epoch_text.assign(text);
+      else if (lay.rate_hz == 0) lay.time_origin = whole_part_origin(text, lay.sep != ',');
     }
 }
 
@@ -354,6 +396,14 @@ std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& colum
     notes.push_back(source + ": time column " + quoted_text(columns.time) +
                     " read as ISO 8601 time stamps, in seconds since the first row's " + quoted_text(lay.epoch_text) +
                     (columns.time_scale > 0 ? " (--time-scale does not apply)" : ""));
+  if (lay.time_origin != 0) {
+    const double first = static_cast<double>(lay.time_origin);
+    char ulp[32];
+    std::snprintf(ulp, sizeof ulp, "%.2g", std::nextafter(first, 2 * first) - first);
+    notes.push_back(source + ": time column " + quoted_text(columns.time) + " counted from " +
+                    std::to_string(lay.time_origin) + " (the first row's whole part), so that the stamps keep their digits" +
+                    " (a double of a whole stamp rounds them to " + ulp + "); the times reported are since then");
+  }
   return notes;
 }
 
@@ -394,7 +444,9 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
       else
         value = seconds_between(lay.epoch, stamp);
     } else {
-      switch (read_number(text, lay.sep != ',', value)) {
+      const bool from_origin = (r & kTime) && lay.time_origin != 0;
+      switch (from_origin ? read_since_origin(text, lay.sep != ',', lay.time_origin, value)
+                          : read_number(text, lay.sep != ',', value)) {
         case Number::ok: break;
         case Number::empty: why = ": empty value"; break;
         case Number::not_number: why = ": " + quoted_text(text) + " is not a number"; break;

@@ -9,6 +9,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -46,6 +47,13 @@ struct Layout {
   bool have_epoch = false;  ///< epoch set: the first stamp read, from which times count
   IsoTime epoch;
   std::string epoch_text;
+  /// A numeric time column whose first stamp is large (Unix time, 1.7e9 s;
+  /// ms since an epoch, 1.7e12): its stamps are read as the time since the
+  /// first one's whole part, digit by digit, as ISO stamps are. A double of
+  /// the whole stamp keeps only 2.4e-7 s of 1.7e9, and that rounding moved
+  /// identify's choices and diagnose's verdict on EMPS (docs/status.md,
+  /// "Time origin"). 0: no origin, the stamps as they are.
+  std::int64_t time_origin = 0;
   std::size_t table_line = 0;  ///< the header's line, or with --columns the first data row's
   std::size_t lines_before = 0, first_before_line = 0;  ///< lines before the table left out, and the first
   std::string first_before;
@@ -89,7 +97,8 @@ class TableSearch {
   bool any_candidate_ = false;
 };
 
-/// Sets layout.iso_time from the time field of the first data row [b, e).
+/// Sets layout.iso_time, or layout.time_origin, from the time field of the
+/// first data row [b, e).
 void detect_time_format(Layout& lay, const char* b, const char* e);
 
 /// What the reader did with the file's format, one note each (lines left

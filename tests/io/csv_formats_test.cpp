@@ -237,6 +237,38 @@ TEST(CsvFormats, Iso8601TimeStampsAreSecondsSinceTheFirstRow) {
       << m.error;
 }
 
+// GIVEN the plain log's rows stamped with Unix time (1700000000.001 s), in
+// seconds with points, with decimal commas, and in ms since the epoch,
+// THEN the time is counted from the first row's whole part digit by digit:
+// bit for bit the plain log's time (a double of 1.7e9 s keeps only 2.4e-7 s
+// of a stamp, which moved identify's choices and diagnose's verdict), and a
+// note names the origin. A stamp before the origin is out of order and said so.
+TEST(CsvFormats, UnixTimeStampsAreCountedFromTheFirstRowsWholePart) {
+  const std::string unix_s = write_text("unix_s", "t,x,u\n1700000000,0,1.5\n1700000000.001,1e-06,2.25\n1700000000.002,2.5e-06,-3.125\n");
+  const CsvResult r = read_both(unix_s, CsvColumns{});
+  expect_same_as_plain(r);
+  ASSERT_EQ(r.trace.notes.size(), 1u);
+  EXPECT_TRUE(contains(r.trace.notes[0], "time column 't' counted from 1700000000 (the first row's whole part)"));
+  EXPECT_TRUE(contains(r.trace.notes[0], "2.4e-07"));
+
+  CsvColumns comma;
+  comma.time = "t";
+  expect_same_as_plain(read_both(write_text("unix_comma", "t;x;u\n1700000000;0;1,5\n1700000000,001;1e-06;2,25\n1700000000,002;2,5e-06;-3,125\n"), comma));
+
+  CsvColumns ms;
+  ms.time = "t_ms";
+  const CsvResult m = read_both(write_text("unix_ms", "t_ms,x,u\n1700000000000,0,1.5\n1700000000001,1e-06,2.25\n1700000000002.5,2.5e-06,-3.125\n"), ms);
+  ASSERT_TRUE(m.ok) << m.error;
+  ASSERT_EQ(m.trace.samples.size(), 3u);
+  EXPECT_EQ(m.trace.samples[1].t_s, 1.0 * 1e-3);
+  EXPECT_EQ(m.trace.samples[2].t_s, 2.5 * 1e-3);
+
+  const std::string back = write_text("unix_back", "t,x,u\n1700000000.5,0,1\n1699999999.75,0,1\n1700000000.501,0,1\n");
+  const CsvResult b = read_both(back, CsvColumns{});
+  EXPECT_FALSE(b.ok);
+  EXPECT_TRUE(contains(b.error, back + ":3: column 't': time '1699999999.75' is not greater than previous '1700000000.5'")) << b.error;
+}
+
 // GIVEN any of these formats' messages, THEN they are printable and bounded.
 TEST(CsvFormats, NotesArePrintableAndBounded) {
   const std::string path = write_text("junk_preamble", "\x1b[2J" + std::string(5000, '\xff') + "\nt,x,u\n0,0,1\n");
