@@ -795,7 +795,7 @@ ScalingPoint run_scaling_point(long n, const BenchOptions& o, const std::vector<
   const auto t0 = Clock::now();
   const Trace tr = simulate(sc, [](double) {});
   std::fprintf(stderr, " %.1f s\n", since(t0));
-  IdentifyOptions io;
+  const IdentifyOptions io = bench_identify_options(tr, o.stated_conventions);
   const Signals sig = simulated_signals(tr, io);
   const feedid::Config<double> cfg = auto_config(sig, io);
   ScalingPoint pt;
@@ -952,6 +952,8 @@ RunEnd run_scaling(const BenchOptions& o, const std::vector<std::string>& method
     }
   }
   if (!o.json_path.empty()) write_text(o.json_path, out.dump(2) + "\n", end);
+  if (o.stated_conventions)
+    std::printf("(--stated-conventions: no method searched the force lag or the velocity cut-off)\n");
   std::printf("scaling finished in %.1f s\n", since(t_all));
   return end;
 }
@@ -1077,6 +1079,8 @@ RunEnd run_diagnose_cost(const BenchOptions& o) {
 }
 
 RunEnd run_bench(const BenchOptions& o) {
+  if (o.stated_conventions && (o.core_only || o.diagnose_cost))
+    return RunEnd::refused("--stated-conventions applies to the default set and --scaling, not to --core-only or --diagnose-cost");
   if (o.core_only) return run_core_only(o);
   if (o.diagnose_cost) return run_diagnose_cost(o);
   const Outcome<std::vector<std::string>> methods = parse_methods(o.methods);

@@ -1584,6 +1584,7 @@ bool prepare(const Trace& logged, const DiagnoseOptions& opt, DiagnoseResult& ou
 
 DiagnoseResult diagnose(const Trace& logged, const DiagnoseOptions& opt) {
   DiagnoseResult out;
+  out.time_origin_s = logged.time_origin_s;
   Prepared prepared;
   if (!prepare(logged, opt, out, prepared)) return out;
   const Signals& sig = prepared.sig;
@@ -1748,7 +1749,7 @@ nlohmann::json to_json(const DiagnoseResult& r) {
                  {"convention_force_delay_limit_periods", convention_force_delay_limit()},
                  {"rule", "the base model takes the force lag only as far as logging conventions explain it (force delay "
                           "within +-convention_force_delay_limit_periods); the rest is left to the delay candidate"}};
-  j["input"] = {{"position", r.position_origin}, {"force_outlier_rows", r.force_outliers.rows},
+  j["input"] = {{"position", r.position_origin}, {"time_origin_s", r.time_origin_s}, {"force_outlier_rows", r.force_outliers.rows},
                 {"force_outlier_limit", r.force_outliers.limit}, {"force_saturation", r.force_outliers.saturation.to_json()}, {"force_sign", r.base.signals.force_sign.sign},
                 {"force_sign_origin", r.base.signals.force_sign.describe()}};
   j["split"] = {{"method", "time folds of two motion cycles or more, edges in dwells; odd folds held out"},

@@ -99,6 +99,7 @@ struct WhereEntry {
 struct DiagnoseResult {
   std::string error;
   IdentifyResult base;            ///< the core's identification on the identification part
+  double time_origin_s = 0.0;     ///< what the times (the where) count from (Trace::time_origin_s)
   std::string effect;             ///< none, unexplained, or the first of effects
   nlohmann::json effect_parameters;
   std::vector<NamedEffect> effects;  ///< forward selection, in the order added

@@ -736,6 +736,7 @@ IdentifyResult identify(const Trace& logged, const IdentifyOptions& opt) {
   r.rows_skipped = trace.rows_skipped;
   r.rows_repeated = trace.rows_repeated;
   r.skipped_rows = trace.skipped_rows;
+  r.time_origin_s = trace.time_origin_s;
   r.runs = trace.runs;
   if (n > 0) r.core_passes = static_cast<double>(core_samples_pushed() - pushed_before) / static_cast<double>(n);
   return r;
@@ -1301,6 +1302,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
                  {"core_passes", r.core_passes}};
   const auto& c = r.config;
   j["input"] = {{"duration_s", r.duration_s}, {"sample_rate_hz", r.signals.sample_rate_hz},
+                {"time_origin_s", r.time_origin_s},
                 {"velocity", r.signals.velocity_origin},
                 {"velocity_filter_hz", r.signals.velocity_filter_hz > 0 ? nlohmann::json(r.signals.velocity_filter_hz) : nlohmann::json()},
                 {"velocity_filter_rivals_hz", r.signals.velocity_filter_rivals_hz},
@@ -1336,6 +1338,7 @@ nlohmann::json to_json(const IdentifyResult& r) {
     for (std::size_t i = 0; i < r.runs.size(); ++i) {
       const TraceRun& run = r.runs[i];
       nlohmann::json jr = {{"source", run.source}, {"samples", run.samples}, {"time_shift_s", run.time_shift_s},
+                           {"time_origin_s", run.time_origin_s},
                            {"rows_skipped", run.rows_skipped}, {"rows_repeated", run.rows_repeated}};
       if (i < r.run_diagnostics.size()) {
         const feedid::Diagnostics& d = r.run_diagnostics[i];

@@ -181,6 +181,7 @@ struct IdentifyResult {
   double residual_block_s = 0.01;  ///< block_length_s of the signals
   std::size_t rows_skipped = 0, rows_repeated = 0;  ///< what the reader left out (Trace)
   std::vector<std::string> skipped_rows;            ///< the first few, with file:line and why
+  double time_origin_s = 0.0;                       ///< what the times count from (Trace::time_origin_s)
   /// Forces beyond the limit read from the data, bridged by their neighbours
   /// (force_outliers.hpp).
   ForceOutliers force_outliers;

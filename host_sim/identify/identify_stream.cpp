@@ -146,6 +146,7 @@ void apply_streamed_standard_errors(IdentifyResult& r, StreamedCores& cores, con
 void finish(IdentifyResult& r, StreamedCores& cores, const CsvStream& in, const std::string& source,
             const IdentifyOptions& opt) {
   r.rows_skipped = in.rows_skipped();
+  r.time_origin_s = in.time_origin_s();
   r.rows_repeated = in.rows_repeated();
   r.skipped_rows = in.skipped_rows();
   r.status = cores.core.solve(opt.method);

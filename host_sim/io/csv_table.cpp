@@ -180,36 +180,43 @@ Number read_number(std::string_view text, bool decimal_comma, double& value) {
 /// origin: below it a double keeps the stamps' digits to 1e-10 of a unit.
 constexpr double kTimeOriginFrom = 1e6;
 
-/// The integer part of `text` when it is a plain decimal number at least
-/// kTimeOriginFrom ("1700000000.001"; not signed, not in exponent form), else 0.
-std::int64_t whole_part_origin(std::string_view text, bool decimal_comma) {
-  const std::size_t point = text.find(decimal_comma ? ',' : '.');
-  const std::string_view whole = text.substr(0, point);
-  if (whole.empty() || whole.size() > 18) return 0;
+/// Where `text`'s fraction starts ('.', or ',' in a decimal-comma file, as
+/// read_number takes either), or its end.
+std::size_t decimal_point_at(std::string_view text, bool decimal_comma) {
+  return std::min(text.find('.'), decimal_comma ? text.find(',') : std::string_view::npos);
+}
+
+/// The integer part of `text` when it is a plain decimal number ("+" at most
+/// before it, digits and one point; no exponent), else -1.
+std::int64_t whole_part(std::string_view text, bool decimal_comma) {
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  const std::size_t point = std::min(decimal_point_at(text, decimal_comma), text.size());
+  if (point == 0) return -1;
   for (std::size_t i = 0; i < text.size(); ++i)
-    if (i != point && !(text[i] >= '0' && text[i] <= '9')) return 0;
+    if (i != point && !(text[i] >= '0' && text[i] <= '9')) return -1;
   std::int64_t w = 0;
-  std::from_chars(whole.data(), whole.data() + whole.size(), w);
-  return static_cast<double>(w) >= kTimeOriginFrom ? w : 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + point, w);
+  return ec == std::errc() && end == text.data() + point ? w : -1;
 }
 
 /// `text` less `origin`, rounded once: the whole part's difference written
 /// before the stamp's own fraction and read as one number, so that
 /// "1700000012.001" from 1700000000 is the double of "12.001" bit for bit.
 /// Other forms, and stamps before the origin, are read whole and then
-/// shifted (a stamp before the first row is out of order anyway).
+/// shifted (a stamp before the first row is out of order anyway). Digits
+/// past the 200th after the point are dropped: a double of a stamp under
+/// 1e19 cannot hold them.
 Number read_since_origin(std::string_view text, bool decimal_comma, std::int64_t origin, double& value) {
-  const std::int64_t w = whole_part_origin(text, decimal_comma);
-  if (w < origin) {  // 0 where the form is not plain
+  const std::int64_t w = whole_part(text, decimal_comma);
+  const std::size_t point = std::min(decimal_point_at(text, decimal_comma), text.size());
+  char buf[226];
+  const std::size_t fraction = std::min(text.size() - point, sizeof buf - 25);
+  if (w < origin) {
     const Number n = read_number(text, decimal_comma, value);
     value -= static_cast<double>(origin);
     return n;
   }
-  const std::size_t point = std::min(text.find(decimal_comma ? ',' : '.'), text.size());
-  char buf[96];
-  const auto [end, ec] = std::to_chars(buf, buf + 24, w - origin);
-  const std::size_t fraction = text.size() - point;
-  if (ec != std::errc() || fraction >= sizeof buf - 25) return read_number(text, decimal_comma, value);
+  char* end = std::to_chars(buf, buf + 24, w - origin).ptr;  // at most 19 digits
   text.copy(end, fraction, point);
   if (fraction > 0) *end = '.';
   return read_number(std::string_view(buf, static_cast<std::size_t>(end - buf) + fraction), false, value);
@@ -373,6 +380,16 @@ std::string TableSearch::end_error() const {
   return source_ + (layout_.lines_before > 0 ? ": no header row (only comment lines)" : ": empty file (no header row)");
 }
 
+bool decide_time_origin(Layout& lay, std::string_view text) {
+  double value = 0.0;
+  if (lay.time_origin_decided || lay.iso_time || lay.rate_hz > 0 || read_number(text, lay.sep != ',', value) != Number::ok)
+    return false;
+  lay.time_origin_decided = true;
+  const std::int64_t w = whole_part(text, lay.sep != ',');
+  if (static_cast<double>(w) >= kTimeOriginFrom) lay.time_origin = w;
+  return lay.time_origin != 0;
+}
+
 void detect_time_format(Layout& lay, const char* b, const char* e) {
   Fields fields;
   split(b, e, lay.sep, fields);
@@ -381,8 +398,19 @@ void detect_time_format(Layout& lay, const char* b, const char* e) {
       const std::string_view text = trim_field(fields[i].first, fields[i].second);
       lay.iso_time = lay.have_epoch = parse_iso8601(text, lay.sep != ',', lay.epoch);
       if (lay.iso_time) lay.epoch_text.assign(text);
-      else if (lay.rate_hz == 0) lay.time_origin = whole_part_origin(text, lay.sep != ',');
+      else decide_time_origin(lay, text);
     }
+}
+
+void note_time_origin(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes) {
+  if (lay.time_origin == 0 || lay.time_origin_noted) return;
+  lay.time_origin_noted = true;
+  const double first = static_cast<double>(lay.time_origin);
+  char kept[32];
+  std::snprintf(kept, sizeof kept, "%.2g s", 0.5 * (std::nextafter(first, 2 * first) - first) * lay.time_scale);
+  notes.push_back(source + ": time column " + quoted_text(columns.time) + " counted from " + std::to_string(lay.time_origin) +
+                  " (its first stamp's whole part), so that the stamps keep their digits (a double of a whole stamp keeps them to " +
+                  kept + "); the times reported count from there, and the JSON's time_origin_s states it");
 }
 
 std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& columns, const std::string& source) {
@@ -396,14 +424,6 @@ std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& colum
     notes.push_back(source + ": time column " + quoted_text(columns.time) +
                     " read as ISO 8601 time stamps, in seconds since the first row's " + quoted_text(lay.epoch_text) +
                     (columns.time_scale > 0 ? " (--time-scale does not apply)" : ""));
-  if (lay.time_origin != 0) {
-    const double first = static_cast<double>(lay.time_origin);
-    char ulp[32];
-    std::snprintf(ulp, sizeof ulp, "%.2g", std::nextafter(first, 2 * first) - first);
-    notes.push_back(source + ": time column " + quoted_text(columns.time) + " counted from " +
-                    std::to_string(lay.time_origin) + " (the first row's whole part), so that the stamps keep their digits" +
-                    " (a double of a whole stamp rounds them to " + ulp + "); the times reported are since then");
-  }
   return notes;
 }
 
@@ -444,6 +464,7 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
       else
         value = seconds_between(lay.epoch, stamp);
     } else {
+      if (r & kTime) decide_time_origin(lay, text);  // the first stamp that reads, where the first row's did not
       const bool from_origin = (r & kTime) && lay.time_origin != 0;
       switch (from_origin ? read_since_origin(text, lay.sep != ',', lay.time_origin, value)
                           : read_number(text, lay.sep != ',', value)) {

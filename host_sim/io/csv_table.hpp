@@ -54,6 +54,10 @@ struct Layout {
   /// identify's choices and diagnose's verdict on EMPS (docs/status.md,
   /// "Time origin"). 0: no origin, the stamps as they are.
   std::int64_t time_origin = 0;
+  /// The origin is decided: at the first stamp that reads as a number (the
+  /// first data row's, or a later one's where that row is bad).
+  bool time_origin_decided = false;
+  bool time_origin_noted = false;  ///< its note is in the trace's notes
   std::size_t table_line = 0;  ///< the header's line, or with --columns the first data row's
   std::size_t lines_before = 0, first_before_line = 0;  ///< lines before the table left out, and the first
   std::string first_before;
@@ -100,6 +104,19 @@ class TableSearch {
 /// Sets layout.iso_time, or layout.time_origin, from the time field of the
 /// first data row [b, e).
 void detect_time_format(Layout& lay, const char* b, const char* e);
+
+/// Decides layout.time_origin from a time field that reads as a number,
+/// unless decided already (or ISO, or no time column); true where it set
+/// an origin, whose note (time_origin_note) the reader then adds.
+bool decide_time_origin(Layout& lay, std::string_view text);
+
+/// Adds the note that names a numeric time column's origin to `notes`, once
+/// it is decided (Layout::time_origin); the readers call it after the layout
+/// and after every row.
+void note_time_origin(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes);
+
+/// The time origin in seconds (Trace::time_origin_s).
+inline double time_origin_s(const Layout& lay) { return static_cast<double>(lay.time_origin) * lay.time_scale; }
 
 /// What the reader did with the file's format, one note each (lines left
 /// out before the table, ISO 8601 stamps), in words for the user.

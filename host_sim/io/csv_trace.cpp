@@ -202,6 +202,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   result.trace.has_velocity = lay.has_velocity;
   result.trace.time_unit_stated = time_unit_stated(columns) || lay.iso_time;
   result.trace.notes = csv::layout_notes(lay, columns, path);
+  csv::note_time_origin(lay, columns, path, result.trace.notes);
 
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
@@ -216,6 +217,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     }
     if (csv::is_blank(b, e, lay.sep)) continue;
     const csv::RowRead r = csv::read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
+    csv::note_time_origin(lay, columns, path, result.trace.notes);
     if (r == csv::RowRead::stop) {
       result.error = rules.error();
       return result;
@@ -226,6 +228,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     result.error = rules.error();
     return result;
   }
+  result.trace.time_origin_s = csv::time_origin_s(lay);
   result.ok = true;
   return result;
 }
@@ -314,6 +317,7 @@ CsvStream::CsvStream(const std::string& path, const CsvColumns& columns)
   if (m.pending) csv::detect_time_format(m.layout, m.line.data(), m.line.data() + m.line.size());
   m.unit_stated = feedid::host::time_unit_stated(columns) || m.layout.iso_time;
   m.counts.notes = csv::layout_notes(m.layout, columns, path);
+  csv::note_time_origin(m.layout, columns, path, m.counts.notes);
   has_position_ = m.layout.has_position;
   has_velocity_ = m.layout.has_velocity;
   ok_ = true;
@@ -340,6 +344,7 @@ bool CsvStream::has_load() const { return impl_->layout.has_covariate[1]; }
 double CsvStream::temperature() const { return impl_->covariates[0]; }
 double CsvStream::load() const { return impl_->covariates[1]; }
 const std::vector<std::string>& CsvStream::notes() const { return impl_->counts.notes; }
+double CsvStream::time_origin_s() const { return impl_->whole ? impl_->counts.time_origin_s : csv::time_origin_s(impl_->layout); }
 
 bool CsvStream::next(TraceSample& s) {
   if (!ok_) return false;
@@ -382,6 +387,7 @@ bool CsvStream::next(TraceSample& s) {
     const char* e = b + m.line.size();
     if (csv::is_blank(b, e, m.layout.sep)) continue;
     const csv::RowRead r = csv::read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
+    csv::note_time_origin(m.layout, m.columns, source_, m.counts.notes);
     if (r == csv::RowRead::stop) {
       error_ = m.rules.error();
       break;

@@ -137,6 +137,8 @@ class CsvStream {
   double load() const;
   /// As Trace::notes: lines left out before the table, ISO 8601 stamps.
   const std::vector<std::string>& notes() const;
+  /// As Trace::time_origin_s, once the first stamp is read.
+  double time_origin_s() const;
   /// The next kept row; false at the end or on an error.
   bool next(TraceSample& s);
   std::size_t rows_skipped() const;

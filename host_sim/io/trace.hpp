@@ -20,6 +20,7 @@ struct TraceRun {
   std::size_t first = 0;       ///< index of its first sample in Trace::samples
   std::size_t samples = 0;
   double time_shift_s = 0.0;   ///< added to its time stamps so that runs follow each other
+  double time_origin_s = 0.0;  ///< its file's time origin (Trace::time_origin_s)
   std::size_t rows_skipped = 0, rows_repeated = 0;
 };
 
@@ -43,6 +44,12 @@ struct Trace {
   /// name: t_s, t_ms, "time [us]"); otherwise seconds were assumed, and a
   /// log too slow for a drive is refused (condition.hpp).
   bool time_unit_stated = false;
+  /// What the file's time stamps count from (s): a numeric time column
+  /// whose first stamp is 1e6 or more (Unix time) is read as the time since
+  /// that stamp's whole part, so that a double keeps its digits
+  /// (csv_table.hpp, Layout::time_origin); the first file's where pooled.
+  /// 0: the stamps as logged.
+  double time_origin_s = 0.0;
 };
 
 }  // namespace feedid::host

@@ -121,6 +121,8 @@ CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
     run.time_shift_s = t.samples.empty() ? 0.0 : t.samples.back().t_s + Trace::kRunGap_s - one.trace.samples.front().t_s;
     run.rows_skipped = one.trace.rows_skipped;
     run.rows_repeated = one.trace.rows_repeated;
+    run.time_origin_s = one.trace.time_origin_s;
+    if (t.runs.empty()) t.time_origin_s = one.trace.time_origin_s;
     for (TraceSample s : one.trace.samples) {
       s.t_s += run.time_shift_s;
       t.samples.push_back(s);

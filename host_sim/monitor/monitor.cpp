@@ -100,8 +100,8 @@ void find_conventions_on_head(const std::vector<PendingEpoch>& head, const CsvSt
 MonitorEpoch identify_epoch(std::vector<TraceSample>& buf, const CsvStream& in, const MonitorOptions& opt,
                             int epoch, LogConventions& conv) {
   MonitorEpoch e;
-  e.t_start_s = buf.front().t_s;
-  e.t_end_s = buf.back().t_s;
+  e.t_start_s = buf.front().t_s + in.time_origin_s();  // the log's own clock (MonitorResult::time_origin_s)
+  e.t_end_s = buf.back().t_s + in.time_origin_s();
   e.samples = buf.size();
   Trace t = trace_of(std::move(buf), in, "epoch");
   const bool searching = conventions_due(opt, conv, epoch);
@@ -446,6 +446,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
     out.error = o.str();
   }
   out.rows_skipped = in.rows_skipped();
+  out.time_origin_s = in.time_origin_s();
   out.rows_repeated = in.rows_repeated();
   out.skipped_rows = in.skipped_rows();
   return out;
@@ -571,7 +572,10 @@ nlohmann::json to_json(const MonitorResult& r, const MonitorOptions& opt) {
                        {"rule", "fixed once per log: the law most of the first reference_epochs epochs that identified "
                                 "the direction's friction kept (Stribeck on a tie); an epoch with the other law "
                                 "does not compare that direction's Fc and sigma"}};
-  j["input"] = {{"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows}};
+  j["input"] = {{"rows_skipped", r.rows_skipped}, {"rows_repeated", r.rows_repeated}, {"skipped_rows", r.skipped_rows},
+                {"time_origin_s", r.time_origin_s},
+                {"time_origin_rule", "the epochs' times are the log's own clock; its stamps were read from time_origin_s "
+                                     "(a numeric stamp of 1e6 or more: its first one's whole part) so that they keep their digits"}};
   if (!r.error.empty()) j["error"] = r.error;
   return j;
 }

@@ -99,6 +99,9 @@ struct MonitorResult {
   /// carried enough identified epochs to watch anything; error says so).
   bool referenced = false;
   std::size_t rows_skipped = 0, rows_repeated = 0;
+  /// What the log's stamps count from (Trace::time_origin_s); the epochs'
+  /// times have it added back, so that they are the log's own clock.
+  double time_origin_s = 0.0;
   std::vector<std::string> skipped_rows;  ///< the first few, with file:line and why
   Units units;
 };

@@ -143,6 +143,7 @@ std::string validate_refusal(const Trace& logged, const ValidateOptions& opt) {
 ValidateResult validate(const DriveParams& model, const Trace& logged, const ValidateOptions& opt) {
   ValidateResult r;
   r.units = opt.units;
+  r.time_origin_s = logged.time_origin_s;
   r.error = validate_refusal(logged, opt);
   if (!r.error.empty()) return r;
   // The force outliers bridged, and the time base, gaps, wrap and force
@@ -185,6 +186,7 @@ nlohmann::json to_json(const ValidateResult& r, const DriveParams& model, const 
           {"rms_error_N", r.rms_error_N},
           {"error_norm_N", r.error_norm_N},
           {"samples_used", r.samples_used},
+          {"time_origin_s", r.time_origin_s},
           {"protocol",
            {{"position_filter", "zero-phase 4th-order Butterworth"},
             {"filter_hz", r.filter_applied_hz > 0.0 ? r.filter_applied_hz : opt.filter_hz},

@@ -45,6 +45,7 @@ struct ValidateResult {
   std::size_t stretches_on_clock_slots = 0;
   std::vector<double> t, u, u_hat, v;    ///< the decimated series (for plots)
   std::string velocity_origin;
+  double time_origin_s = 0.0;  ///< what t counts from (Trace::time_origin_s)
   /// What the logged force was multiplied by before the comparison (found
   /// from its work on the motion, as identify finds it).
   ForceSign force_sign;

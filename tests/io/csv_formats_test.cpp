@@ -248,8 +248,8 @@ TEST(CsvFormats, UnixTimeStampsAreCountedFromTheFirstRowsWholePart) {
   const CsvResult r = read_both(unix_s, CsvColumns{});
   expect_same_as_plain(r);
   ASSERT_EQ(r.trace.notes.size(), 1u);
-  EXPECT_TRUE(contains(r.trace.notes[0], "time column 't' counted from 1700000000 (the first row's whole part)"));
-  EXPECT_TRUE(contains(r.trace.notes[0], "2.4e-07"));
+  EXPECT_TRUE(contains(r.trace.notes[0], "time column 't' counted from 1700000000 (its first stamp's whole part)"));
+  EXPECT_TRUE(contains(r.trace.notes[0], "keeps them to 1.2e-07 s"));
 
   CsvColumns comma;
   comma.time = "t";
@@ -262,6 +262,27 @@ TEST(CsvFormats, UnixTimeStampsAreCountedFromTheFirstRowsWholePart) {
   ASSERT_EQ(m.trace.samples.size(), 3u);
   EXPECT_EQ(m.trace.samples[1].t_s, 1.0 * 1e-3);
   EXPECT_EQ(m.trace.samples[2].t_s, 2.5 * 1e-3);
+
+  EXPECT_EQ(r.trace.time_origin_s, 1700000000.0);
+  EXPECT_EQ(m.trace.time_origin_s, 1700000000.0);
+  // AND tab- or ;-separated with points, nanoseconds since the epoch (19
+  // digits), a '+', a fraction padded past 200 digits, and a first row
+  // whose stamp does not read (the origin is the first stamp that does)
+  expect_same_as_plain(read_both(write_text("unix_tab", "t\tx\tu\n1700000000\t0\t1.5\n1700000000.001\t1e-06\t2.25\n1700000000.002\t2.5e-06\t-3.125\n"), CsvColumns{}));
+  CsvColumns ns;
+  ns.time = "t_ns";
+  const CsvResult n = read_both(write_text("unix_ns", "t_ns,x,u\n1700000000000000000,0,1.5\n1700000000001000000,1e-06,2.25\n+1700000000002000000." + std::string(300, '0') + ",2.5e-06,-3.125\n"), ns);
+  expect_same_as_plain(n);
+  EXPECT_EQ(n.trace.time_origin_s, 1.7e9);
+  CsvColumns lenient;
+  lenient.max_bad_row_share = 0.5;
+  const CsvResult late = read_both(write_text("unix_late", "t,x,u\nabc,0,1\n1700000000,0,1.5\n1700000000.001,1e-06,2.25\n1700000000.002,2.5e-06,-3.125\n"), lenient);
+  expect_same_as_plain(late);
+  EXPECT_EQ(late.trace.rows_skipped, 1u);
+  ASSERT_EQ(late.trace.notes.size(), 1u);
+  EXPECT_TRUE(contains(late.trace.notes[0], "counted from 1700000000"));
+  // AND a log that starts near zero has no origin (its stamps as logged)
+  EXPECT_EQ(read_both(write_text("plain_origin", kPlain), CsvColumns{}).trace.time_origin_s, 0.0);
 
   const std::string back = write_text("unix_back", "t,x,u\n1700000000.5,0,1\n1699999999.75,0,1\n1700000000.501,0,1\n");
   const CsvResult b = read_both(back, CsvColumns{});

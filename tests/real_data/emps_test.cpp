@@ -338,6 +338,7 @@ TEST_F(Emps, UnixTimeStampsReadAsTheRunsOwnClock) {
   std::size_t differ = 0;
   for (std::size_t k = 0; k < own.samples.size(); ++k) differ += unix_time.trace.samples[k].t_s != own.samples[k].t_s;
   EXPECT_EQ(differ, 0u);
+  EXPECT_EQ(unix_time.trace.time_origin_s, 1.7e9);
   const IdentifyResult a = identify(own, IdentifyOptions{}), b = identify(unix_time.trace, IdentifyOptions{});
   EXPECT_EQ(b.estimate.mass_kg, a.estimate.mass_kg);
   EXPECT_EQ(b.signals.force_lag_s, a.signals.force_lag_s);
