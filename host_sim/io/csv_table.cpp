@@ -380,31 +380,37 @@ std::string TableSearch::end_error() const {
   return source_ + (layout_.lines_before > 0 ? ": no header row (only comment lines)" : ": empty file (no header row)");
 }
 
-bool decide_time_origin(Layout& lay, std::string_view text) {
+void decide_time_format(Layout& lay, std::string_view text) {
   double value = 0.0;
-  if (lay.time_origin_decided || lay.iso_time || lay.rate_hz > 0 || read_number(text, lay.sep != ',', value) != Number::ok)
-    return false;
-  lay.time_origin_decided = true;
-  const std::int64_t w = whole_part(text, lay.sep != ',');
-  if (static_cast<double>(w) >= kTimeOriginFrom) lay.time_origin = w;
-  return lay.time_origin != 0;
+  if (lay.time_format_decided || lay.rate_hz > 0) return;
+  if (parse_iso8601(text, lay.sep != ',', lay.epoch)) {
+    lay.time_format_decided = lay.iso_time = lay.have_epoch = true;
+    lay.epoch_text.assign(text);
+  } else if (read_number(text, lay.sep != ',', value) == Number::ok) {
+    lay.time_format_decided = true;
+    const std::int64_t w = whole_part(text, lay.sep != ',');
+    if (static_cast<double>(w) >= kTimeOriginFrom) lay.time_origin = w;
+  }
 }
 
 void detect_time_format(Layout& lay, const char* b, const char* e) {
   Fields fields;
   split(b, e, lay.sep, fields);
   for (std::size_t i = 0; i < fields.size() && i < lay.roles.size(); ++i)
-    if (lay.roles[i] & kTime) {
-      const std::string_view text = trim_field(fields[i].first, fields[i].second);
-      lay.iso_time = lay.have_epoch = parse_iso8601(text, lay.sep != ',', lay.epoch);
-      if (lay.iso_time) lay.epoch_text.assign(text);
-      else decide_time_origin(lay, text);
-    }
+    if (lay.roles[i] & kTime) decide_time_format(lay, trim_field(fields[i].first, fields[i].second));
 }
 
-void note_time_origin(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes) {
-  if (lay.time_origin == 0 || lay.time_origin_noted) return;
-  lay.time_origin_noted = true;
+void note_time_format(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes) {
+  if (lay.time_format_noted) return;
+  if (lay.iso_time) {
+    lay.time_format_noted = true;
+    notes.push_back(source + ": time column " + quoted_text(columns.time) +
+                    " read as ISO 8601 time stamps, in seconds since the first row's " + quoted_text(lay.epoch_text) +
+                    (columns.time_scale > 0 ? " (--time-scale does not apply)" : ""));
+    return;
+  }
+  if (lay.time_origin == 0) return;
+  lay.time_format_noted = true;
   const double first = static_cast<double>(lay.time_origin);
   char kept[32];
   std::snprintf(kept, sizeof kept, "%.2g s", 0.5 * (std::nextafter(first, 2 * first) - first) * lay.time_scale);
@@ -420,10 +426,6 @@ std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& colum
                     " before the " + (columns.names_by_position.empty() ? "header" : "first data row") + " (line " +
                     std::to_string(lay.table_line) + ") left out as comments or metadata; the first, line " +
                     std::to_string(lay.first_before_line) + ": " + quoted_text(lay.first_before));
-  if (lay.iso_time)
-    notes.push_back(source + ": time column " + quoted_text(columns.time) +
-                    " read as ISO 8601 time stamps, in seconds since the first row's " + quoted_text(lay.epoch_text) +
-                    (columns.time_scale > 0 ? " (--time-scale does not apply)" : ""));
   return notes;
 }
 
@@ -457,6 +459,7 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
     double value = 0.0;
     std::string why;
     IsoTime stamp;
+    if (r & kTime) decide_time_format(lay, text);  // the first stamp that reads, where the first row's did not
     const bool iso = (r & kTime) && lay.iso_time;  // in seconds whatever the column's name says
     if (iso) {
       if (!parse_iso8601(text, lay.sep != ',', stamp))
@@ -464,7 +467,6 @@ RowRead read_row(const char* lb, const char* le, std::size_t line, std::string_v
       else
         value = seconds_between(lay.epoch, stamp);
     } else {
-      if (r & kTime) decide_time_origin(lay, text);  // the first stamp that reads, where the first row's did not
       const bool from_origin = (r & kTime) && lay.time_origin != 0;
       switch (from_origin ? read_since_origin(text, lay.sep != ',', lay.time_origin, value)
                           : read_number(text, lay.sep != ',', value)) {

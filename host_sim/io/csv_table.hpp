@@ -43,7 +43,7 @@ struct Layout {
   std::array<double, 2> covariate{};
   double time_scale = 1.0;  ///< seconds per unit of the time column (time_scale(columns))
   double rate_hz = 0.0;     ///< > 0: no time column, data row k is at k / rate_hz (CsvColumns::rate_hz)
-  bool iso_time = false;    ///< the time column holds ISO 8601 stamps (its first data row does)
+  bool iso_time = false;    ///< the time column holds ISO 8601 stamps (its first stamp that reads is one)
   bool have_epoch = false;  ///< epoch set: the first stamp read, from which times count
   IsoTime epoch;
   std::string epoch_text;
@@ -54,10 +54,11 @@ struct Layout {
   /// identify's choices and diagnose's verdict on EMPS (docs/status.md,
   /// "Time origin"). 0: no origin, the stamps as they are.
   std::int64_t time_origin = 0;
-  /// The origin is decided: at the first stamp that reads as a number (the
-  /// first data row's, or a later one's where that row is bad).
-  bool time_origin_decided = false;
-  bool time_origin_noted = false;  ///< its note is in the trace's notes
+  /// ISO 8601 or a number, and the origin, are decided: at the first stamp
+  /// that reads as either (the first data row's, or a later one's where
+  /// that row is bad: a comment line after the header).
+  bool time_format_decided = false;
+  bool time_format_noted = false;  ///< its note (ISO stamps, an origin) is in the trace's notes
   std::size_t table_line = 0;  ///< the header's line, or with --columns the first data row's
   std::size_t lines_before = 0, first_before_line = 0;  ///< lines before the table left out, and the first
   std::string first_before;
@@ -105,15 +106,15 @@ class TableSearch {
 /// first data row [b, e).
 void detect_time_format(Layout& lay, const char* b, const char* e);
 
-/// Decides layout.time_origin from a time field that reads as a number,
-/// unless decided already (or ISO, or no time column); true where it set
-/// an origin, whose note (time_origin_note) the reader then adds.
-bool decide_time_origin(Layout& lay, std::string_view text);
+/// Decides from a time field whether the column holds ISO 8601 stamps, and
+/// a numeric column's origin, unless decided already (or no time column);
+/// a field that reads as neither leaves it undecided.
+void decide_time_format(Layout& lay, std::string_view text);
 
-/// Adds the note that names a numeric time column's origin to `notes`, once
-/// it is decided (Layout::time_origin); the readers call it after the layout
-/// and after every row.
-void note_time_origin(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes);
+/// Adds the note that says how the time column is read (ISO 8601 stamps,
+/// or a numeric column's origin) to `notes`, once it is decided; the
+/// readers call it after the layout and after every row.
+void note_time_format(Layout& lay, const CsvColumns& columns, const std::string& source, std::vector<std::string>& notes);
 
 /// The time origin in seconds (Trace::time_origin_s).
 inline double time_origin_s(const Layout& lay) { return static_cast<double>(lay.time_origin) * lay.time_scale; }

@@ -200,9 +200,8 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
   else detect_from_next_row(cursor, lay);
   result.trace.has_position = lay.has_position;
   result.trace.has_velocity = lay.has_velocity;
-  result.trace.time_unit_stated = time_unit_stated(columns) || lay.iso_time;
   result.trace.notes = csv::layout_notes(lay, columns, path);
-  csv::note_time_origin(lay, columns, path, result.trace.notes);
+  csv::note_time_format(lay, columns, path, result.trace.notes);
 
   std::vector<TraceSample>& samples = result.trace.samples;
   samples.reserve(static_cast<std::size_t>(std::count(cursor.p, cursor.end, '\n')) + 1);
@@ -217,7 +216,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     }
     if (csv::is_blank(b, e, lay.sep)) continue;
     const csv::RowRead r = csv::read_row(b, e, cursor.line, prev_row, lay, columns, rules, fields, s);
-    csv::note_time_origin(lay, columns, path, result.trace.notes);
+    csv::note_time_format(lay, columns, path, result.trace.notes);
     if (r == csv::RowRead::stop) {
       result.error = rules.error();
       return result;
@@ -229,6 +228,7 @@ CsvResult parse_trace_csv(const std::string& buf, const std::string& path, const
     return result;
   }
   result.trace.time_origin_s = csv::time_origin_s(lay);
+  result.trace.time_unit_stated = time_unit_stated(columns) || lay.iso_time;
   result.ok = true;
   return result;
 }
@@ -315,9 +315,9 @@ CsvStream::CsvStream(const std::string& path, const CsvColumns& columns)
     return;
   }
   if (m.pending) csv::detect_time_format(m.layout, m.line.data(), m.line.data() + m.line.size());
-  m.unit_stated = feedid::host::time_unit_stated(columns) || m.layout.iso_time;
+  m.unit_stated = feedid::host::time_unit_stated(columns);
   m.counts.notes = csv::layout_notes(m.layout, columns, path);
-  csv::note_time_origin(m.layout, columns, path, m.counts.notes);
+  csv::note_time_format(m.layout, columns, path, m.counts.notes);
   has_position_ = m.layout.has_position;
   has_velocity_ = m.layout.has_velocity;
   ok_ = true;
@@ -338,7 +338,7 @@ CsvStream::CsvStream(CsvResult read) : impl_(std::make_unique<Impl>(read.trace.s
 CsvStream::CsvStream(CsvStream&&) noexcept = default;
 CsvStream::~CsvStream() = default;
 
-bool CsvStream::time_unit_stated() const { return impl_->unit_stated; }
+bool CsvStream::time_unit_stated() const { return impl_->unit_stated || (!impl_->whole && impl_->layout.iso_time); }
 bool CsvStream::has_temperature() const { return impl_->layout.has_covariate[0]; }
 bool CsvStream::has_load() const { return impl_->layout.has_covariate[1]; }
 double CsvStream::temperature() const { return impl_->covariates[0]; }
@@ -387,7 +387,7 @@ bool CsvStream::next(TraceSample& s) {
     const char* e = b + m.line.size();
     if (csv::is_blank(b, e, m.layout.sep)) continue;
     const csv::RowRead r = csv::read_row(b, e, m.line_no, m.prev_row, m.layout, m.columns, m.rules, m.fields, s);
-    csv::note_time_origin(m.layout, m.columns, source_, m.counts.notes);
+    csv::note_time_format(m.layout, m.columns, source_, m.counts.notes);
     if (r == csv::RowRead::stop) {
       error_ = m.rules.error();
       break;

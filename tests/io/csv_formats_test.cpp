@@ -228,6 +228,20 @@ TEST(CsvFormats, Iso8601TimeStampsAreSecondsSinceTheFirstRow) {
   ASSERT_TRUE(g.ok) << g.error;
   EXPECT_EQ(g.trace.samples[1].t_s, 0.001);
 
+  // AND a comment line between the header and the first stamp is a bad row,
+  // and the stamps after it are read as ISO 8601 all the same
+  CsvColumns lenient;
+  lenient.max_bad_row_share = 0.5;
+  const CsvResult c = read_both(write_text("iso_comment", "t,x,u\n# logging started\n2026-11-30T23:59:59.999Z,0,1.5\n"
+                                                          "2026-12-01T00:00:00.000Z,1e-06,2.25\n"), lenient);
+  ASSERT_TRUE(c.ok) << c.error;
+  ASSERT_EQ(c.trace.samples.size(), 2u);
+  EXPECT_EQ(c.trace.rows_skipped, 1u);
+  EXPECT_NEAR(c.trace.samples[1].t_s, 0.001, 1e-15);
+  EXPECT_TRUE(c.trace.time_unit_stated);
+  ASSERT_EQ(c.trace.notes.size(), 1u);
+  EXPECT_TRUE(contains(c.trace.notes[0], "read as ISO 8601 time stamps"));
+
   CsvColumns strict;
   strict.skip_bad_rows = false;
   const std::string mixed = write_text("iso_mixed", "t,x,u\n2026-11-25T12:00:00Z,0,1\n0.001,0,1\n");
