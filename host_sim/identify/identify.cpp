@@ -607,17 +607,9 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
   // on a whole log, which nothing below reads again, rather than a copy of
   // every column of it.
   FilterChoice choice = choose_velocity_filter(whole ? std::move(s) : select_samples(s, scanned), edges, reuse);
-  // A column that is the logged position's backward difference comes from
-  // the same counts and is not a candidate: it telescopes across a block,
-  // which the block residual rewards, while its count steps sit on the
-  // Stribeck curve (the seed paper's drive at 10 nm and 1 kHz, 60 s: Fs-
-  // within 1.96 standard errors in 30 % of 20 seeds with it, 95 % without;
-  // docs/status.md). A stated lag is still checked against its search too.
-  const bool column_adds = !velocity_column_is_position_difference(raw);
-  if (raw.has_velocity_column && trace.has_position && (column_adds || opt.check_stated_lag)) {
+  if (raw.has_velocity_column && trace.has_position) {
     Signals column = column_and_align(raw, search, timing, LagSearch{nullptr, &held});
-    if (column_adds && column.error.empty() &&
-        block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
+    if (column.error.empty() && block_fit_ssr(whole ? column : select_samples(column, scanned), edges) < choice.least_block_ssr) {
       column.velocity_origin += "; it fits the blocks better than the derivative of position at any cut-off";
       keep_nearer_searched_lag(column, derived_searched);
       return column;
@@ -625,11 +617,8 @@ Signals prepare_signals(const Trace& trace, const IdentifyOptions& opt) {
     column_searched = column.searched_force_lag;
   }
   std::ostringstream o;
-  o << "the smoothest of " << choice.candidates << " cut-offs"
-    << (raw.has_velocity_column && trace.has_position && column_adds ? " and the velocity column" : "")
+  o << "the smoothest of " << choice.candidates << " cut-offs" << (raw.has_velocity_column && trace.has_position ? " and the velocity column" : "")
     << " within a standard error of the least block residual";
-  if (raw.has_velocity_column && trace.has_position && !column_adds)
-    o << "; the velocity column is the position's backward difference, so it was not a candidate";
   raw.velocity_filter_origin = o.str();
   std::vector<double>* at_choice = choice.velocities.empty() ? nullptr : &choice.velocities.front();
   Signals chosen = derive_and_align(raw, trace, search, timing, choice.cutoff_hz,

@@ -109,21 +109,6 @@ double velocity_column_gain(const Signals& s) {
   return sxx > 0 ? sxy / sxx : std::numeric_limits<double>::quiet_NaN();
 }
 
-bool velocity_column_is_position_difference(const Signals& s) {
-  const std::size_t n = s.t.size();
-  if (!s.has_position || s.x.size() != n || s.v.size() != n || n < 2) return false;
-  std::size_t compared = 0, differ = 0;
-  for (std::size_t k = 1; k < n; ++k) {
-    const double h = s.t[k] - s.t[k - 1];
-    if (!(h > 0) || s.gap_before(k)) continue;
-    const double difference = (s.x[k] - s.x[k - 1]) / h;
-    const double count_per_period = std::max(s.position_quantum_m, 1e-12 * std::fabs(s.x[k])) / h;
-    ++compared;
-    differ += !(std::fabs(s.v[k] - difference) <= 1e-6 * std::max(std::fabs(difference), count_per_period));
-  }
-  return compared > 0 && static_cast<double>(differ) <= 0.01 * static_cast<double>(compared);
-}
-
 bool velocity_column_agrees(double gain) {
   return !std::isfinite(gain) || (gain >= 1.0 / kVelocityColumnGainTolerance && gain <= kVelocityColumnGainTolerance);
 }

@@ -36,14 +36,6 @@ double velocity_column_gain(const Signals& s);
 constexpr double kVelocityColumnGainTolerance = 1.25;
 bool velocity_column_agrees(double gain);
 
-/// Whether the velocity column is the backward difference of the logged
-/// position, (x[k] - x[k-1]) / (t[k] - t[k-1]), to rounding: at a
-/// millionth of a count per period on all but 1 % of the steps within
-/// stretches. Such a column comes from the same counts as the position,
-/// and it carries nothing more. False without both columns or a step to
-/// compare.
-bool velocity_column_is_position_difference(const Signals& s);
-
 /// v and x of `from` delayed by `delay` whole samples into `to`, which has
 /// the other columns of `from` (`to` may be `from`); a source across a time
 /// gap is not taken.

@@ -386,27 +386,6 @@ TEST(VelocityChoice, FinerColumnThanPositionIsKept) {
   expect_bar(r, cfg, Bar{false, false});
 }
 
-// GIVEN the seed paper's drive (vs 1.4e-4 m/s: 14 velocity quanta at 10 nm
-// and 1 kHz) logged for 60 s with its velocity column the backward
-// difference of the logged position, WHEN identified, THEN the column is
-// not a candidate: it comes from the same counts, and the block residual
-// had preferred it because it telescopes across a block, while its count
-// steps biased Fs+ by +2.6 and Fs- by +2.0 standard errors (20 seeds: Fs-
-// covered 30 %, 95 % now). The derivative of position is taken, and both
-// break-away forces are within 2.5 standard errors.
-TEST(VelocityChoice, AColumnThatIsThePositionsDifferenceIsNotACandidate) {
-  host::SimConfig cfg = logged_drive({ForceLog::held, VelocityLog::backward_difference, 98.99, 1000.0, 1e-8}, 1, 60.0);
-  cfg.drive.pos = host::DirectionFriction{705.05, 25.79, 7.48, 1.44e-4};
-  cfg.drive.neg = host::DirectionFriction{759.82, 26.96, 7.59, 1.43e-4};
-  cfg.motion.slowest_speed_m_s = 5.0e-5;
-  const host::IdentifyResult r = host::identify(host::simulate(cfg), host::IdentifyOptions{});
-  ASSERT_TRUE(r.error.empty()) << r.error;
-  EXPECT_EQ(r.signals.velocity_origin.rfind("derived", 0), 0u) << r.signals.velocity_origin;
-  EXPECT_NE(r.signals.velocity_origin.find("backward difference, so it was not a candidate"), std::string::npos);
-  EXPECT_LT(std::fabs(r.estimate.pos.breakaway_N - cfg.drive.pos.breakaway_N), 2.5 * r.estimate.pos.breakaway_se);
-  EXPECT_LT(std::fabs(r.estimate.neg.breakaway_N - cfg.drive.neg.breakaway_N), 2.5 * r.estimate.neg.breakaway_se);
-}
-
 // GIVEN the conventions found on a log (the force lag and sign, and the
 // velocity: the column where it won, else the cut-off), WHEN they are stated
 // to a later part of the same log, as the streamed identify's chunks and
