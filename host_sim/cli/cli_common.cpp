@@ -144,8 +144,8 @@ bool read_trace(const std::vector<std::string>& paths, const InputOptions& in, c
   return true;
 }
 
-void note_format(const std::vector<std::string>& notes) {
-  for (const std::string& n : notes) std::fprintf(stderr, "note: %s\n", n.c_str());
+void note_format(const std::vector<std::string>& notes, std::size_t from) {
+  for (std::size_t i = from; i < notes.size(); ++i) std::fprintf(stderr, "note: %s\n", notes[i].c_str());
 }
 
 void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t repeated,
@@ -488,11 +488,13 @@ int run_monitor(const std::string& path, const InputOptions& in, const CsvColumn
     return 2;
   }
   note_format(stream.notes());
+  const std::size_t noted = stream.notes().size();
   opt.identify.units = in.units();
   StreamProgress progress("monitor");
   opt.progress = [&progress](double t) { progress(t); };
   const MonitorResult r = monitor(stream, opt);
   progress.done();
+  note_format(stream.notes(), noted);  // decided at a later row: the time format where the first row's stamp did not read
   note_skipped_rows(path, r.rows_skipped, r.rows_repeated, r.skipped_rows);
   // Refused before an epoch was read (a time column in ms read as s): no
   // table or file would say more than the reason.

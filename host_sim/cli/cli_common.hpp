@@ -103,7 +103,7 @@ void note_skipped_rows(const std::string& path, std::size_t skipped, std::size_t
                        const std::vector<std::string>& first_skipped);
 /// A note on stderr of each thing the reader did with a file's format
 /// (Trace::notes: lines left out before the header, ISO 8601 stamps).
-void note_format(const std::vector<std::string>& notes);
+void note_format(const std::vector<std::string>& notes, std::size_t from = 0);
 /// A note on stderr of the force rows left out as outliers, naming the first (nothing if none).
 void note_force_outliers(const ForceOutliers& out, const Units& units);
 

@@ -54,10 +54,12 @@ struct IdentifyCommand : Command {
     if (!in.ok()) { std::fprintf(stderr, "error: %s\n", in.error().c_str()); return 2; }
     std::fprintf(stderr, "note: %s is read row by row (--stream)\n", in_path.front().c_str());
     note_format(in.notes());
+    const std::size_t noted = in.notes().size();
     StreamProgress progress("identify");
     opt.progress = [&progress](double t) { progress(t); };
     const IdentifyResult r = identify_stream(in, in_path.front(), opt);
     progress.done();
+    note_format(in.notes(), noted);  // decided at a later row: the time format where the first row's stamp did not read
     note_skipped_rows(in_path.front(), r.rows_skipped, r.rows_repeated, r.skipped_rows);
     return report_identify(r, json_path, nullptr);
   }

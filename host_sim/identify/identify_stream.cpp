@@ -193,11 +193,11 @@ IdentifyResult identify_stream(CsvStream& in, const std::string& source, const I
   Trace chunk;
   chunk.has_position = in.has_position();
   chunk.has_velocity = in.has_velocity();
-  chunk.time_unit_stated = in.time_unit_stated();
   chunk.source = source;
   TraceSample next{};
   bool have_next = false;
   bool more = read_span(in, chunk, so.head_s, next, have_next);
+  chunk.time_unit_stated = in.time_unit_stated();  // after a row: ISO stamps are known at the first that reads
   if (chunk.samples.size() < 100) {
     r.status = feedid::Status::insufficient_data;
     r.error = in.error().empty() ? source + ": too short to identify" : in.error();

@@ -181,16 +181,20 @@ Number read_number(std::string_view text, bool decimal_comma, double& value) {
 constexpr double kTimeOriginFrom = 1e6;
 
 /// Where `text`'s fraction starts ('.', or ',' in a decimal-comma file, as
-/// read_number takes either), or its end.
+/// read_number takes either), or its size where it has none.
 std::size_t decimal_point_at(std::string_view text, bool decimal_comma) {
-  return std::min(text.find('.'), decimal_comma ? text.find(',') : std::string_view::npos);
+  return std::min({text.find('.'), decimal_comma ? text.find(',') : std::string_view::npos, text.size()});
 }
+
+/// A stamp's whole part has at most 19 digits (int64); its fraction is
+/// kept to 200 digits, which no double of a stamp under 1e19 can hold.
+constexpr std::size_t kWholeDigits = 19, kFractionDigits = 200;
 
 /// The integer part of `text` when it is a plain decimal number ("+" at most
 /// before it, digits and one point; no exponent), else -1.
 std::int64_t whole_part(std::string_view text, bool decimal_comma) {
   if (!text.empty() && text.front() == '+') text.remove_prefix(1);
-  const std::size_t point = std::min(decimal_point_at(text, decimal_comma), text.size());
+  const std::size_t point = decimal_point_at(text, decimal_comma);
   if (point == 0) return -1;
   for (std::size_t i = 0; i < text.size(); ++i)
     if (i != point && !(text[i] >= '0' && text[i] <= '9')) return -1;
@@ -204,21 +208,21 @@ std::int64_t whole_part(std::string_view text, bool decimal_comma) {
 /// "1700000012.001" from 1700000000 is the double of "12.001" bit for bit.
 /// Other forms, and stamps before the origin, are read whole and then
 /// shifted (a stamp before the first row is out of order anyway). Digits
-/// past the 200th after the point are dropped: a double of a stamp under
-/// 1e19 cannot hold them.
+/// past kFractionDigits after the point are dropped.
 Number read_since_origin(std::string_view text, bool decimal_comma, std::int64_t origin, double& value) {
   const std::int64_t w = whole_part(text, decimal_comma);
-  const std::size_t point = std::min(decimal_point_at(text, decimal_comma), text.size());
-  char buf[226];
-  const std::size_t fraction = std::min(text.size() - point, sizeof buf - 25);
   if (w < origin) {
     const Number n = read_number(text, decimal_comma, value);
     value -= static_cast<double>(origin);
     return n;
   }
-  char* end = std::to_chars(buf, buf + 24, w - origin).ptr;  // at most 19 digits
+  const std::size_t point = decimal_point_at(text, decimal_comma);
+  const std::size_t fraction = std::min(text.size() - point, kFractionDigits + 1);  // the point and its digits
+  char buf[kWholeDigits + kFractionDigits + 2];  // NUL-terminated, as read_number's text lies
+  char* end = std::to_chars(buf, buf + kWholeDigits, w - origin).ptr;
   text.copy(end, fraction, point);
   if (fraction > 0) *end = '.';
+  end[fraction] = '\0';
   return read_number(std::string_view(buf, static_cast<std::size_t>(end - buf) + fraction), false, value);
 }
 
@@ -415,8 +419,8 @@ void note_time_format(Layout& lay, const CsvColumns& columns, const std::string&
   char kept[32];
   std::snprintf(kept, sizeof kept, "%.2g s", 0.5 * (std::nextafter(first, 2 * first) - first) * lay.time_scale);
   notes.push_back(source + ": time column " + quoted_text(columns.time) + " counted from " + std::to_string(lay.time_origin) +
-                  " (its first stamp's whole part), so that the stamps keep their digits (a double of a whole stamp keeps them to " +
-                  kept + "); the times reported count from there, and the JSON's time_origin_s states it");
+                  " (its first stamp's whole part, in the column's unit), so that the stamps keep their digits (a double of a whole stamp keeps them to " +
+                  kept + "); the times reported count from there, and the JSON's time_origin_s (per run where pooled) states it");
 }
 
 std::vector<std::string> layout_notes(const Layout& lay, const CsvColumns& columns, const std::string& source) {

@@ -47,7 +47,8 @@ struct Trace {
   /// What the file's time stamps count from (s): a numeric time column
   /// whose first stamp is 1e6 or more (Unix time) is read as the time since
   /// that stamp's whole part, so that a double keeps its digits
-  /// (csv_table.hpp, Layout::time_origin); the first file's where pooled.
+  /// (csv_table.hpp, Layout::time_origin). Pooled: the runs' own where they
+  /// share it, NaN where they differ (TraceRun::time_origin_s says each).
   /// 0: the stamps as logged.
   double time_origin_s = 0.0;
 };

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "mat_trace.hpp"
@@ -122,7 +123,9 @@ CsvResult read_trace_files(const std::vector<TraceInput>& inputs) {
     run.rows_skipped = one.trace.rows_skipped;
     run.rows_repeated = one.trace.rows_repeated;
     run.time_origin_s = one.trace.time_origin_s;
+    // One origin for the pool only where every run has it (each run's is in input.runs).
     if (t.runs.empty()) t.time_origin_s = one.trace.time_origin_s;
+    else if (t.time_origin_s != one.trace.time_origin_s) t.time_origin_s = std::numeric_limits<double>::quiet_NaN();
     for (TraceSample s : one.trace.samples) {
       s.t_s += run.time_shift_s;
       t.samples.push_back(s);

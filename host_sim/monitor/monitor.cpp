@@ -396,7 +396,7 @@ MonitorResult monitor(CsvStream& in, const MonitorOptions& opt) {
       out.epochs.back().load = p.load;
       vote(out.law, out.epochs.back(), opt.detector.reference_epochs);
       if (out.law.fixed[0] && out.law.fixed[1]) compare_up_to(out.epochs.size());
-      if (opt.progress) opt.progress(out.epochs.back().t_end_s);
+      if (opt.progress) opt.progress(out.epochs.back().t_end_s - in.time_origin_s());  // seconds read, as identify --stream says
     }
     pending.clear();
   };

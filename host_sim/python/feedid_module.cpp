@@ -507,6 +507,8 @@ py::dict read_signals(const std::string& path, const py::dict& kw) {
   d["rows_skipped"] = r.trace.rows_skipped;
   d["rows_repeated"] = r.trace.rows_repeated;
   d["skipped_rows"] = r.trace.skipped_rows;
+  d["time_origin_s"] = r.trace.time_origin_s;  // t counts from it (a Unix-time column: its first stamp's whole part)
+  d["notes"] = r.trace.notes;
   return d;
 }
 

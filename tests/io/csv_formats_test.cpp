@@ -5,6 +5,7 @@
 // file that cannot be read names file:line.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -262,7 +263,7 @@ TEST(CsvFormats, UnixTimeStampsAreCountedFromTheFirstRowsWholePart) {
   const CsvResult r = read_both(unix_s, CsvColumns{});
   expect_same_as_plain(r);
   ASSERT_EQ(r.trace.notes.size(), 1u);
-  EXPECT_TRUE(contains(r.trace.notes[0], "time column 't' counted from 1700000000 (its first stamp's whole part)"));
+  EXPECT_TRUE(contains(r.trace.notes[0], "time column 't' counted from 1700000000 (its first stamp's whole part"));
   EXPECT_TRUE(contains(r.trace.notes[0], "keeps them to 1.2e-07 s"));
 
   CsvColumns comma;
@@ -295,6 +296,14 @@ TEST(CsvFormats, UnixTimeStampsAreCountedFromTheFirstRowsWholePart) {
   EXPECT_EQ(late.trace.rows_skipped, 1u);
   ASSERT_EQ(late.trace.notes.size(), 1u);
   EXPECT_TRUE(contains(late.trace.notes[0], "counted from 1700000000"));
+  // AND pooled with a log of another origin, each run keeps its own and the
+  // pool states none (its times count from neither)
+  const CsvResult pooled = read_trace_files({{write_text("plain_pool", kPlain), CsvColumns{}}, {unix_s, CsvColumns{}}});
+  ASSERT_TRUE(pooled.ok) << pooled.error;
+  ASSERT_EQ(pooled.trace.runs.size(), 2u);
+  EXPECT_EQ(pooled.trace.runs[0].time_origin_s, 0.0);
+  EXPECT_EQ(pooled.trace.runs[1].time_origin_s, 1.7e9);
+  EXPECT_TRUE(std::isnan(pooled.trace.time_origin_s));
   // AND a log that starts near zero has no origin (its stamps as logged)
   EXPECT_EQ(read_both(write_text("plain_origin", kPlain), CsvColumns{}).trace.time_origin_s, 0.0);
 
